@@ -1,0 +1,1 @@
+"""wheelscan backend: the FastAPI service, jobs, storage, reports and the `wheelscan` CLI."""

@@ -1,0 +1,12 @@
+"""wheelscan pipeline: pure image → measurement functions (NumPy, SciPy, OpenCV only)."""
+
+from pipeline.errors import ArchiveError, CalibrationError, NoStripeError, PipelineError
+from pipeline.version import PIPELINE_VERSION
+
+__all__ = [
+    "PIPELINE_VERSION",
+    "ArchiveError",
+    "CalibrationError",
+    "NoStripeError",
+    "PipelineError",
+]

@@ -1,0 +1,55 @@
+"""The layer boundaries of DESIGN.md and STYLE.md §1, checked by parsing every import."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+
+FORBIDDEN = {
+    "pipeline": {
+        "backend",
+        "db",
+        "fastapi",
+        "sqlalchemy",
+        "alembic",
+        "pydantic",
+        "viser",
+        "celery",
+    },
+    "db": {"backend", "pipeline", "fastapi", "viser"},
+}
+
+
+def imported_top_modules(path: Path) -> set[str]:
+    """Top-level module names imported by one source file."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name.split(".")[0] for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names.add(node.module.split(".")[0])
+    return names
+
+
+@pytest.mark.parametrize("package", sorted(FORBIDDEN))
+def test_package_does_not_import_forbidden_layers(package: str) -> None:
+    offenders = []
+    for path in sorted((ROOT / package).rglob("*.py")):
+        bad = imported_top_modules(path) & FORBIDDEN[package]
+        if bad:
+            offenders.append(f"{path.relative_to(ROOT)} imports {sorted(bad)}")
+    assert offenders == []
+
+
+def test_only_backend_imports_fastapi_and_viser() -> None:
+    offenders = []
+    for package in ("pipeline", "db"):
+        for path in sorted((ROOT / package).rglob("*.py")):
+            if imported_top_modules(path) & {"fastapi", "viser"}:
+                offenders.append(str(path.relative_to(ROOT)))
+    assert offenders == []
