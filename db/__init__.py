@@ -1,0 +1,1 @@
+"""wheelscan database layer: SQLAlchemy 2 typed models, engine/session factory, migrations."""
