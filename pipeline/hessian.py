@@ -1,0 +1,61 @@
+"""Vectorised eigen-analysis of the 2×2 image Hessian: eigenvalues and the stripe normal."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class HessianEigen:
+    """Eigen-decomposition of the Hessian [[Ixx, Ixy], [Ixy, Iyy]] per pixel.
+
+    `lambda1` is the eigenvalue of larger magnitude (|λ1| ≥ |λ2|), `lambda2` the other, in
+    grey levels per px². (`nx`, `ny`) is the unit eigenvector of λ1: across a bright stripe it
+    is the stripe normal (λ1 < 0). All arrays share the input's shape and dtype.
+    """
+
+    lambda1: np.ndarray
+    lambda2: np.ndarray
+    nx: np.ndarray
+    ny: np.ndarray
+
+
+def hessian_eigen(ixx: np.ndarray, ixy: np.ndarray, iyy: np.ndarray) -> HessianEigen:
+    """Eigenvalues (|λ1| ≥ |λ2|) and the unit eigenvector of λ1 of the 2×2 Hessian.
+
+    Parameters
+    ----------
+    ixx, ixy, iyy : ndarray, float32 or float64, all of one shape
+        Second Gaussian derivatives [grey levels/px²] (x = column, y = row).
+
+    Returns
+    -------
+    HessianEigen
+        λ1, λ2 and the normal (nx, ny), same shape and dtype as the inputs.
+
+    Notes
+    -----
+    λ = m ± r with m = (Ixx + Iyy)/2 and r = √(((Ixx − Iyy)/2)² + Ixy²); the larger magnitude
+    is m + sign(m)·r. The eigenvector of λ1 is (Ixy, λ1 − Ixx) or (λ1 − Iyy, Ixy); the longer
+    of the two is used, which is the numerically stable choice. Where the Hessian is a multiple
+    of the identity the normal is undefined and (1, 0) is returned.
+    """
+    mean = 0.5 * (ixx + iyy)
+    half_diff = 0.5 * (ixx - iyy)
+    root = np.sqrt(half_diff * half_diff + ixy * ixy)
+    signed_root = np.where(mean < 0, -root, root)
+    lambda1 = mean + signed_root
+    lambda2 = mean - signed_root
+    ax, ay = ixy, lambda1 - ixx
+    bx, by = lambda1 - iyy, ixy
+    use_a = ax * ax + ay * ay >= bx * bx + by * by
+    vx = np.where(use_a, ax, bx)
+    vy = np.where(use_a, ay, by)
+    norm = np.hypot(vx, vy)
+    degenerate = norm == 0
+    safe = np.where(degenerate, 1, norm)
+    nx = np.where(degenerate, 1, vx / safe).astype(ixx.dtype, copy=False)
+    ny = np.where(degenerate, 0, vy / safe).astype(ixx.dtype, copy=False)
+    return HessianEigen(lambda1=lambda1, lambda2=lambda2, nx=nx, ny=ny)

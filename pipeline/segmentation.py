@@ -1,0 +1,138 @@
+"""Stripe segmentation: ridge-response masks (adaptive) and median + Otsu masks (classic)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy import ndimage
+
+RIDGE_THRESHOLD = 0.5
+"""Threshold on the multi-scale ridge response V ∈ [0, 1): half the saturated response."""
+
+MIN_COMPONENT_AREA_PX = 40
+"""Components smaller than this [px²] are noise or stray spots, never a stripe."""
+
+MIN_ELONGATION = 3.0
+"""Least elongation L²/A of a stripe component (L: length of the uniform bar with the same
+second moment, A: area). A disc or a square has about 1, an L:w bar L/w."""
+
+KEEP_FRACTION = 0.3
+"""Components at least this fraction of the main stripe's length (area for the classic
+baseline) are kept as parts of the stripe; shorter elongated ones (another part's stripe,
+reflections) are dropped."""
+
+CLASSIC_MEDIAN_PX = 5
+"""Median filter aperture of the classic baseline [px]."""
+
+CLOSING_PX = 5
+"""Diameter of the disc that closes small notches of the mask before holes are filled [px]."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ComponentShapes:
+    """Shape figures of the labelled components 1..K (index 0 is the background)."""
+
+    area_px: np.ndarray
+    length_px: np.ndarray
+    elongation: np.ndarray
+
+
+def component_shapes(labels: np.ndarray, count: int) -> ComponentShapes:
+    """Area, equivalent bar length and elongation of each labelled component.
+
+    Notes
+    -----
+    From the second moments: with λmax the largest eigenvalue of the pixel-coordinate
+    covariance, L = √(12·λmax) is the length of a uniform bar with that variance, and the
+    elongation is L²/A.
+    """
+    rows, cols = np.nonzero(labels)
+    lab = labels[rows, cols]
+    area = np.bincount(lab, minlength=count).astype(np.float64)
+    safe = np.maximum(area, 1)
+
+    def mean(values: np.ndarray) -> np.ndarray:
+        return np.bincount(lab, weights=values, minlength=count) / safe
+
+    r = rows.astype(np.float64)
+    c = cols.astype(np.float64)
+    mr, mc = mean(r), mean(c)
+    vrr = mean(r * r) - mr**2
+    vcc = mean(c * c) - mc**2
+    vrc = mean(r * c) - mr * mc
+    lam_max = 0.5 * (vrr + vcc) + np.sqrt(0.25 * (vrr - vcc) ** 2 + vrc**2)
+    length = np.sqrt(12 * np.maximum(lam_max, 0))
+    return ComponentShapes(area_px=area, length_px=length, elongation=length**2 / safe)
+
+
+def _fill_holes(mask: np.ndarray) -> np.ndarray:
+    """Close small notches with a disc, then fill enclosed holes (paper §3.3)."""
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (CLOSING_PX, CLOSING_PX))
+    closed = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, disc)
+    return ndimage.binary_fill_holes(closed.astype(bool) | mask)
+
+
+def segment_ridges(response: np.ndarray) -> np.ndarray:
+    """Stripe mask from the multi-scale ridge response: threshold, components, selection.
+
+    Parameters
+    ----------
+    response : ndarray of shape (M, N), float32
+        Multi-scale ridge response V (see `pipeline.ridges.ridge_response`).
+
+    Returns
+    -------
+    ndarray of shape (M, N), bool
+        The stripe mask; all False when no component qualifies.
+
+    Notes
+    -----
+    V > RIDGE_THRESHOLD, 8-connected components; candidates have area ≥ MIN_COMPONENT_AREA_PX
+    and elongation ≥ MIN_ELONGATION; the longest is the stripe, and further candidates at least
+    KEEP_FRACTION of its length are kept as its pieces. Holes are then filled.
+    """
+    binary = (response > RIDGE_THRESHOLD).astype(np.uint8)
+    count, labels = cv2.connectedComponents(binary, connectivity=8, ltype=cv2.CV_32S)
+    shapes = component_shapes(labels, count)
+    candidate = (shapes.area_px >= MIN_COMPONENT_AREA_PX) & (shapes.elongation >= MIN_ELONGATION)
+    candidate[0] = False
+    if not candidate.any():
+        return np.zeros(response.shape, dtype=bool)
+    main_length = shapes.length_px[candidate].max()
+    keep = candidate & (shapes.length_px >= KEEP_FRACTION * main_length)
+    return _fill_holes(keep[labels])
+
+
+def to_uint8(image: np.ndarray) -> np.ndarray:
+    """8-bit view of a frame for grey-level thresholding (uint16 keeps its top 8 bits)."""
+    if image.dtype == np.uint8:
+        return image
+    if image.dtype == np.uint16:
+        return (image >> 8).astype(np.uint8)
+    return np.clip(np.rint(image), 0, 255).astype(np.uint8)
+
+
+def segment_classic(image: np.ndarray) -> np.ndarray:
+    """Classic baseline mask: median filter, Otsu threshold, largest connected components.
+
+    Parameters
+    ----------
+    image : ndarray of shape (M, N), uint8, uint16 or float on the 8-bit grey scale
+        Grey frame.
+
+    Returns
+    -------
+    ndarray of shape (M, N), bool
+        Components at least KEEP_FRACTION of the largest one's area, holes filled.
+    """
+    smooth = cv2.medianBlur(to_uint8(image), CLASSIC_MEDIAN_PX)
+    _, binary = cv2.threshold(smooth, 0, 1, cv2.THRESH_BINARY | cv2.THRESH_OTSU)
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(binary, connectivity=8)
+    area = stats[:, cv2.CC_STAT_AREA].astype(np.float64)
+    area[0] = 0
+    if count < 2 or area.max() < MIN_COMPONENT_AREA_PX:
+        return np.zeros(image.shape, dtype=bool)
+    keep = area >= max(KEEP_FRACTION * area.max(), MIN_COMPONENT_AREA_PX)
+    return _fill_holes(keep[labels])
