@@ -1,0 +1,250 @@
+"""Pass archive validation: every fault gets one clear ArchiveError; valid passes round-trip."""
+
+from __future__ import annotations
+
+import json
+import os
+import stat
+import zipfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from pipeline.archive import ArchiveLimits, read_pass_archive, write_pass_archive
+from pipeline.errors import ArchiveError
+from pipeline.manifest import manifest_to_document, parse_manifest
+from tests.pipeline.archive_helpers import small_calibration, small_frames, small_manifest
+
+
+@pytest.fixture
+def pass_folder(tmp_path: Path) -> Path:
+    manifest = small_manifest()
+    return write_pass_archive(
+        tmp_path / "pass", manifest, small_frames(manifest), calibration=small_calibration()
+    )
+
+
+def _edit_manifest(folder: Path, edit) -> None:
+    path = folder / "manifest.json"
+    document = json.loads(path.read_text())
+    edit(document)
+    path.write_text(json.dumps(document))
+
+
+def test_folder_round_trips_manifest_calibration_and_frames(pass_folder: Path) -> None:
+    archive = read_pass_archive(pass_folder)
+    assert archive.has_own_calibration
+    assert archive.manifest.site == "test-site"
+    assert [w.side for w in archive.manifest.wheels] == ["left", "right"]
+    frame = archive.load_frame(archive.manifest.wheels[0].frames_inner[0])
+    assert frame.dtype == np.uint8 and frame.shape == (30, 40) and frame[15, 3] == 200
+    assert archive.calibration is not None
+    assert archive.calibration.sensor("left_outer").plane_rms_mm == pytest.approx(0.02)
+
+
+@pytest.mark.parametrize("as_bytes", [False, True])
+def test_zip_file_and_zip_bytes_are_read_alike(tmp_path: Path, as_bytes: bool) -> None:
+    manifest = small_manifest()
+    frames = small_frames(manifest, np.uint16)
+    out = write_pass_archive(
+        tmp_path / "pass.zip", manifest, frames, calibration=small_calibration(16)
+    )
+    archive = read_pass_archive(out.read_bytes() if as_bytes else out)
+    frame = archive.load_frame(manifest.wheels[1].frames_outer[0])
+    assert frame.dtype == np.uint16 and frame[15, 0] == 200
+
+
+def test_validation_has_no_side_effects(pass_folder: Path) -> None:
+    before = sorted((p, p.stat().st_mtime_ns) for p in pass_folder.rglob("*"))
+    read_pass_archive(pass_folder)
+    assert sorted((p, p.stat().st_mtime_ns) for p in pass_folder.rglob("*")) == before
+
+
+def test_site_calibration_is_used_when_the_archive_has_none(tmp_path: Path) -> None:
+    manifest = small_manifest()
+    folder = write_pass_archive(tmp_path / "p", manifest, small_frames(manifest))
+    assert read_pass_archive(folder).calibration is None
+    archive = read_pass_archive(folder, site_calibration=small_calibration())
+    assert archive.calibration is not None and not archive.has_own_calibration
+    with pytest.raises(ArchiveError, match="calibrated for 40x30 px 16 bit"):
+        read_pass_archive(folder, site_calibration=small_calibration(16))
+
+
+def test_manifest_document_round_trips() -> None:
+    manifest = small_manifest()
+    again = parse_manifest(manifest_to_document(manifest))
+    assert again.started_at == manifest.started_at
+    assert [w.frames_outer for w in again.wheels] == [w.frames_outer for w in manifest.wheels]
+
+
+def test_missing_manifest(pass_folder: Path) -> None:
+    (pass_folder / "manifest.json").unlink()
+    with pytest.raises(ArchiveError, match="lacks manifest.json"):
+        read_pass_archive(pass_folder)
+
+
+def test_malformed_manifest_json(pass_folder: Path) -> None:
+    (pass_folder / "manifest.json").write_text("{not json")
+    with pytest.raises(ArchiveError, match="manifest.json is not valid JSON"):
+        read_pass_archive(pass_folder)
+
+
+def test_nonexistent_source(tmp_path: Path) -> None:
+    with pytest.raises(ArchiveError, match="neither a folder nor a file"):
+        read_pass_archive(tmp_path / "nothing")
+
+
+def test_not_a_zip(tmp_path: Path) -> None:
+    path = tmp_path / "pass.zip"
+    path.write_bytes(b"hello")
+    with pytest.raises(ArchiveError, match="not a readable zip"):
+        read_pass_archive(path)
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda d: d.pop("site"), "lacks 'site'"),
+        (lambda d: d.update(speed_kmh="fast"), "speed_kmh must be a number"),
+        (lambda d: d.update(speed_kmh=-3), r"speed_kmh must be in \(0, 400\]"),
+        (lambda d: d.update(started_at="yesterday"), "started_at is not ISO 8601"),
+        (lambda d: d.update(started_at="2026-11-23T12:00:00"), "must carry a time zone"),
+        (lambda d: d.update(format="other/2"), "format must be 'wheelscan-pass/1'"),
+        (lambda d: d.update(vehicles=[]), "vehicles must be a non-empty list"),
+        (lambda d: d["wheels"][0].update(side="middle"), "side must be 'left' or 'right'"),
+        (lambda d: d["wheels"][0].update(axle=0), "axle must be an integer"),
+        (lambda d: d["wheels"][0].update(vehicle_id="V9"), "'V9' is not in 'vehicles'"),
+        (lambda d: d["wheels"][0]["frames"].update(middle=[]), "unknown sensor 'middle'"),
+        (lambda d: d["wheels"][0].update(frames={"inner": [], "outer": []}), "lists no frames"),
+        (lambda d: d["wheels"][1].update(side="left"), "wheel vehicle 'V1' axle 1 left twice"),
+        (
+            lambda d: d["wheels"][1]["frames"].update(inner=d["wheels"][0]["frames"]["inner"]),
+            "lists frame 'frames/left_inner/000001.png' twice",
+        ),
+        (
+            lambda d: d["wheels"][0]["frames"].update(inner=["../secret.png"]),
+            "must not contain '..'",
+        ),
+        (
+            lambda d: d["wheels"][0]["frames"].update(inner=["/etc/passwd"]),
+            "must be a relative POSIX path",
+        ),
+        (
+            lambda d: d["wheels"][0]["frames"].update(inner=["frames/nothere.png"]),
+            "lists frame 'frames/nothere.png', which the archive lacks",
+        ),
+    ],
+)
+def test_manifest_faults_get_one_clear_message(pass_folder: Path, edit, message: str) -> None:
+    _edit_manifest(pass_folder, edit)
+    with pytest.raises(ArchiveError, match=message):
+        read_pass_archive(pass_folder)
+
+
+def test_frame_that_is_not_an_image(pass_folder: Path) -> None:
+    (pass_folder / "frames/left_inner/000001.png").write_text("not a png")
+    with pytest.raises(ArchiveError, match="is not a PNG image"):
+        read_pass_archive(pass_folder)
+
+
+def test_truncated_png_is_refused_when_decoding(pass_folder: Path) -> None:
+    path = pass_folder / "frames/left_inner/000001.png"
+    path.write_bytes(path.read_bytes()[:60])
+    with pytest.raises(ArchiveError, match="not a decodable"):
+        read_pass_archive(pass_folder)
+
+
+def test_colour_frame_is_refused(pass_folder: Path) -> None:
+    colour = np.zeros((30, 40, 3), np.uint8)
+    cv2.imwrite(str(pass_folder / "frames/left_inner/000001.png"), colour)
+    with pytest.raises(ArchiveError, match="must be a grey PNG"):
+        read_pass_archive(pass_folder)
+
+
+def test_frame_of_wrong_size(pass_folder: Path) -> None:
+    cv2.imwrite(str(pass_folder / "frames/right_outer/000001.png"), np.zeros((31, 40), np.uint8))
+    with pytest.raises(ArchiveError, match="is 40x31 px 8 bit, but sensor right_outer"):
+        read_pass_archive(pass_folder)
+
+
+def test_frame_of_wrong_bit_depth(pass_folder: Path) -> None:
+    cv2.imwrite(str(pass_folder / "frames/right_outer/000001.png"), np.zeros((30, 40), np.uint16))
+    with pytest.raises(ArchiveError, match="is 40x30 px 16 bit"):
+        read_pass_archive(pass_folder)
+
+
+def test_invalid_calibration_in_archive(pass_folder: Path) -> None:
+    path = pass_folder / "calibration.json"
+    document = json.loads(path.read_text())
+    document["sensors"]["middle"] = document["sensors"]["left_inner"]
+    path.write_text(json.dumps(document))
+    with pytest.raises(ArchiveError, match="calibration.json in the archive: .*unknown sensor"):
+        read_pass_archive(pass_folder)
+
+
+def test_sensor_without_calibration(pass_folder: Path) -> None:
+    path = pass_folder / "calibration.json"
+    document = json.loads(path.read_text())
+    del document["sensors"]["right_outer"]
+    path.write_text(json.dumps(document))
+    with pytest.raises(ArchiveError, match="sensor right_outer, which is not calibrated"):
+        read_pass_archive(pass_folder)
+
+
+def test_symlinked_frame_in_folder_is_refused(pass_folder: Path, tmp_path: Path) -> None:
+    outside = tmp_path / "outside.png"
+    frame = pass_folder / "frames/left_inner/000001.png"
+    outside.write_bytes(frame.read_bytes())
+    frame.unlink()
+    os.symlink(outside, frame)
+    with pytest.raises(ArchiveError, match="symlinks are refused"):
+        read_pass_archive(pass_folder)
+
+
+def _zip_from_folder(folder: Path, out: Path, extra=()) -> Path:
+    with zipfile.ZipFile(out, "w") as archive:
+        for path in sorted(folder.rglob("*")):
+            if path.is_file():
+                archive.write(path, path.relative_to(folder).as_posix())
+        for info, data in extra:
+            archive.writestr(info, data)
+    return out
+
+
+@pytest.mark.parametrize(
+    ("name", "message"),
+    [("../evil.txt", r"must not contain '\.\.'"), ("/abs/evil.txt", "relative POSIX path")],
+)
+def test_unsafe_zip_member_names(pass_folder: Path, tmp_path: Path, name, message) -> None:
+    out = _zip_from_folder(pass_folder, tmp_path / "p.zip", [(zipfile.ZipInfo(name), b"x")])
+    with pytest.raises(ArchiveError, match=message):
+        read_pass_archive(out)
+
+
+def test_symlink_member_in_zip(pass_folder: Path, tmp_path: Path) -> None:
+    info = zipfile.ZipInfo("frames/link.png")
+    info.external_attr = (stat.S_IFLNK | 0o777) << 16
+    out = _zip_from_folder(pass_folder, tmp_path / "p.zip", [(info, b"/etc/passwd")])
+    with pytest.raises(ArchiveError, match="symlinks are refused"):
+        read_pass_archive(out)
+
+
+def test_zip_bomb_compression_ratio(pass_folder: Path, tmp_path: Path) -> None:
+    info = zipfile.ZipInfo("padding.bin")
+    info.compress_type = zipfile.ZIP_DEFLATED
+    out = _zip_from_folder(pass_folder, tmp_path / "p.zip", [(info, b"\0" * 2_000_000)])
+    with pytest.raises(ArchiveError, match="suspicious compression ratio"):
+        read_pass_archive(out)
+
+
+def test_zip_member_count_limit(pass_folder: Path, tmp_path: Path) -> None:
+    out = _zip_from_folder(pass_folder, tmp_path / "p.zip")
+    with pytest.raises(ArchiveError, match="more than 3"):
+        read_pass_archive(out, limits=ArchiveLimits(max_members=3))
+
+
+def test_writer_refuses_a_manifest_frame_it_was_not_given(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="frames lacks"):
+        write_pass_archive(tmp_path / "p", small_manifest(), {})
