@@ -7,6 +7,10 @@ import numpy as np
 MIN_POLYLINE_POINTS = 3
 """Chains shorter than this are isolated points or noise pairs and are dropped."""
 
+MIN_LENGTH_SIGMAS = 2.0
+"""Chains shorter than this many σ (of their own scale) are dropped: a line seen at scale σ
+is at least about 2σ long; shorter chains are side lobes of bends and noise."""
+
 MAX_NORMAL_TURN_RAD = np.deg2rad(30.0)
 """Largest angle between the normals of two linked points."""
 
@@ -81,6 +85,7 @@ def link_points(
     y: np.ndarray,
     nx: np.ndarray,
     ny: np.ndarray,
+    sigma_px: np.ndarray,
     shape: tuple[int, int],
 ) -> list[np.ndarray]:
     """Link centre points (one per pixel) into ordered polylines.
@@ -93,14 +98,17 @@ def link_points(
         Sub-pixel centre [px] (x = column, y = row).
     nx, ny : ndarray of shape (K,), float
         Unit normals (sign arbitrary).
+    sigma_px : ndarray of shape (K,), float
+        Scale each point was found at [px].
     shape : tuple of int
         Image shape (M, N).
 
     Returns
     -------
     list of ndarray of int64
-        Polylines as ordered indices into the K points; points in no chain of at least
-        MIN_POLYLINE_POINTS are left out. Each chain runs so its first point has the smaller
+        Polylines as ordered indices into the K points; chains of fewer than
+        MIN_POLYLINE_POINTS points or shorter than MIN_LENGTH_SIGMAS times their largest σ
+        are left out. Each chain runs so its first point has the smaller
         x (then y) of its two ends.
 
     Notes
@@ -125,6 +133,9 @@ def link_points(
     chains = []
     for chain in _walk_chains(neighbours):
         if len(chain) < MIN_POLYLINE_POINTS:
+            continue
+        length = np.hypot(np.diff(x[chain]), np.diff(y[chain])).sum()
+        if length < MIN_LENGTH_SIGMAS * sigma_px[chain].max():
             continue
         first, last = chain[0], chain[-1]
         if (x[last], y[last]) < (x[first], y[first]):

@@ -1,0 +1,87 @@
+"""Removal of the curvature bias of Gaussian-smoothed line centres along linked polylines."""
+
+from __future__ import annotations
+
+import numpy as np
+
+WINDOW_SIGMAS = 2.0
+"""Half-width of the fitting window along the polyline, in units of the point's σ."""
+
+MIN_HALF_WINDOW_PX = 4.0
+"""Least half-width of the fitting window [px]: enough points for a stable quadratic."""
+
+
+def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> np.ndarray:
+    """Signed curvature [1/px] of one ordered polyline at each point, positive towards +n.
+
+    Parameters
+    ----------
+    x, y : ndarray of shape (K,)
+        Ordered points [px].
+    nx, ny : ndarray of shape (K,)
+        Unit normals.
+    sigma : ndarray of shape (K,)
+        Scale of each point [px]; it sets the Gaussian weight of the fit (std σ along the
+        line, window ±max(2σ, 4 px)), the stretch over which smoothing averages the curvature.
+
+    Returns
+    -------
+    ndarray of shape (K,), float64
+        κ from the weighted fit v = a + b·u + (κ/2)·u² in each point's (tangent u, normal v)
+        frame; 0 where fewer than 5 points are in the window.
+    """
+    count = x.size
+    half = np.maximum(WINDOW_SIGMAS * sigma, MIN_HALF_WINDOW_PX)
+    reach = int(np.ceil(half.max() * 1.5)) + 1
+    offsets = np.arange(-reach, reach + 1)
+    j = np.arange(count)[:, None] + offsets[None, :]
+    valid = (j >= 0) & (j < count)
+    jj = np.clip(j, 0, count - 1)
+    dx = x[jj] - x[:, None]
+    dy = y[jj] - y[:, None]
+    u = -ny[:, None] * dx + nx[:, None] * dy
+    v = nx[:, None] * dx + ny[:, None] * dy
+    inside = valid & (np.abs(u) <= half[:, None])
+    weight = np.where(inside, np.exp(-0.5 * (u / sigma[:, None]) ** 2), 0.0)
+    basis = np.stack([np.ones_like(u), u, 0.5 * u * u], axis=2)
+    normal = np.einsum("kn,kni,knj->kij", weight, basis, basis)
+    rhs = np.einsum("kn,kni,kn->ki", weight, basis, v)
+    enough = inside.sum(axis=1) >= 5
+    normal[~enough] = np.eye(3)
+    rhs[~enough] = 0
+    solution = np.linalg.solve(normal, rhs[..., None])[..., 0]
+    return np.where(enough, solution[:, 2], 0.0)
+
+
+def remove_curvature_bias(
+    x: np.ndarray, y: np.ndarray, nx, ny, sigma, polylines: tuple[np.ndarray, ...]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Move each centre by σ²κ/2 away from its centre of curvature.
+
+    Parameters
+    ----------
+    x, y, nx, ny, sigma : ndarray of shape (K,)
+        Centres [px], unit normals and scales [px].
+    polylines : tuple of ndarray of int
+        Ordered index arrays into the points.
+
+    Returns
+    -------
+    x, y : ndarray of shape (K,), float64
+        Corrected centres; points in no polyline are unchanged.
+
+    Notes
+    -----
+    Smoothing a line of radius R with a Gaussian of scale σ moves the maximum of its profile
+    towards the centre of curvature by σ²/(2R) to first order, for any symmetric profile:
+    the blurred profile of a ring is ∝ r^(−1/2)·exp(−(r−R)²/2σt²)·(1 + (r−R)s²/(2Rσt²)), whose
+    maximum sits at r = R − σ²/(2R). At σ = 7.5 px and R = 100 px that is 0.28 px.
+    """
+    x_out = x.astype(np.float64, copy=True)
+    y_out = y.astype(np.float64, copy=True)
+    for chain in polylines:
+        kappa = local_curvature(x[chain], y[chain], nx[chain], ny[chain], sigma[chain])
+        shift = 0.5 * sigma[chain] ** 2 * kappa
+        x_out[chain] -= shift * nx[chain]
+        y_out[chain] -= shift * ny[chain]
+    return x_out, y_out
