@@ -1,0 +1,156 @@
+// @ts-check
+/**
+ * What the application does: load data for a route through the API into the store, and
+ * answer user intents (upload, export, toggle). Views call these; only api.js touches the network.
+ */
+import { ApiError } from './api.js';
+import { METHODS } from './lib/format.js';
+import { tintMask } from './lib/layer-pixels.js';
+
+/** Tint of the stripe mask layer (RGBA): translucent magenta, visible on grey frames. */
+const MASK_TINT = /** @type {[number, number, number, number]} */ ([236, 72, 153, 110]);
+
+/**
+ * @typedef {ReturnType<typeof createActions>} Actions
+ */
+
+/**
+ * Bind the actions to an API client and the store.
+ * @param {import('./api.js').Api} api
+ * @param {import('./state.js').Store<any>} store
+ */
+export function createActions(api, store) {
+  /** Run a load; on failure put its words in the error banner (never a blank page). */
+  const guard = async (/** @type {string} */ what, /** @type {() => Promise<void>} */ fn) => {
+    try {
+      await fn();
+    } catch (err) {
+      store.set({ error: `${what}: ${err instanceof Error ? err.message : String(err)}` });
+      if (err instanceof ApiError && err.status === 401) store.set({ me: null, signInNeeded: true });
+    }
+  };
+  return {
+    guard,
+    signIn: (/** @type {string} */ token) =>
+      guard('sign-in failed', async () => {
+        store.set({ token, error: null });
+        store.set({ me: await api.me(), signInNeeded: false });
+      }),
+    loadPasses: (/** @type {Record<string, string>} */ filter) =>
+      guard('could not load the passes', async () => {
+        store.set({ passes: { ...store.get().passes, filter, loading: true } });
+        const body = await api.listPasses(filter);
+        const items = Array.isArray(body) ? body : body.items;
+        store.set({ passes: { filter, items, total: body.total ?? items.length, loading: false } });
+      }),
+    loadPass: (/** @type {string} */ passId) =>
+      guard(`could not load pass ${passId}`, async () => {
+        store.set({ pass: { id: passId, loading: true, data: null, wheels: [] } });
+        const [data, wheels, limits] = await Promise.all([
+          api.getPass(passId), api.listWheels(passId), store.get().limits ?? api.getLimits(),
+        ]);
+        store.set({ pass: { id: passId, loading: false, data, wheels }, limits });
+      }),
+    loadWheel: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {string|undefined} */ sensor) =>
+      guard(`could not load wheel ${wheelId} of pass ${passId}`, () => loadWheel(api, store, passId, wheelId, sensor)),
+    patchWheel: (/** @type {object} */ patch) => store.set({ wheel: { ...store.get().wheel, ...patch } }),
+    openViewer: (/** @type {string} */ passId, /** @type {string} */ wheelId) =>
+      guard('could not open the 3D view', async () => {
+        const { url } = await api.viewer(passId, wheelId);
+        store.set({ wheel: { ...store.get().wheel, viewerUrl: url } });
+      }),
+    exportReport: (/** @type {string} */ passId, /** @type {string|null} */ wheelId, /** @type {string} */ format) =>
+      guard(`could not export the ${format.toUpperCase()} report`, async () => {
+        const { blob, filename } = await api.report(passId, wheelId, format);
+        const url = URL.createObjectURL(blob);
+        const link = Object.assign(document.createElement('a'), { href: url, download: filename });
+        document.body.append(link);
+        link.click();
+        link.remove();
+        window.setTimeout(() => URL.revokeObjectURL(url), 10000);
+      }),
+    upload: (/** @type {File} */ file) =>
+      guard(`upload of ${file.name} failed`, async () => {
+        store.set({ upload: { fileName: file.name, bytes: file.size, uploadFraction: 0, job: null } });
+        const onProgress = (/** @type {number} */ f) =>
+          store.set({ upload: { ...store.get().upload, uploadFraction: f } });
+        const created = await api.uploadPass(file, onProgress);
+        store.set({ upload: { ...store.get().upload, uploadFraction: 1, ...created } });
+        const job = await api.getJob(created.job_id);
+        jobUpdate(store, { ...job, job_id: created.job_id, pass_id: created.pass_id });
+      }),
+    jobUpdate: (/** @type {any} */ msg) => jobUpdate(store, msg),
+  };
+}
+
+/**
+ * Record one job progress message (from the WebSocket or a poll) in the store.
+ * @param {import('./state.js').Store<any>} store
+ * @param {any} msg {job_id, pass_id, state, progress, wheels_done, wheels_total}
+ */
+function jobUpdate(store, msg) {
+  const state = store.get();
+  const liveJobs = { ...state.liveJobs, [msg.pass_id]: msg };
+  const upload = state.upload && state.upload.job_id === msg.job_id ? { ...state.upload, job: msg } : state.upload;
+  store.set({ liveJobs, upload });
+}
+
+/**
+ * Load everything the wheel page shows, timing it (the bar: < 1 s on loopback).
+ * @param {import('./api.js').Api} api
+ * @param {import('./state.js').Store<any>} store
+ * @param {string} passId
+ * @param {string} wheelId
+ * @param {string|undefined} sensor
+ */
+async function loadWheel(api, store, passId, wheelId, sensor) {
+  const started = performance.now();
+  const previous = store.get().wheel;
+  const sameWheel = previous && previous.passId === passId && previous.wheelId === wheelId;
+  store.set({ wheel: { ...(sameWheel ? previous : {}), passId, wheelId, loading: true, viewerUrl: null } });
+  const [frames, wheels, limits, profiles, trend] = await Promise.all([
+    api.listFrames(passId, wheelId),
+    sameWheel || store.get().pass?.id === passId ? store.get().pass.wheels : api.listWheels(passId),
+    store.get().limits ?? api.getLimits(),
+    Promise.all(METHODS.map((m) => api.profile(passId, wheelId, m).catch((err) => ({ error: err.message })))),
+    api.trend(wheelId).catch((err) => ({ error: err.message })),
+  ]);
+  const frame = frames.find((/** @type {any} */ f) => f.sensor === sensor) ?? frames[0];
+  if (!frame) throw new ApiError('the service lists no frames for this wheel', 200, 'no_frames');
+  const { sensor: s, seq } = frame;
+  const [image, mask, sigma, sigmaScale, adaptive, steger] = await Promise.all([
+    api.frameLayer(passId, wheelId, s, seq, 'image'),
+    api.frameLayer(passId, wheelId, s, seq, 'mask').then(maskLayer).catch(() => null),
+    api.frameLayer(passId, wheelId, s, seq, 'sigma').catch(() => null),
+    api.sigmaScale(passId, wheelId, s, seq).catch(() => null),
+    ...METHODS.map((m) => api.centres(passId, wheelId, s, seq, m).catch((err) => ({ error: err.message }))),
+  ]);
+  store.set({
+    limits,
+    pass: store.get().pass?.id === passId ? store.get().pass : { id: passId, wheels, data: null },
+    wheel: {
+      ...store.get().wheel,
+      passId, wheelId, frames, sensor: s, seq, loading: false,
+      record: wheels.find((/** @type {any} */ w) => String(w.wheel_id) === String(wheelId)) ?? null,
+      layers: { image, mask, sigma }, sigmaScale,
+      centres: { adaptive, steger },
+      profiles: { adaptive: profiles[0], steger: profiles[1] },
+      trend,
+      loadMs: performance.now() - started,
+    },
+  });
+}
+
+/**
+ * Turn the mask PNG into a translucent tint layer the frame canvas draws over the image.
+ * @param {ImageBitmap} bitmap
+ * @returns {Promise<ImageBitmap>}
+ */
+async function maskLayer(bitmap) {
+  const canvas = new OffscreenCanvas(bitmap.width, bitmap.height);
+  const ctx = /** @type {OffscreenCanvasRenderingContext2D} */ (canvas.getContext('2d'));
+  ctx.drawImage(bitmap, 0, 0);
+  const pixels = ctx.getImageData(0, 0, bitmap.width, bitmap.height);
+  const tinted = new ImageData(tintMask(pixels.data, MASK_TINT), bitmap.width, bitmap.height);
+  return createImageBitmap(tinted);
+}

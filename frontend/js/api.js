@@ -1,0 +1,199 @@
+// @ts-check
+/**
+ * The only module that talks to the service: HTTP JSON, images, downloads, uploads and
+ * WebSockets. Every call returns parsed data or throws ApiError with words a person can act
+ * on. Paths live in one table so a renamed route is a one-line change.
+ */
+
+/** An API failure with the service's {"detail", "code"} (or our own words when it gave none). */
+export class ApiError extends Error {
+  /**
+   * @param {string} message what went wrong, in words
+   * @param {number} status HTTP status (0 when the service could not be reached)
+   * @param {string} code the service's error code, or a local one
+   */
+  constructor(message, status, code) {
+    super(message);
+    this.name = 'ApiError';
+    this.status = status;
+    this.code = code;
+  }
+}
+
+/** @param {number|string} passId @param {number|string} wheelId */
+const wheelPath = (passId, wheelId) => `/api/passes/${passId}/wheels/${wheelId}`;
+/** @param {number|string} p @param {number|string} w @param {string} sensor @param {number} seq */
+const framePath = (p, w, sensor, seq) => `${wheelPath(p, w)}/frames/${sensor}/${seq}`;
+
+/**
+ * @typedef {object} Api
+ * @property {() => Promise<any>} me
+ * @property {(filter: Record<string, string>) => Promise<any>} listPasses
+ * @property {(passId: number|string) => Promise<any>} getPass
+ * @property {(passId: number|string) => Promise<any[]>} listWheels
+ * @property {() => Promise<any>} getLimits
+ * @property {(passId: number|string, wheelId: number|string) => Promise<any[]>} listFrames
+ * @property {(p: number|string, w: number|string, sensor: string, seq: number, layer: 'image'|'mask'|'sigma') => Promise<ImageBitmap>} frameLayer
+ * @property {(p: number|string, w: number|string, sensor: string, seq: number) => Promise<any>} sigmaScale
+ * @property {(p: number|string, w: number|string, sensor: string, seq: number, method: string) => Promise<any>} centres
+ * @property {(passId: number|string, wheelId: number|string, method: string) => Promise<any>} profile
+ * @property {(wheelId: number|string) => Promise<any[]>} trend
+ * @property {(passId: number|string, wheelId: number|string|null, format: string) => Promise<{blob: Blob, filename: string}>} report
+ * @property {(passId: number|string, wheelId: number|string) => Promise<{url: string}>} viewer
+ * @property {(jobId: number|string) => Promise<any>} getJob
+ * @property {(file: File, onProgress: (fraction: number) => void) => Promise<{pass_id: number, job_id: number}>} uploadPass
+ * @property {(path: 'passes'|string, onMessage: (msg: any) => void, onState: (open: boolean) => void) => () => void} watch
+ */
+
+/**
+ * Create the API client.
+ * @param {() => string|null} getToken the current bearer token
+ * @param {string} [base] origin of the service; default the page's own
+ * @returns {Api}
+ */
+export function createApi(getToken, base = '') {
+  /** @param {string} path @param {RequestInit} [init] */
+  const request = async (path, init = {}) => {
+    const headers = new Headers(init.headers);
+    const token = getToken();
+    if (token) headers.set('Authorization', `Bearer ${token}`);
+    let response;
+    try {
+      response = await fetch(base + path, { ...init, headers });
+    } catch (err) {
+      throw new ApiError(`cannot reach the service (${String(err)}); is it running?`, 0, 'network');
+    }
+    if (!response.ok) throw await errorFrom(response, path);
+    return response;
+  };
+  /** @param {string} path */
+  const json = async (path) => (await request(path)).json();
+  /** @param {string} path */
+  const bitmap = async (path) => {
+    const blob = await (await request(path)).blob();
+    try {
+      return await createImageBitmap(blob);
+    } catch {
+      throw new ApiError(`the service sent an image the browser cannot decode (${path})`, 200, 'decode');
+    }
+  };
+  return {
+    me: () => json('/api/me'),
+    listPasses: (filter) => json(`/api/passes?${new URLSearchParams(filter)}`),
+    getPass: (passId) => json(`/api/passes/${passId}`),
+    listWheels: (passId) => json(`/api/passes/${passId}/wheels`),
+    getLimits: () => json('/api/limits'),
+    listFrames: (p, w) => json(`${wheelPath(p, w)}/frames`),
+    frameLayer: (p, w, sensor, seq, layer) => bitmap(`${framePath(p, w, sensor, seq)}/${layer}.png`),
+    sigmaScale: (p, w, sensor, seq) => json(`${framePath(p, w, sensor, seq)}/sigma.json`),
+    centres: (p, w, sensor, seq, method) =>
+      json(`${framePath(p, w, sensor, seq)}/centres?method=${encodeURIComponent(method)}`),
+    profile: (p, w, method) => json(`${wheelPath(p, w)}/profile?method=${encodeURIComponent(method)}`),
+    trend: (wheelId) => json(`/api/wheels/${wheelId}/trend`),
+    report: async (p, w, format) => {
+      const path = `${w === null ? `/api/passes/${p}` : wheelPath(p, w)}/report.${format}`;
+      const response = await request(path);
+      const disposition = response.headers.get('Content-Disposition') ?? '';
+      const match = /filename="?([^";]+)"?/.exec(disposition);
+      const filename = match ? match[1] : `wheelscan-pass-${p}${w === null ? '' : `-wheel-${w}`}.${format}`;
+      return { blob: await response.blob(), filename };
+    },
+    viewer: (p, w) => json(`${wheelPath(p, w)}/viewer`),
+    getJob: (jobId) => json(`/api/jobs/${jobId}`),
+    uploadPass: (file, onProgress) => uploadWithProgress(base, getToken(), file, onProgress),
+    watch: (path, onMessage, onState) => watchSocket(base, getToken, path, onMessage, onState),
+  };
+}
+
+/**
+ * @param {Response} response
+ * @param {string} path
+ * @returns {Promise<ApiError>}
+ */
+async function errorFrom(response, path) {
+  let detail = '';
+  let code = `http_${response.status}`;
+  try {
+    const body = await response.json();
+    detail = typeof body.detail === 'string' ? body.detail : JSON.stringify(body.detail);
+    code = body.code ?? code;
+  } catch {
+    detail = response.statusText;
+  }
+  const what = response.status === 401
+    ? 'sign-in needed'
+    : response.status === 403 ? 'not allowed' : `${response.status} ${response.statusText}`;
+  return new ApiError(`${what}: ${detail || 'no detail'} (${path.split('?')[0]})`, response.status, code);
+}
+
+/**
+ * POST a pass archive as multipart `file`, reporting upload progress 0..1.
+ * @param {string} base
+ * @param {string|null} token
+ * @param {File} file
+ * @param {(fraction: number) => void} onProgress
+ * @returns {Promise<{pass_id: number, job_id: number}>}
+ */
+function uploadWithProgress(base, token, file, onProgress) {
+  return new Promise((resolve, reject) => {
+    const xhr = new XMLHttpRequest();
+    xhr.open('POST', `${base}/api/passes`);
+    if (token) xhr.setRequestHeader('Authorization', `Bearer ${token}`);
+    xhr.upload.onprogress = (e) => e.lengthComputable && onProgress(e.loaded / e.total);
+    xhr.onerror = () => reject(new ApiError('upload failed: the connection to the service broke', 0, 'network'));
+    xhr.onload = () => {
+      let body = {};
+      try {
+        body = JSON.parse(xhr.responseText);
+      } catch {
+        body = { detail: xhr.responseText };
+      }
+      if (xhr.status >= 200 && xhr.status < 300) resolve(/** @type {any} */ (body));
+      else reject(new ApiError(`upload refused (${xhr.status}): ${/** @type {any} */ (body).detail ?? 'no detail'}`,
+        xhr.status, /** @type {any} */ (body).code ?? `http_${xhr.status}`));
+    };
+    const form = new FormData();
+    form.append('file', file, file.name);
+    xhr.send(form);
+  });
+}
+
+/**
+ * Keep a WebSocket to /api/ws/{path} open (reconnecting with back-off) until closed.
+ * @param {string} base
+ * @param {() => string|null} getToken
+ * @param {string} path "passes" or "jobs/{id}"
+ * @param {(msg: any) => void} onMessage
+ * @param {(open: boolean) => void} onState
+ * @returns {() => void} stops watching
+ */
+function watchSocket(base, getToken, path, onMessage, onState) {
+  let socket = /** @type {WebSocket|null} */ (null);
+  let stopped = false;
+  let delayMs = 500;
+  const origin = base || window.location.origin;
+  const connect = () => {
+    const url = `${origin.replace(/^http/, 'ws')}/api/ws/${path}?token=${encodeURIComponent(getToken() ?? '')}`;
+    socket = new WebSocket(url);
+    socket.onopen = () => {
+      delayMs = 500;
+      onState(true);
+    };
+    socket.onmessage = (event) => {
+      try {
+        onMessage(JSON.parse(event.data));
+      } catch {
+        // a frame that is not JSON is not ours to show; the next one will be
+      }
+    };
+    socket.onclose = () => {
+      onState(false);
+      if (!stopped) window.setTimeout(connect, (delayMs = Math.min(delayMs * 2, 10000)));
+    };
+  };
+  connect();
+  return () => {
+    stopped = true;
+    socket?.close();
+  };
+}

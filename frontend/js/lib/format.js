@@ -1,0 +1,80 @@
+// @ts-check
+/** Pure formatting helpers for numbers, times and names shown in the UI. */
+
+/** Display names of the measured wheel parameters, in table order. */
+export const PARAMETERS = [
+  { key: 'flange_height_mm', label: 'Sh', title: 'Flange height', unit: 'mm' },
+  { key: 'flange_thickness_mm', label: 'Sd', title: 'Flange thickness at 12 mm', unit: 'mm' },
+  { key: 'flange_thickness_en_mm', label: 'Sd EN', title: 'Flange thickness at 10 mm (EN)', unit: 'mm' },
+  { key: 'qr_mm', label: 'qR', title: 'Flange slope qR', unit: 'mm' },
+  { key: 'back_to_back_mm', label: 'B2B', title: 'Back-to-back distance', unit: 'mm' },
+];
+
+/** The two extraction methods, in display order. */
+export const METHODS = ['adaptive', 'steger'];
+
+/**
+ * A number with a fixed count of decimals, or an en dash when missing.
+ * @param {number|null|undefined} value
+ * @param {number} [digits]
+ * @returns {string}
+ */
+export function fmtNumber(value, digits = 2) {
+  return value === null || value === undefined || !Number.isFinite(value)
+    ? '–'
+    : value.toFixed(digits);
+}
+
+/**
+ * A signed difference with an explicit + sign, or an en dash when missing.
+ * @param {number|null|undefined} value
+ * @param {number} [digits]
+ * @returns {string}
+ */
+export function fmtSigned(value, digits = 2) {
+  if (value === null || value === undefined || !Number.isFinite(value)) return '–';
+  const text = value.toFixed(digits);
+  return value > 0 ? `+${text}` : text;
+}
+
+/**
+ * An ISO-8601 time as "YYYY-MM-DD HH:MM:SS UTC" (what a depot files; no local-time guessing).
+ * @param {string|null|undefined} iso
+ * @returns {string}
+ */
+export function fmtTime(iso) {
+  if (!iso) return '–';
+  const date = new Date(iso);
+  if (Number.isNaN(date.getTime())) return String(iso);
+  return `${date.toISOString().slice(0, 19).replace('T', ' ')} UTC`;
+}
+
+/**
+ * A fraction 0..1 as a whole percentage.
+ * @param {number|null|undefined} fraction
+ * @returns {string}
+ */
+export function fmtPercent(fraction) {
+  if (fraction === null || fraction === undefined || !Number.isFinite(fraction)) return '–';
+  return `${Math.round(Math.max(0, Math.min(1, fraction)) * 100)} %`;
+}
+
+/**
+ * A byte count in B, kB or MB.
+ * @param {number} bytes
+ * @returns {string}
+ */
+export function fmtBytes(bytes) {
+  if (bytes < 1024) return `${bytes} B`;
+  if (bytes < 1024 * 1024) return `${(bytes / 1024).toFixed(1)} kB`;
+  return `${(bytes / 1024 / 1024).toFixed(1)} MB`;
+}
+
+/**
+ * Human label of a sensor id such as "left_inner" → "left inner".
+ * @param {string} sensor
+ * @returns {string}
+ */
+export function fmtSensor(sensor) {
+  return sensor.replace('_', ' ');
+}

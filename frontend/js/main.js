@@ -1,0 +1,231 @@
+// @ts-check
+/**
+ * Entry point: wires the API client, the store, the hash router, the views and the keyboard.
+ * The only module with page-wide state (the store instance and the current view).
+ */
+import { createActions } from './actions.js';
+import { createApi } from './api.js';
+import { buildHash, parseHash } from './lib/route.js';
+import { createStore } from './state.js';
+import { renderPass } from './views/pass.js';
+import { renderPasses } from './views/passes.js';
+import { renderShell, renderSignIn } from './views/shell.js';
+import { renderUpload } from './views/upload.js';
+import { LAYERS, WheelView } from './views/wheel.js';
+
+const TOKEN_KEY = 'wheelscan.token';
+/** Layers shown when the URL does not say otherwise. */
+const DEFAULT_LAYERS = { image: true, adaptive: true, steger: true, mask: false, sigma: false };
+
+const els = {
+  header: /** @type {HTMLElement} */ (document.getElementById('header')),
+  banner: /** @type {HTMLElement} */ (document.getElementById('banner')),
+  view: /** @type {HTMLElement} */ (document.getElementById('view')),
+  help: /** @type {HTMLElement} */ (document.getElementById('help')),
+};
+
+const store = createStore({
+  token: window.localStorage.getItem(TOKEN_KEY),
+  me: null, signInNeeded: false, route: parseHash(''), error: null, helpOpen: false,
+  passes: { items: [], filter: {}, loading: false }, selectedRow: 0, liveJobs: {}, socketOpen: false,
+  pass: null, wheel: null, upload: null, limits: null, layers: DEFAULT_LAYERS,
+});
+const api = createApi(() => store.get().token);
+const actions = createActions(api, store);
+/** @type {WheelView|null} */
+let wheelView = null;
+/** @type {(() => void)|null} */
+let stopWatching = null;
+let lastLoadKey = '';
+
+window.addEventListener('error', (e) => store.set({ error: `the page hit a bug: ${e.message}` }));
+window.addEventListener('unhandledrejection', (e) => store.set({ error: `the page hit a bug: ${String(e.reason?.message ?? e.reason)}` }));
+
+/** Follow the location hash: sign in from `#token=`, then load what the route shows. */
+async function onHashChange() {
+  const route = parseHash(window.location.hash);
+  if (route.token) {
+    window.localStorage.setItem(TOKEN_KEY, route.token);
+    window.history.replaceState(null, '', `${window.location.pathname}#/passes`);
+    await actions.signIn(route.token);
+    startWatching();
+  }
+  const layers = /** @type {typeof DEFAULT_LAYERS} */ (Object.fromEntries(LAYERS.map(([key]) => [key,
+    route.query[key] === undefined ? DEFAULT_LAYERS[/** @type {keyof DEFAULT_LAYERS} */ (key)] : route.query[key] === '1'])));
+  store.set({ route, layers });
+  if (!store.get().me) return;
+  const loadKey = loadKeyOf(route);
+  if (loadKey === lastLoadKey) return;
+  lastLoadKey = loadKey;
+  if (route.name === 'passes') await actions.loadPasses(route.query);
+  else if (route.name === 'pass') await actions.loadPass(route.params.passId);
+  else if (route.name === 'wheel') await actions.loadWheel(route.params.passId, route.params.wheelId, route.query.sensor);
+}
+
+/**
+ * What must be fetched for a route; query changes that only restyle (method, layers) keep it.
+ * @param {import('./lib/route.js').Route} route
+ * @returns {string}
+ */
+function loadKeyOf(route) {
+  if (route.name === 'wheel') return `wheel/${route.params.passId}/${route.params.wheelId}/${route.query.sensor ?? ''}`;
+  if (route.name === 'passes') return `passes?${new URLSearchParams(route.query)}`;
+  return `${route.name}/${route.params.passId ?? ''}`;
+}
+
+/** Listen for job progress of every pass; a finished job refreshes what is on screen. */
+function startWatching() {
+  stopWatching?.();
+  stopWatching = api.watch('passes', (msg) => {
+    const before = store.get().liveJobs[msg.pass_id];
+    actions.jobUpdate(msg);
+    const finished = (msg.wheels_done !== before?.wheels_done) || msg.state !== before?.state;
+    if (finished) refreshOnProgress(msg);
+  }, (open) => store.set({ socketOpen: open }));
+}
+
+let refreshTimer = 0;
+/**
+ * Reload the list or the pass on screen when a job made progress (at most twice a second).
+ * @param {any} msg
+ */
+function refreshOnProgress(msg) {
+  window.clearTimeout(refreshTimer);
+  refreshTimer = window.setTimeout(() => {
+    const { route } = store.get();
+    if (route.name === 'passes') actions.loadPasses(route.query);
+    else if (route.name === 'pass' && route.params.passId === String(msg.pass_id)) actions.loadPass(route.params.passId);
+  }, 500);
+}
+
+/**
+ * Merge query parameters into the current route's hash (method, sensor, layer toggles).
+ * @param {Record<string, string>} patch
+ */
+function setQuery(patch) {
+  const { route } = store.get();
+  const segments = window.location.hash.replace(/^#\//, '').split('?')[0].split('/');
+  window.location.hash = buildHash(segments, { ...route.query, ...patch });
+}
+
+/** Render the shell and the page of the current route from the state. */
+function render() {
+  const state = store.get();
+  renderShell(els, state, {
+    dismissError: () => store.set({ error: null }),
+    signOut: () => {
+      window.localStorage.removeItem(TOKEN_KEY);
+      stopWatching?.();
+      store.set({ token: null, me: null, signInNeeded: true });
+    },
+  });
+  if (state.route.name !== 'wheel' && wheelView) {
+    wheelView.destroy();
+    wheelView = null;
+  }
+  if (!state.me) {
+    if (state.signInNeeded || !state.token) {
+      renderSignIn(els.view, async (token) => {
+        window.localStorage.setItem(TOKEN_KEY, token);
+        await actions.signIn(token);
+        startWatching();
+        lastLoadKey = '';
+        onHashChange();
+      });
+    } else els.view.replaceChildren('Signing in…');
+    return;
+  }
+  const { route } = state;
+  if (route.name === 'passes') {
+    renderPasses(els.view, state, {
+      applyFilter: (filter) => { window.location.hash = buildHash(['passes'], filter); },
+      select: (index) => store.set({ selectedRow: index }),
+    });
+  } else if (route.name === 'pass') {
+    renderPass(els.view, state, {
+      setMode: (mode) => setQuery({ mode }),
+      exportReport: (format) => actions.exportReport(route.params.passId, null, format),
+    });
+  } else if (route.name === 'wheel') {
+    wheelView ??= new WheelView(els.view, {
+      setQuery,
+      exportReport: (format) => actions.exportReport(route.params.passId, route.params.wheelId, format),
+      openViewer: () => actions.openViewer(store.get().route.params.passId, store.get().route.params.wheelId),
+    });
+    wheelView.update(state);
+  } else if (route.name === 'upload') {
+    renderUpload(els.view, state, { upload: actions.upload });
+  } else {
+    els.view.replaceChildren(`Nothing lives at "${route.params.path}". Go back to the passes list.`);
+  }
+}
+
+/**
+ * Keyboard: global navigation, list movement, and the frame canvas on the wheel page.
+ * @param {KeyboardEvent} e
+ */
+function onKey(e) {
+  const target = /** @type {HTMLElement} */ (e.target);
+  if (target.closest('input, textarea, select') || e.ctrlKey || e.metaKey || e.altKey) return;
+  const state = store.get();
+  if (e.key === '?') store.set({ helpOpen: !state.helpOpen });
+  else if (e.key === 'Escape') escape(state);
+  else if (state.route.name === 'passes') passesKey(e, state);
+  else if (state.route.name === 'wheel') wheelKey(e, state);
+  if (pendingG && (e.key === 'p' || e.key === 'u')) window.location.hash = e.key === 'p' ? '#/passes' : '#/upload';
+  pendingG = e.key === 'g';
+}
+let pendingG = false;
+
+/** @param {any} state */
+function escape(state) {
+  if (state.helpOpen) store.set({ helpOpen: false });
+  else if (state.route.name === 'wheel') window.location.hash = buildHash(['passes', state.route.params.passId]);
+  else if (state.route.name === 'pass') window.location.hash = '#/passes';
+}
+
+/** @param {KeyboardEvent} e @param {any} state */
+function passesKey(e, state) {
+  const n = state.passes.items.length;
+  if (e.key === 'j' || e.key === 'ArrowDown') store.set({ selectedRow: Math.min(n - 1, state.selectedRow + 1) });
+  else if (e.key === 'k' || e.key === 'ArrowUp') store.set({ selectedRow: Math.max(0, state.selectedRow - 1) });
+  else if (e.key === 'Enter' && n > 0) window.location.hash = buildHash(['passes', state.passes.items[state.selectedRow].id]);
+}
+
+/** @param {KeyboardEvent} e @param {any} state */
+function wheelKey(e, state) {
+  const layer = LAYERS.find(([, , key]) => key === e.key);
+  if (layer) return setQuery({ [layer[0]]: state.layers[layer[0]] ? '0' : '1' });
+  const frame = wheelView?.frame;
+  const step = 60;
+  /** @type {Record<string, () => void>} */
+  const moves = {
+    f: () => frame?.fit(), '+': () => frame?.zoom(1.5), '=': () => frame?.zoom(1.5), '-': () => frame?.zoom(1 / 1.5),
+    ArrowLeft: () => frame?.pan(step, 0), ArrowRight: () => frame?.pan(-step, 0),
+    ArrowUp: () => frame?.pan(0, step), ArrowDown: () => frame?.pan(0, -step),
+    '[': () => /** @type {HTMLElement|null} */ (document.querySelector('a[rel=prev]'))?.click(),
+    ']': () => /** @type {HTMLElement|null} */ (document.querySelector('a[rel=next]'))?.click(),
+    i: () => {
+      const frames = state.wheel?.frames ?? [];
+      const at = frames.findIndex((/** @type {any} */ f) => f.sensor === state.wheel.sensor);
+      if (frames.length > 1) setQuery({ sensor: frames[(at + 1) % frames.length].sensor });
+    },
+  };
+  if (moves[e.key]) {
+    e.preventDefault();
+    moves[e.key]();
+  }
+}
+
+store.subscribe(render);
+window.addEventListener('hashchange', onHashChange);
+window.addEventListener('keydown', onKey);
+(async () => {
+  const { token } = store.get();
+  if (token && !parseHash(window.location.hash).token) {
+    await actions.signIn(token);
+    if (store.get().me) startWatching();
+  }
+  await onHashChange();
+  render();
+})();

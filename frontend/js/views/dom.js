@@ -1,0 +1,56 @@
+// @ts-check
+/** A tiny element builder for the views: h('tr', {class: 'x', onclick}, child, ...). */
+
+/**
+ * Create an element with properties, attributes, listeners and children.
+ * Keys starting with "on" become listeners; `class`, `dataset`, `style` and other strings
+ * become attributes; null/false children are skipped; strings become text.
+ * @param {string} tag
+ * @param {Record<string, any>} [props]
+ * @param {...any} children
+ * @returns {HTMLElement}
+ */
+export function h(tag, props = {}, ...children) {
+  const el = document.createElement(tag);
+  for (const [key, value] of Object.entries(props)) {
+    if (value === null || value === undefined || value === false) continue;
+    if (key.startsWith('on') && typeof value === 'function') el.addEventListener(key.slice(2), value);
+    else if (key === 'dataset') Object.assign(el.dataset, value);
+    else if (key === 'value' || key === 'checked' || key === 'disabled') /** @type {any} */ (el)[key] = value;
+    else el.setAttribute(key, value === true ? '' : String(value));
+  }
+  for (const child of children.flat(Infinity)) {
+    if (child === null || child === undefined || child === false) continue;
+    el.append(child instanceof Node ? child : document.createTextNode(String(child)));
+  }
+  return el;
+}
+
+/**
+ * A canvas sized to its CSS box at the device pixel ratio; returns its context and CSS size.
+ * @param {HTMLCanvasElement} canvas
+ * @returns {{ctx: CanvasRenderingContext2D, widthPx: number, heightPx: number, pixelRatio: number}}
+ */
+export function fitCanvas(canvas) {
+  const pixelRatio = window.devicePixelRatio || 1;
+  const widthPx = Math.max(1, canvas.clientWidth);
+  const heightPx = Math.max(1, canvas.clientHeight);
+  const w = Math.round(widthPx * pixelRatio);
+  const hgt = Math.round(heightPx * pixelRatio);
+  if (canvas.width !== w || canvas.height !== hgt) {
+    canvas.width = w;
+    canvas.height = hgt;
+  }
+  const ctx = /** @type {CanvasRenderingContext2D} */ (canvas.getContext('2d'));
+  return { ctx, widthPx, heightPx, pixelRatio };
+}
+
+/**
+ * Alarm class of a result: "alarm" when it has alarms, "ok" when measured, else "none".
+ * @param {any} result a method's result object from the API, or null
+ * @returns {'alarm'|'ok'|'none'}
+ */
+export function alarmClass(result) {
+  if (!result || result.status === 'not_measured' || result.flange_height_mm == null) return 'none';
+  return result.alarms && result.alarms.length > 0 ? 'alarm' : 'ok';
+}

@@ -1,0 +1,202 @@
+// @ts-check
+/**
+ * The interactive frame canvas of the wheel page: pan (drag, arrows), zoom (wheel, +/−,
+ * double-click), fit, hover read-out of the nearest centre (x, y, σ, strength) and the σ
+ * colour legend. Drawing itself is draw/frame.js; each redraw is timed as a
+ * `performance.measure('frame-draw')` entry.
+ */
+import { drawFrame } from '../draw/frame.js';
+import { drawColourLegend } from '../draw/legend.js';
+import { VIRIDIS } from '../lib/colormap.js';
+import { fmtNumber } from '../lib/format.js';
+import { buildPointIndex, nearestPoint } from '../lib/point-index.js';
+import { fitViewport, panBy, screenToImage, zoomAt } from '../lib/viewport.js';
+import { fitCanvas, h } from './dom.js';
+
+/** Hover picks the nearest centre within this many screen px. */
+const HOVER_RADIUS_CSS_PX = 8;
+
+/**
+ * @typedef {object} FrameData
+ * @property {ImageBitmap} image
+ * @property {ImageBitmap|null} mask
+ * @property {ImageBitmap|null} sigma
+ * @property {{sigma_min_px: number, sigma_max_px: number}|null} sigmaScale
+ * @property {Record<string, any>} centres method → columnar centres (or {error})
+ */
+
+export class FrameView {
+  /**
+   * @param {HTMLElement} root element to fill
+   */
+  constructor(root) {
+    this.canvas = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'frame-canvas', tabindex: 0, 'aria-label': 'camera frame' }));
+    this.readout = h('div', { class: 'readout mono' }, 'hover a centre point');
+    this.legend = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'legend' }));
+    root.replaceChildren(h('div', { class: 'frame-wrap' }, this.canvas), h('div', { class: 'frame-foot' }, this.readout, this.legend));
+    /** @type {FrameData|null} */
+    this.data = null;
+    this.show = { image: true, mask: false, sigma: false, adaptive: true, steger: true };
+    /** @type {import('../lib/viewport.js').Viewport|null} */
+    this.viewport = null;
+    /** @type {{x: number, y: number}|null} */
+    this.highlight = null;
+    /** @type {Record<string, import('../lib/point-index.js').PointIndex>} */
+    this.indexes = {};
+    this.pending = false;
+    this.lastDrawMs = 0;
+    this.pointsDrawn = 0;
+    this.bindEvents();
+    this.resizeObserver = new ResizeObserver(() => this.request());
+    this.resizeObserver.observe(this.canvas);
+  }
+
+  /**
+   * Show a new frame (fits it to the canvas) or keep the view when only the data object changed.
+   * @param {FrameData} data
+   */
+  setData(data) {
+    const sameSize = this.data && this.data.image.width === data.image.width && this.data.image.height === data.image.height;
+    this.data = data;
+    this.indexes = {};
+    for (const [method, c] of Object.entries(data.centres)) {
+      if (c && Array.isArray(c.x)) this.indexes[method] = buildPointIndex(c.x, c.y, 8);
+    }
+    if (!sameSize) this.viewport = null;
+    this.drawLegend();
+    this.request();
+  }
+
+  /** @param {Partial<FrameView['show']>} show */
+  setShow(show) {
+    this.show = { ...this.show, ...show };
+    this.legend.hidden = !this.show.sigma;
+    this.drawLegend();
+    this.request();
+  }
+
+  fit() {
+    this.viewport = null;
+    this.request();
+  }
+
+  /** @param {number} factor */
+  zoom(factor) {
+    if (!this.viewport) return;
+    this.viewport = zoomAt(this.viewport, factor, this.canvas.clientWidth / 2, this.canvas.clientHeight / 2);
+    this.request();
+  }
+
+  /** @param {number} dx @param {number} dy */
+  pan(dx, dy) {
+    if (!this.viewport) return;
+    this.viewport = panBy(this.viewport, dx, dy);
+    this.request();
+  }
+
+  destroy() {
+    this.resizeObserver.disconnect();
+  }
+
+  /** Schedule one redraw on the next animation frame (coalesces bursts of events). */
+  request() {
+    if (this.pending) return;
+    this.pending = true;
+    requestAnimationFrame(() => {
+      this.pending = false;
+      this.draw();
+    });
+  }
+
+  draw() {
+    if (!this.data) return;
+    const started = performance.now();
+    const { ctx, widthPx, heightPx, pixelRatio } = fitCanvas(this.canvas);
+    if (!this.viewport) this.viewport = fitViewport(this.data.image.width, this.data.image.height, widthPx, heightPx);
+    const centres = Object.entries(this.data.centres)
+      .filter(([, c]) => c && Array.isArray(c.x))
+      .map(([method, c]) => ({ method, x: c.x, y: c.y }));
+    this.pointsDrawn = drawFrame(ctx, { ...this.data, centres, highlight: this.highlight }, {
+      viewport: this.viewport, widthPx, heightPx, pixelRatio, show: this.show,
+    });
+    const ended = performance.now();
+    this.lastDrawMs = ended - started;
+    performance.measure('frame-draw', { start: started, end: ended });
+    this.canvas.dataset.pointsDrawn = String(this.pointsDrawn);
+    this.canvas.dataset.scale = this.viewport.scale.toFixed(4);
+  }
+
+  drawLegend() {
+    const scale = this.data?.sigmaScale;
+    this.legend.hidden = !this.show.sigma || !scale;
+    if (this.legend.hidden || !scale) return;
+    const { ctx, widthPx, heightPx, pixelRatio } = fitCanvas(this.legend);
+    drawColourLegend(ctx, { lut: VIRIDIS, min: scale.sigma_min_px, max: scale.sigma_max_px, label: 'σ map, chosen scale σ (px)' },
+      { widthPx, heightPx, pixelRatio });
+  }
+
+  bindEvents() {
+    const c = this.canvas;
+    let drag = /** @type {{x: number, y: number}|null} */ (null);
+    c.addEventListener('wheel', (e) => {
+      e.preventDefault();
+      if (!this.viewport) return;
+      this.viewport = zoomAt(this.viewport, Math.exp(-e.deltaY / 400), e.offsetX, e.offsetY);
+      this.request();
+    }, { passive: false });
+    c.addEventListener('dblclick', (e) => {
+      if (!this.viewport) return;
+      this.viewport = zoomAt(this.viewport, e.shiftKey ? 0.5 : 2, e.offsetX, e.offsetY);
+      this.request();
+    });
+    c.addEventListener('pointerdown', (e) => {
+      drag = { x: e.clientX, y: e.clientY };
+      c.setPointerCapture(e.pointerId);
+    });
+    c.addEventListener('pointerup', () => { drag = null; });
+    c.addEventListener('pointermove', (e) => {
+      if (drag) {
+        this.pan(e.clientX - drag.x, e.clientY - drag.y);
+        drag = { x: e.clientX, y: e.clientY };
+        return;
+      }
+      this.hover(e.offsetX, e.offsetY);
+    });
+    c.addEventListener('pointerleave', () => {
+      this.highlight = null;
+      this.request();
+    });
+  }
+
+  /**
+   * Show the nearest visible centre under a screen point in the read-out.
+   * @param {number} sx
+   * @param {number} sy
+   */
+  hover(sx, sy) {
+    if (!this.viewport || !this.data) return;
+    const [ix, iy] = screenToImage(this.viewport, sx, sy);
+    const radiusPx = HOVER_RADIUS_CSS_PX / this.viewport.scale;
+    let best = /** @type {{method: string, i: number, d2: number}|null} */ (null);
+    for (const [method, index] of Object.entries(this.indexes)) {
+      if (!this.show[/** @type {'adaptive'|'steger'} */ (method)]) continue;
+      const i = nearestPoint(index, ix, iy, radiusPx);
+      if (i < 0) continue;
+      const d2 = (index.x[i] - ix) ** 2 + (index.y[i] - iy) ** 2;
+      if (!best || d2 < best.d2) best = { method, i, d2 };
+    }
+    if (!best) {
+      this.readout.textContent = `pixel x ${fmtNumber(ix, 1)}, y ${fmtNumber(iy, 1)} · no centre within ${HOVER_RADIUS_CSS_PX} screen px`;
+      if (this.highlight) { this.highlight = null; this.request(); }
+      return;
+    }
+    const c = this.data.centres[best.method];
+    this.highlight = { x: c.x[best.i], y: c.y[best.i] };
+    this.readout.replaceChildren(
+      h('span', { class: `method-tag ${best.method}` }, best.method),
+      ` x ${fmtNumber(c.x[best.i], 2)} px · y ${fmtNumber(c.y[best.i], 2)} px · σ ${fmtNumber(c.sigma?.[best.i], 2)} px · strength ${fmtNumber(c.strength?.[best.i], 2)}`,
+    );
+    this.readout.dataset.method = best.method;
+    this.request();
+  }
+}

@@ -1,0 +1,144 @@
+// @ts-check
+/**
+ * Pass: the train as vehicles → axles → left/right wheels, each with Sh, Sd, qR,
+ * back-to-back and its alarm state by colour, for the adaptive method, Steger, or their
+ * difference (adaptive − Steger).
+ */
+import { fmtNumber, fmtSigned, fmtTime, PARAMETERS } from '../lib/format.js';
+import { buildHash } from '../lib/route.js';
+import { alarmClass, h } from './dom.js';
+
+const SHOWN = PARAMETERS.filter((p) => p.key !== 'flange_thickness_en_mm' && p.key !== 'back_to_back_mm');
+
+/**
+ * Render the pass page.
+ * @param {HTMLElement} root
+ * @param {any} state
+ * @param {{setMode: (mode: string) => void, exportReport: (format: string) => void}} handlers
+ */
+export function renderPass(root, state, handlers) {
+  const pass = state.pass;
+  if (!pass || pass.loading || !pass.data) {
+    root.replaceChildren(h('p', { class: 'loading' }, pass?.loading ? `Loading pass ${pass.id}…` : 'No pass loaded.'));
+    return;
+  }
+  const mode = state.route.query.mode ?? 'adaptive';
+  const p = pass.data;
+  const live = state.liveJobs?.[p.id];
+  root.replaceChildren(
+    h('section', { class: 'pass' },
+      h('div', { class: 'titlebar' },
+        h('h1', {}, h('a', { href: '#/passes' }, 'Passes'), ' › ', `Pass #${p.id}`),
+        h('span', { class: 'meta' }, `${p.site ?? ''} · ${fmtTime(p.started_at)} · ${p.direction ?? '–'} · ${fmtNumber(p.speed_kmh, 1)} km/h`),
+        h('span', { class: `status status-${live?.state ?? p.status ?? p.state}` }, live?.state ?? p.status ?? p.state),
+        h('span', { class: 'spacer' }),
+        modeSwitch(mode, handlers.setMode),
+        exportButtons(handlers.exportReport),
+      ),
+      train(pass.wheels, mode, String(p.id)),
+    ),
+  );
+}
+
+/**
+ * @param {string} mode
+ * @param {(mode: string) => void} setMode
+ * @returns {HTMLElement}
+ */
+function modeSwitch(mode, setMode) {
+  return h('div', { class: 'segmented', role: 'group', 'aria-label': 'method' },
+    [['adaptive', 'Adaptive'], ['steger', 'Steger'], ['difference', 'Δ adaptive − Steger']].map(([key, label]) =>
+      h('button', { class: mode === key ? 'on' : null, 'aria-pressed': String(mode === key), onclick: () => setMode(key) }, label)));
+}
+
+/**
+ * Export buttons (PDF, CSV, JSON) calling back with the format.
+ * @param {(format: string) => void} exportReport
+ * @returns {HTMLElement}
+ */
+export function exportButtons(exportReport) {
+  return h('div', { class: 'exports' }, 'Export ',
+    ['pdf', 'csv', 'json'].map((f) => h('button', { 'data-export': f, onclick: () => exportReport(f) }, f.toUpperCase())));
+}
+
+/**
+ * @param {any[]} wheels
+ * @param {string} mode
+ * @param {string} passId
+ * @returns {HTMLElement}
+ */
+function train(wheels, mode, passId) {
+  /** @type {Map<string, Map<number, any>>} */
+  const vehicles = new Map();
+  for (const w of wheels) {
+    if (!vehicles.has(w.vehicle_id)) vehicles.set(w.vehicle_id, new Map());
+    const axles = /** @type {Map<number, any>} */ (vehicles.get(w.vehicle_id));
+    axles.set(w.axle, { ...(axles.get(w.axle) ?? {}), [w.side]: w });
+  }
+  if (vehicles.size === 0) return h('p', { class: 'empty' }, 'No wheels yet: frames are still arriving or being measured.');
+  return h('div', { class: 'train' }, [...vehicles].map(([vehicleId, axles]) =>
+    h('div', { class: 'vehicle' },
+      h('h2', {}, `Vehicle ${vehicleId}`),
+      [...axles].sort((a, b) => a[0] - b[0]).map(([axle, pair]) =>
+        h('div', { class: 'axle' },
+          wheelCard(pair.left, 'left', mode, passId),
+          h('div', { class: 'axle-info' }, h('div', {}, `axle ${axle}`),
+            h('div', { class: 'mono', title: 'back-to-back distance' }, `B2B ${backToBack(pair, mode)}`)),
+          wheelCard(pair.right, 'right', mode, passId))))));
+}
+
+/**
+ * @param {any} pair {left, right}
+ * @param {string} mode
+ * @returns {string}
+ */
+function backToBack(pair, mode) {
+  const value = (/** @type {string} */ m) =>
+    pair.left?.results?.[m]?.back_to_back_mm ?? pair.right?.results?.[m]?.back_to_back_mm ?? null;
+  if (mode === 'difference') {
+    const a = value('adaptive');
+    const s = value('steger');
+    return a == null || s == null ? '–' : fmtSigned(a - s);
+  }
+  return fmtNumber(value(mode));
+}
+
+/**
+ * @param {any} wheel a wheel record from the API, or undefined
+ * @param {string} side
+ * @param {string} mode
+ * @param {string} passId
+ * @returns {HTMLElement}
+ */
+function wheelCard(wheel, side, mode, passId) {
+  if (!wheel) return h('div', { class: 'wheel-card none' }, `${side}: no wheel`);
+  const adaptive = wheel.results?.adaptive ?? null;
+  const steger = wheel.results?.steger ?? null;
+  const shown = mode === 'steger' ? steger : adaptive;
+  const cls = mode === 'difference' ? alarmClass(adaptive) : alarmClass(shown);
+  const alarms = (shown?.alarms ?? []).map((/** @type {any} */ a) => a.message).join('; ');
+  return h('a', {
+    class: `wheel-card ${cls} state-${wheel.status ?? wheel.state}`,
+    href: buildHash(['passes', passId, 'wheels', wheel.wheel_id], mode === 'difference' ? {} : { method: mode }),
+    title: alarms || wheel.reason || '',
+    dataset: { wheelId: String(wheel.wheel_id), side },
+  },
+  h('div', { class: 'card-head' }, h('span', {}, side), h('span', { class: 'state' }, wheel.reason ? 'not measured' : wheel.status ?? wheel.state)),
+  wheel.reason
+    ? h('div', { class: 'reason' }, wheel.reason)
+    : h('table', {}, SHOWN.map((p) => h('tr', {},
+      h('th', { title: p.title }, p.label),
+      h('td', { class: 'num' }, mode === 'difference'
+        ? fmtSigned(diff(adaptive?.[p.key], steger?.[p.key]))
+        : fmtNumber(shown?.[p.key])))),
+  ));
+}
+
+/**
+ * @param {number|null|undefined} a
+ * @param {number|null|undefined} b
+ * @returns {number|null}
+ */
+function diff(a, b) {
+  return a == null || b == null ? null : a - b;
+}

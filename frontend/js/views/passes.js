@@ -1,0 +1,94 @@
+// @ts-check
+/**
+ * Passes: newest first, with filters and live progress of passes still being measured.
+ * j/k move the selection, Enter opens it.
+ */
+import { fmtNumber, fmtPercent, fmtTime } from '../lib/format.js';
+import { buildHash } from '../lib/route.js';
+import { h } from './dom.js';
+
+const FILTERS = [
+  { key: 'site', label: 'Site', type: 'text', size: 10 },
+  { key: 'vehicle', label: 'Vehicle', type: 'text', size: 10 },
+  { key: 'since', label: 'From', type: 'date' },
+  { key: 'until', label: 'To', type: 'date' },
+];
+
+/**
+ * Render the passes page.
+ * @param {HTMLElement} root
+ * @param {any} state
+ * @param {{applyFilter: (filter: Record<string, string>) => void, select: (index: number) => void}} handlers
+ */
+export function renderPasses(root, state, handlers) {
+  const passes = state.passes ?? { items: [], filter: {} };
+  const filter = passes.filter ?? {};
+  const filterKey = JSON.stringify(filter);
+  const existing = /** @type {HTMLFormElement|null} */ (root.querySelector('form.filters'));
+  // keep the form the user may be typing in unless the applied filter changed
+  const form = existing && existing.dataset.filter === filterKey ? existing : /** @type {HTMLFormElement} */ (h('form', {
+    class: 'filters',
+    dataset: { filter: filterKey },
+    onsubmit: (/** @type {Event} */ e) => {
+      e.preventDefault();
+      const data = new FormData(/** @type {HTMLFormElement} */ (e.target));
+      const next = /** @type {Record<string, string>} */ ({});
+      for (const [k, v] of data.entries()) if (String(v)) next[k] = String(v);
+      handlers.applyFilter(next);
+    },
+  },
+  FILTERS.map((f) => h('label', {}, f.label, ' ',
+    h('input', { name: f.key, type: f.type, size: f.size, value: filter[f.key] ?? '' }))),
+  h('label', {}, h('input', { type: 'checkbox', name: 'alarm', value: 'true', checked: filter.alarm === 'true' }), ' alarms only'),
+  h('button', { type: 'submit' }, 'Apply'),
+  h('span', { class: 'count' })));
+  /** @type {HTMLElement} */ (form.querySelector('.count')).textContent =
+    passes.loading ? 'loading…' : `${passes.total ?? passes.items.length} passes`;
+  const rows = passes.items.map((/** @type {any} */ p, /** @type {number} */ i) => passRow(p, state.liveJobs?.[p.id], i === state.selectedRow, () => handlers.select(i)));
+  root.replaceChildren(
+    h('section', { class: 'passes' },
+      h('h1', {}, 'Passes'),
+      form,
+      h('table', { class: 'grid' },
+        h('thead', {}, h('tr', {}, ['Pass', 'Time', 'Site', 'Dir.', 'km/h', 'Vehicles', 'Wheels', 'Not meas.', 'Alarms', 'Status']
+          .map((t) => h('th', {}, t)))),
+        h('tbody', {}, rows.length ? rows : h('tr', {}, h('td', { colspan: 10, class: 'empty' },
+          passes.loading ? 'Loading passes…' : 'No passes match. Upload one or widen the filters.')))),
+    ),
+  );
+}
+
+/**
+ * @param {any} p a pass from the API
+ * @param {any} live the latest job message for it, if any
+ * @param {boolean} selected
+ * @param {() => void} onSelect
+ * @returns {HTMLElement}
+ */
+function passRow(p, live, selected, onSelect) {
+  const status = live?.state ?? p.status ?? p.state ?? '–';
+  const progress = live?.progress ?? p.progress;
+  const running = status === 'running' || status === 'queued' || status === 'receiving' || status === 'open';
+  const href = buildHash(['passes', p.id]);
+  return h('tr', {
+    class: [selected ? 'selected' : '', p.alarms > 0 ? 'has-alarm' : ''].join(' ').trim() || null,
+    dataset: { passId: String(p.id), href },
+    onclick: onSelect,
+    ondblclick: () => { window.location.hash = href; },
+  },
+  h('td', {}, h('a', { href }, `#${p.id}`)),
+  h('td', { class: 'mono' }, fmtTime(p.started_at)),
+  h('td', {}, p.site ?? '–'),
+  h('td', {}, p.direction ?? '–'),
+  h('td', { class: 'num' }, fmtNumber(p.speed_kmh, 1)),
+  h('td', { class: 'num' }, p.vehicles ?? '–'),
+  h('td', { class: 'num' }, `${live?.wheels_done ?? p.wheels_measured ?? '–'} / ${live?.wheels_total ?? p.wheels_total ?? '–'}`),
+  h('td', { class: `num ${p.wheels_not_measured > 0 ? 'warn' : ''}` }, p.wheels_not_measured ?? '–'),
+  h('td', { class: `num ${p.alarms > 0 ? 'alarm' : ''}` }, p.alarms ?? '–'),
+  h('td', { class: `status status-${status}` }, status,
+    running && progress != null
+      ? h('span', { class: 'bar', title: fmtPercent(progress) }, h('span', { style: `width:${Math.round(progress * 100)}%` }))
+      : null,
+    running && progress != null ? ` ${fmtPercent(progress)}` : null),
+  );
+}

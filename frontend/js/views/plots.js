@@ -1,0 +1,99 @@
+// @ts-check
+/**
+ * The wheel page's plots: profile vs reference (own canvas), adaptive − Steger difference
+ * (own canvas) and the wheel's trend across passes (uPlot, x = pass time).
+ */
+import uPlot from '../../vendor/uPlot-1.6.32.esm.js';
+import { drawDifference } from '../draw/difference.js';
+import { METHOD_COLOURS } from '../draw/frame.js';
+import { drawProfile } from '../draw/profile.js';
+import { fmtNumber } from '../lib/format.js';
+import { fitCanvas, h } from './dom.js';
+
+/**
+ * Draw the profile plot of the methods shown.
+ * @param {HTMLCanvasElement} canvas
+ * @param {Record<string, any>} profiles method → profile body from the API (or {error})
+ * @param {string[]} methods methods to draw, first one gets its constructions drawn
+ * @param {any} record the wheel record (for the parameter labels)
+ * @returns {string|null} a message when there is nothing to draw
+ */
+export function renderProfile(canvas, profiles, methods, record) {
+  const usable = methods.filter((m) => profiles[m] && Array.isArray(profiles[m].x_mm));
+  const { ctx, widthPx, heightPx, pixelRatio } = fitCanvas(canvas);
+  if (usable.length === 0) {
+    ctx.clearRect(0, 0, canvas.width, canvas.height);
+    return methods.map((m) => `${m}: ${profiles[m]?.error ?? 'no profile'}`).join('; ');
+  }
+  const first = profiles[usable[0]];
+  const result = record?.results?.[usable[0]] ?? {};
+  drawProfile(ctx, {
+    curves: usable.map((m) => ({ method: m, x_mm: profiles[m].x_mm, z_mm: profiles[m].z_mm })),
+    reference: first.reference ?? null,
+    constructions: first.constructions ?? null,
+    values: { sh: result.flange_height_mm, sd: result.flange_thickness_mm, qr: result.qr_mm },
+  }, { widthPx, heightPx, pixelRatio });
+  return null;
+}
+
+/**
+ * Draw the difference plot and return its summary line.
+ * @param {HTMLCanvasElement} canvas
+ * @param {import('../lib/method-difference.js').MethodDifference|null} diff
+ * @returns {string}
+ */
+export function renderDifference(canvas, diff) {
+  const { ctx, widthPx, heightPx, pixelRatio } = fitCanvas(canvas);
+  if (!diff || !drawDifference(ctx, diff, { widthPx, heightPx, pixelRatio })) {
+    ctx.clearRect(0, 0, canvas.width, canvas.height);
+    return 'no adaptive/Steger pairs to compare';
+  }
+  return `${diff.alongPx.length} pairs · mean ${fmtNumber(diff.meanPx, 3)} px · RMS ${fmtNumber(diff.rmsPx, 3)} px · max |Δ| ${fmtNumber(diff.maxAbsPx, 3)} px · ${diff.unmatched} adaptive without a Steger partner within 2 px`;
+}
+
+const TREND_SERIES = [
+  { key: 'flange_height_mm', label: 'Sh', dash: [] },
+  { key: 'flange_thickness_mm', label: 'Sd', dash: [6, 3] },
+  { key: 'qr_mm', label: 'qR', dash: [2, 3] },
+];
+
+/**
+ * Build (or rebuild) the trend plot of one wheel across passes.
+ * @param {HTMLElement} root
+ * @param {any[]} trend entries {pass_id, started_at, results: {method: R}}
+ * @param {uPlot|null} previous the plot to replace
+ * @returns {uPlot|null}
+ */
+export function renderTrend(root, trend, previous) {
+  previous?.destroy();
+  root.replaceChildren();
+  const entries = [...trend].sort((a, b) => Date.parse(a.started_at) - Date.parse(b.started_at));
+  if (entries.length === 0) {
+    root.append(h('p', { class: 'empty' }, 'No earlier passes of this wheel.'));
+    return null;
+  }
+  const x = entries.map((e) => Date.parse(e.started_at) / 1000);
+  const series = [{}];
+  const data = [x];
+  for (const method of ['adaptive', 'steger']) {
+    for (const s of TREND_SERIES) {
+      series.push({
+        label: `${s.label} ${method}`,
+        stroke: METHOD_COLOURS[/** @type {'adaptive'|'steger'} */ (method)],
+        dash: s.dash,
+        width: 1.5,
+        points: { show: true, size: 5 },
+        value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v),
+      });
+      data.push(entries.map((e) => e.results?.[method]?.[s.key] ?? null));
+    }
+  }
+  const width = Math.max(280, root.clientWidth);
+  return new uPlot({
+    width, height: 190, series,
+    scales: { x: { time: true } },
+    axes: [{ stroke: '#c9d1db', grid: { stroke: '#262d37' } },
+      { stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: 'mm', size: 44 }],
+    legend: { live: true },
+  }, /** @type {any} */ (data), root);
+}

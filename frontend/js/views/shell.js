@@ -1,0 +1,79 @@
+// @ts-check
+/**
+ * The frame around every page: header with navigation, role, live-link state, the error
+ * banner (every failure in words) and the keyboard help.
+ */
+import { h } from './dom.js';
+
+/** Keyboard shortcuts shown by "?" (the wheel page's are listed there too). */
+export const SHORTCUTS = [
+  ['g p', 'passes'], ['g u', 'upload'], ['j / k', 'next / previous row'], ['Enter', 'open row'],
+  ['a / s', 'adaptive / Steger centres'], ['m / o', 'stripe mask / σ map'], ['f', 'fit frame'],
+  ['+ / −', 'zoom'], ['← ↑ → ↓', 'pan'], ['[ / ]', 'previous / next wheel'], ['i', 'next sensor'],
+  ['Esc', 'up one level'], ['?', 'this help'],
+];
+
+/**
+ * Render the header and banner from state into their containers.
+ * @param {{header: HTMLElement, banner: HTMLElement, help: HTMLElement}} els
+ * @param {any} state
+ * @param {{dismissError: () => void, signOut: () => void}} handlers
+ */
+export function renderShell(els, state, handlers) {
+  const role = state.me?.role ?? null;
+  const name = state.route?.name;
+  els.header.replaceChildren(
+    h('a', { class: 'brand', href: '#/passes' }, 'wheelscan'),
+    h('nav', {},
+      h('a', { href: '#/passes', class: name === 'passes' || name === 'pass' || name === 'wheel' ? 'active' : null }, 'Passes'),
+      role && role !== 'viewer'
+        ? h('a', { href: '#/upload', class: name === 'upload' ? 'active' : null }, 'Upload')
+        : null,
+    ),
+    h('span', { class: 'spacer' }),
+    h('span', { class: `live ${state.socketOpen ? 'on' : 'off'}`, title: 'live updates (WebSocket)' },
+      state.socketOpen ? '● live' : '○ offline'),
+    role ? h('span', { class: `role role-${role}`, title: state.me?.name ?? '' }, role) : null,
+    role ? h('button', { class: 'link', onclick: handlers.signOut }, 'sign out') : null,
+    h('span', { class: 'hint' }, 'press ? for keys'),
+  );
+  els.banner.replaceChildren(
+    ...(state.error
+      ? [h('div', { class: 'error', role: 'alert' },
+          h('strong', {}, 'Error. '), state.error,
+          h('button', { class: 'link', onclick: handlers.dismissError, 'aria-label': 'dismiss' }, 'dismiss'))]
+      : []),
+  );
+  els.help.hidden = !state.helpOpen;
+  if (state.helpOpen && !els.help.firstChild) {
+    els.help.append(
+      h('h2', {}, 'Keyboard'),
+      h('table', {}, SHORTCUTS.map(([key, what]) => h('tr', {}, h('td', {}, h('kbd', {}, key)), h('td', {}, what)))),
+    );
+  }
+}
+
+/**
+ * The sign-in form shown when there is no valid token.
+ * @param {HTMLElement} root
+ * @param {(token: string) => void} onSubmit
+ */
+export function renderSignIn(root, onSubmit) {
+  const input = /** @type {HTMLInputElement} */ (h('input', {
+    type: 'password', name: 'token', placeholder: 'wst_…', autocomplete: 'off', size: 48,
+  }));
+  root.replaceChildren(
+    h('section', { class: 'sign-in' },
+      h('h1', {}, 'Sign in'),
+      h('p', {}, 'Open the link that ', h('code', {}, 'make run'), ' printed, or paste an API token (',
+        h('code', {}, 'wheelscan token create --role viewer'), ').'),
+      h('form', {
+        onsubmit: (/** @type {Event} */ e) => {
+          e.preventDefault();
+          if (input.value.trim()) onSubmit(input.value.trim());
+        },
+      }, input, ' ', h('button', { type: 'submit' }, 'Sign in')),
+    ),
+  );
+  input.focus();
+}

@@ -1,0 +1,193 @@
+// @ts-check
+/**
+ * Wheel review: the camera frame with adaptive/Steger centres, stripe mask and σ map; the
+ * parameter table with limits; the profile vs reference with its constructions; adaptive −
+ * Steger along the stripe; the trend across passes; exports and the 3D view.
+ */
+import { differenceAlongStripe } from '../lib/method-difference.js';
+import { fmtNumber, fmtSensor, fmtSigned, METHODS, PARAMETERS } from '../lib/format.js';
+import { buildHash } from '../lib/route.js';
+import { alarmClass, h } from './dom.js';
+import { FrameView } from './frame-view.js';
+import { exportButtons } from './pass.js';
+import { renderDifference, renderProfile, renderTrend } from './plots.js';
+
+/** Layer toggles: key, label, keyboard shortcut. */
+export const LAYERS = [
+  ['adaptive', 'Adaptive centres', 'a'], ['steger', 'Steger centres', 's'],
+  ['mask', 'Stripe mask', 'm'], ['sigma', 'σ map', 'o'], ['image', 'Frame', 'x'],
+];
+
+export class WheelView {
+  /**
+   * @param {HTMLElement} root
+   * @param {{setQuery: (q: Record<string, string>) => void, exportReport: (format: string) => void, openViewer: () => void}} handlers
+   */
+  constructor(root, handlers) {
+    this.handlers = handlers;
+    this.title = h('div', { class: 'titlebar' });
+    this.toolbar = h('div', { class: 'toolbar' });
+    const frameRoot = h('div', { class: 'frame-root' });
+    this.table = h('div', { class: 'param-table' });
+    this.profileCanvas = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'plot profile-plot', 'aria-label': 'profile plot' }));
+    this.profileNote = h('p', { class: 'note' });
+    this.diffCanvas = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'plot diff-plot', 'aria-label': 'difference plot' }));
+    this.diffNote = h('p', { class: 'note mono' });
+    this.trendRoot = h('div', { class: 'trend' });
+    this.viewerRoot = h('div', { class: 'viewer' });
+    root.replaceChildren(h('section', { class: 'wheel' }, this.title,
+      h('div', { class: 'wheel-grid' },
+        h('div', { class: 'frame-panel' }, this.toolbar, frameRoot),
+        h('div', { class: 'side-panel' },
+          h('h2', {}, 'Parameters'), this.table,
+          h('h2', {}, 'Profile vs reference'), this.profileCanvas, this.profileNote,
+          h('h2', {}, 'Adaptive − Steger along the stripe'), this.diffCanvas, this.diffNote,
+          h('h2', {}, 'Trend across passes'), this.trendRoot,
+          h('h2', {}, '3D'), this.viewerRoot))));
+    this.frame = new FrameView(frameRoot);
+    /** @type {any} */
+    this.shown = {};
+    /** @type {any} */
+    this.trendPlot = null;
+  }
+
+  /**
+   * Bring the page up to date with the state; only parts whose data changed are redrawn.
+   * @param {any} state
+   */
+  update(state) {
+    const w = state.wheel;
+    const method = state.route.query.method === 'steger' ? 'steger' : 'adaptive';
+    if (!w || w.loading && !w.layers) {
+      this.title.replaceChildren(h('p', { class: 'loading' }, 'Loading wheel…'));
+      return;
+    }
+    const show = LAYERS.reduce((acc, [key]) => ({ ...acc, [key]: state.layers[key] }), {});
+    const changed = (/** @type {string} */ key, /** @type {any} */ value) => {
+      if (this.shown[key] === value) return false;
+      this.shown[key] = value;
+      return true;
+    };
+    if (changed('titleDeps', `${w.loadMs}|${method}|${w.loading}|${state.pass?.wheels?.length}`)) this.renderTitle(state, w, method);
+    if (changed('toolbar', JSON.stringify(show))) this.renderToolbar(show);
+    if (changed('layers', w.layers)) {
+      this.frame.setData({ ...w.layers, sigmaScale: w.sigmaScale, centres: w.centres });
+      this.diffNote.textContent = renderDifference(this.diffCanvas, pairDifference(w.centres));
+    }
+    this.frame.setShow(show);
+    if (changed('table', `${method}|${w.record?.wheel_id}|${w.loadMs}`)) this.renderTable(w.record, state.limits, method);
+    if (changed('profile', `${method}|${w.loadMs}`)) {
+      const order = method === 'steger' ? ['steger', 'adaptive'] : ['adaptive', 'steger'];
+      this.profileNote.textContent = renderProfile(this.profileCanvas, w.profiles, order, w.record)
+        ?? 'Dashed grey: reference. Constructions of the selected method: Sh (yellow), Sd (green), qR (pink).';
+    }
+    if (changed('trend', w.trend)) {
+      this.trendPlot = Array.isArray(w.trend) ? renderTrend(this.trendRoot, w.trend, this.trendPlot) : null;
+      if (!Array.isArray(w.trend)) this.trendRoot.replaceChildren(h('p', { class: 'error' }, `trend unavailable: ${w.trend?.error}`));
+    }
+    if (changed('viewer', w.viewerUrl ?? null)) this.renderViewer(w.viewerUrl);
+  }
+
+  destroy() {
+    this.frame.destroy();
+    this.trendPlot?.destroy();
+  }
+
+  /** @param {any} state @param {any} w @param {string} method */
+  renderTitle(state, w, method) {
+    const r = w.record;
+    const siblings = state.pass?.wheels ?? [];
+    const at = siblings.findIndex((/** @type {any} */ s) => String(s.wheel_id) === String(w.wheelId));
+    const link = (/** @type {any} */ s, /** @type {string} */ text, /** @type {string} */ rel) => s
+      ? h('a', { class: 'button', rel, href: buildHash(['passes', w.passId, 'wheels', s.wheel_id], { method }) }, text)
+      : h('span', { class: 'button disabled' }, text);
+    this.title.replaceChildren(
+      h('h1', {}, h('a', { href: '#/passes' }, 'Passes'), ' › ',
+        h('a', { href: buildHash(['passes', w.passId]) }, `Pass #${w.passId}`), ' › ',
+        r ? `Vehicle ${r.vehicle_id} · axle ${r.axle} · ${r.side}` : `Wheel ${w.wheelId}`),
+      h('span', { class: `badge ${alarmClass(r?.results?.[method])}` }, r?.reason ? 'not measured' : alarmClass(r?.results?.[method])),
+      h('div', { class: 'segmented', role: 'group', 'aria-label': 'sensor' }, w.frames.map((/** @type {any} */ f) =>
+        h('button', { class: f.sensor === w.sensor ? 'on' : null, 'data-sensor': f.sensor,
+          onclick: () => this.handlers.setQuery({ sensor: f.sensor }) }, fmtSensor(f.sensor)))),
+      h('div', { class: 'segmented', role: 'group', 'aria-label': 'method' }, METHODS.map((m) =>
+        h('button', { class: m === method ? 'on' : null, 'data-method': m, 'aria-pressed': String(m === method),
+          onclick: () => this.handlers.setQuery({ method: m }) }, m === 'adaptive' ? 'Adaptive' : 'Steger'))),
+      h('span', { class: 'spacer' }),
+      link(siblings[at - 1], '[ prev', 'prev'), link(siblings[at + 1], 'next ]', 'next'),
+      exportButtons(this.handlers.exportReport),
+      h('span', { class: 'meta', 'data-load-ms': String(Math.round(w.loadMs ?? 0)) },
+        w.loading ? 'loading…' : `loaded in ${Math.round(w.loadMs ?? 0)} ms`),
+    );
+  }
+
+  /** @param {Record<string, boolean>} show */
+  renderToolbar(show) {
+    this.toolbar.replaceChildren(
+      ...LAYERS.map(([key, label, shortcut]) => h('label', { class: `toggle ${key}` },
+        h('input', { type: 'checkbox', 'data-layer': key, checked: show[key],
+          onchange: (/** @type {Event} */ e) => this.handlers.setQuery({ [key]: /** @type {HTMLInputElement} */ (e.target).checked ? '1' : '0' }) }),
+        ` ${label} `, h('kbd', {}, shortcut))),
+      h('button', { onclick: () => this.frame.fit(), title: 'fit the frame (f)' }, 'Fit ', h('kbd', {}, 'f')),
+    );
+  }
+
+  /** @param {any} record @param {any} limits @param {string} method */
+  renderTable(record, limits, method) {
+    if (!record) {
+      this.table.replaceChildren(h('p', { class: 'empty' }, 'No results for this wheel.'));
+      return;
+    }
+    const a = record.results?.adaptive ?? {};
+    const s = record.results?.steger ?? {};
+    const alarmed = (/** @type {any} */ r, /** @type {string} */ key) =>
+      (r.alarms ?? []).some((/** @type {any} */ al) => al.parameter === key || `${al.parameter}_mm` === key);
+    this.table.replaceChildren(
+      record.reason ? h('p', { class: 'notice' }, `Not measured: ${record.reason}`) : '',
+      h('table', { class: 'grid compact' },
+        h('thead', {}, h('tr', {}, ['', 'Adaptive', 'Steger', 'Δ', 'Limits (mm)'].map((t, i) =>
+          h('th', { class: i === 1 && method === 'adaptive' || i === 2 && method === 'steger' ? 'selected' : null }, t)))),
+        h('tbody', {}, PARAMETERS.map((p) => h('tr', { dataset: { parameter: p.key } },
+          h('th', { title: p.title }, p.label),
+          h('td', { class: `num ${alarmed(a, p.key) ? 'alarm' : ''}` }, fmtNumber(a[p.key])),
+          h('td', { class: `num ${alarmed(s, p.key) ? 'alarm' : ''}` }, fmtNumber(s[p.key])),
+          h('td', { class: 'num' }, fmtSigned(a[p.key] != null && s[p.key] != null ? a[p.key] - s[p.key] : null)),
+          h('td', { class: 'num' }, limitText(limits, p.key)))))),
+      h('ul', { class: 'alarms' }, [...(a.alarms ?? []).map((/** @type {any} */ al) => ['adaptive', al]),
+        ...(s.alarms ?? []).map((/** @type {any} */ al) => ['steger', al])].map(([m, al]) =>
+        h('li', { class: 'alarm' }, `${m}: ${al.message}`))),
+    );
+  }
+
+  /** @param {string|null} url */
+  renderViewer(url) {
+    this.viewerRoot.replaceChildren(url
+      ? h('iframe', { src: url, title: '3D view of the wheel', class: 'viewer-frame' })
+      : h('button', { onclick: this.handlers.openViewer, 'data-action': 'open-3d' }, 'Open 3D view'));
+  }
+}
+
+/**
+ * Limits of one parameter as "min – max", "≥ min" or "≤ max" from GET /api/limits.
+ * @param {any} limits
+ * @param {string} key parameter key such as "flange_height_mm"
+ * @returns {string}
+ */
+function limitText(limits, key) {
+  const stem = key.replace(/_mm$/, '');
+  const min = limits?.[`${stem}_min_mm`];
+  const max = limits?.[`${stem}_max_mm`];
+  if (min != null && max != null) return `${fmtNumber(min, 1)} – ${fmtNumber(max, 1)}`;
+  if (min != null) return `≥ ${fmtNumber(min, 1)}`;
+  if (max != null) return `≤ ${fmtNumber(max, 1)}`;
+  return '–';
+}
+
+/**
+ * @param {Record<string, any>} centres
+ * @returns {import('../lib/method-difference.js').MethodDifference|null}
+ */
+function pairDifference(centres) {
+  const { adaptive, steger } = centres;
+  if (!adaptive || !steger || !Array.isArray(adaptive.x) || !Array.isArray(steger.x)) return null;
+  return differenceAlongStripe(adaptive, steger, 2);
+}
