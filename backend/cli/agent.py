@@ -1,0 +1,93 @@
+"""`wheelscan agent` (the station capture agent) and `wheelscan agent-replay` (its demo set-up)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import threading
+from pathlib import Path
+
+from tqdm import tqdm
+
+from backend.agent.station import check_server_url, load_station
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the `agent` and `agent-replay` verbs."""
+    agent = subparsers.add_parser(
+        "agent",
+        help="stream frames from the station's cameras to the server",
+        description="Open the station's cameras, label each triggered wheel's frames "
+        "(vehicle, axle, side) and stream them into passes on the server, buffering on "
+        "local disk while the server is away.",
+    )
+    agent.add_argument("--server", help="server URL (default: the station file's 'server')")
+    agent.add_argument(
+        "--token",
+        default=os.environ.get("WHEELSCAN_TOKEN"),
+        help="operator token (default: $WHEELSCAN_TOKEN)",
+    )
+    agent.add_argument("--station", required=True, type=Path, help="station file (.toml/.json)")
+    agent.add_argument(
+        "--allow-missing-cameras",
+        action="store_true",
+        help="run with the cameras found; the others' frames are declared missing",
+    )
+    agent.set_defaults(func=run_agent_verb)
+    replay = subparsers.add_parser(
+        "agent-replay",
+        help="write an emulated-camera station that replays a pass archive",
+        description="Write replay folders, wheel-sensor and tag events and a station file "
+        "for pylon's emulated cameras from a pass archive; then run "
+        "`PYLON_CAMEMU=4 wheelscan agent --station OUT/station.json ...`.",
+    )
+    replay.add_argument("archive", type=Path, help="pass archive (folder or .zip)")
+    replay.add_argument("out", type=Path, help="folder to write the station into")
+    replay.set_defaults(func=run_replay_verb)
+
+
+def run_agent_verb(args: argparse.Namespace) -> int:
+    """Run the agent until its wheel-sensor stream ends and everything is sent."""
+    from backend.agent.runner import run_agent
+
+    station = load_station(args.station)
+    server = args.server or station.server
+    if server is None:
+        raise ValueError("no server: give --server URL or 'server' in the station file")
+    server = check_server_url(server)
+    if not args.token:
+        raise ValueError("no token: give --token T or set WHEELSCAN_TOKEN")
+    bar = tqdm(unit="frame", desc="frames sent", file=sys.stderr, dynamic_ncols=True)
+
+    def on_tick(progress: object) -> None:
+        bar.n = progress.frames_sent  # type: ignore[attr-defined]
+        bar.set_postfix_str(progress.status(), refresh=True)  # type: ignore[attr-defined]
+
+    try:
+        summary = run_agent(
+            station,
+            server,
+            args.token,
+            allow_missing_cameras=args.allow_missing_cameras,
+            sink=lambda line: tqdm.write(line, file=sys.stderr),
+            on_tick=on_tick,
+            stop=threading.Event(),
+        )
+    finally:
+        bar.close()
+    sys.stdout.write(
+        f"{summary.passes} passes, {summary.frames_captured} frames captured, "
+        f"{summary.frames_missing} declared missing, {summary.frames_sent} sent, "
+        f"{summary.wheels_sent} wheels sent, {summary.passes_closed} passes closed\n"
+    )
+    return 0
+
+
+def run_replay_verb(args: argparse.Namespace) -> int:
+    """Write the emulated-camera station of a pass archive."""
+    from backend.agent.replay import write_replay_station
+
+    path = write_replay_station(args.archive, args.out)
+    sys.stdout.write(f"{path}\n")
+    return 0
