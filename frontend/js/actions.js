@@ -6,6 +6,7 @@
 import { ApiError } from './api.js';
 import { METHODS } from './lib/format.js';
 import { tintMask } from './lib/layer-pixels.js';
+import { passFilterQuery } from './lib/records.js';
 
 /** Tint of the stripe mask layer (RGBA): translucent magenta, visible on grey frames. */
 const MASK_TINT = /** @type {[number, number, number, number]} */ ([236, 72, 153, 110]);
@@ -39,9 +40,8 @@ export function createActions(api, store) {
     loadPasses: (/** @type {Record<string, string>} */ filter) =>
       guard('could not load the passes', async () => {
         store.set({ passes: { ...store.get().passes, filter, loading: true } });
-        const body = await api.listPasses(filter);
-        const items = Array.isArray(body) ? body : body.items;
-        store.set({ passes: { filter, items, total: body.total ?? items.length, loading: false } });
+        const page = await api.listPasses(passFilterQuery(filter));
+        store.set({ passes: { filter, items: page.items, total: page.total, loading: false } });
       }),
     loadPass: (/** @type {string} */ passId) =>
       guard(`could not load pass ${passId}`, async () => {
@@ -110,7 +110,7 @@ async function loadWheel(api, store, passId, wheelId, sensor) {
   store.set({ wheel: { ...(sameWheel ? previous : {}), passId, wheelId, loading: true, viewerUrl: null } });
   const [frames, wheels, limits, profiles, trend] = await Promise.all([
     api.listFrames(passId, wheelId),
-    sameWheel || store.get().pass?.id === passId ? store.get().pass.wheels : api.listWheels(passId),
+    api.listWheels(passId),
     store.get().limits ?? api.getLimits(),
     Promise.all(METHODS.map((m) => api.profile(passId, wheelId, m).catch((err) => ({ error: err.message })))),
     api.trend(wheelId).catch((err) => ({ error: err.message })),
@@ -120,14 +120,14 @@ async function loadWheel(api, store, passId, wheelId, sensor) {
   const { sensor: s, seq } = frame;
   const [image, mask, sigma, sigmaScale, adaptive, steger] = await Promise.all([
     api.frameLayer(passId, wheelId, s, seq, 'image'),
-    api.frameLayer(passId, wheelId, s, seq, 'mask').then(maskLayer).catch(() => null),
-    api.frameLayer(passId, wheelId, s, seq, 'sigma').catch(() => null),
-    api.sigmaScale(passId, wheelId, s, seq).catch(() => null),
+    api.frameLayer(passId, wheelId, s, seq, 'mask', 'adaptive').then(maskLayer).catch(() => null),
+    api.frameLayer(passId, wheelId, s, seq, 'sigma', 'adaptive').catch(() => null),
+    api.sigmaScale(passId, wheelId, s, seq, 'adaptive').catch(() => null),
     ...METHODS.map((m) => api.centres(passId, wheelId, s, seq, m).catch((err) => ({ error: err.message }))),
   ]);
   store.set({
     limits,
-    pass: store.get().pass?.id === passId ? store.get().pass : { id: passId, wheels, data: null },
+    pass: { ...(store.get().pass?.id === passId ? store.get().pass : { id: passId, data: null }), wheels },
     wheel: {
       ...store.get().wheel,
       passId, wheelId, frames, sensor: s, seq, loading: false,

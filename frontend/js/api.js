@@ -33,8 +33,8 @@ const framePath = (p, w, sensor, seq) => `${wheelPath(p, w)}/frames/${sensor}/${
  * @property {(passId: number|string) => Promise<any[]>} listWheels
  * @property {() => Promise<any>} getLimits
  * @property {(passId: number|string, wheelId: number|string) => Promise<any[]>} listFrames
- * @property {(p: number|string, w: number|string, sensor: string, seq: number, layer: 'image'|'mask'|'sigma') => Promise<ImageBitmap>} frameLayer
- * @property {(p: number|string, w: number|string, sensor: string, seq: number) => Promise<any>} sigmaScale
+ * @property {(p: number|string, w: number|string, sensor: string, seq: number, layer: 'image'|'mask'|'sigma', method?: string) => Promise<ImageBitmap>} frameLayer
+ * @property {(p: number|string, w: number|string, sensor: string, seq: number, method: string) => Promise<any>} sigmaScale
  * @property {(p: number|string, w: number|string, sensor: string, seq: number, method: string) => Promise<any>} centres
  * @property {(passId: number|string, wheelId: number|string, method: string) => Promise<any>} profile
  * @property {(wheelId: number|string) => Promise<any[]>} trend
@@ -84,8 +84,10 @@ export function createApi(getToken, base = '') {
     listWheels: (passId) => json(`/api/passes/${passId}/wheels`),
     getLimits: () => json('/api/limits'),
     listFrames: (p, w) => json(`${wheelPath(p, w)}/frames`),
-    frameLayer: (p, w, sensor, seq, layer) => bitmap(`${framePath(p, w, sensor, seq)}/${layer}.png`),
-    sigmaScale: (p, w, sensor, seq) => json(`${framePath(p, w, sensor, seq)}/sigma.json`),
+    frameLayer: (p, w, sensor, seq, layer, method) =>
+      bitmap(`${framePath(p, w, sensor, seq)}/${layer}.png${method ? `?method=${encodeURIComponent(method)}` : ''}`),
+    sigmaScale: (p, w, sensor, seq, method) =>
+      json(`${framePath(p, w, sensor, seq)}/sigma?method=${encodeURIComponent(method)}&values=false`),
     centres: (p, w, sensor, seq, method) =>
       json(`${framePath(p, w, sensor, seq)}/centres?method=${encodeURIComponent(method)}`),
     profile: (p, w, method) => json(`${wheelPath(p, w)}/profile?method=${encodeURIComponent(method)}`),

@@ -5,6 +5,7 @@
  * difference (adaptive − Steger).
  */
 import { fmtNumber, fmtSigned, fmtTime, PARAMETERS } from '../lib/format.js';
+import { passStatus, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { alarmClass, h } from './dom.js';
 
@@ -24,13 +25,15 @@ export function renderPass(root, state, handlers) {
   }
   const mode = state.route.query.mode ?? 'adaptive';
   const p = pass.data;
-  const live = state.liveJobs?.[p.id];
+  const status = passStatus(p, state.liveJobs?.[p.id]);
   root.replaceChildren(
     h('section', { class: 'pass' },
       h('div', { class: 'titlebar' },
         h('h1', {}, h('a', { href: '#/passes' }, 'Passes'), ' › ', `Pass #${p.id}`),
         h('span', { class: 'meta' }, `${p.site ?? ''} · ${fmtTime(p.started_at)} · ${p.direction ?? '–'} · ${fmtNumber(p.speed_kmh, 1)} km/h`),
-        h('span', { class: `status status-${live?.state ?? p.status ?? p.state}` }, live?.state ?? p.status ?? p.state),
+        h('span', { class: `status status-${status.state}` }, status.state,
+          status.running && status.progress != null ? ` ${Math.round(status.progress * 100)} %` : null),
+        h('span', { class: 'meta' }, `${p.wheels_measured} / ${p.wheels_total} wheels measured · ${p.wheels_not_measured} not measured · ${p.alarm_count} in alarm`),
         h('span', { class: 'spacer' }),
         modeSwitch(mode, handlers.setMode),
         exportButtons(handlers.exportReport),
@@ -94,7 +97,7 @@ function train(wheels, mode, passId) {
  */
 function backToBack(pair, mode) {
   const value = (/** @type {string} */ m) =>
-    pair.left?.results?.[m]?.back_to_back_mm ?? pair.right?.results?.[m]?.back_to_back_mm ?? null;
+    resultOf(pair.left, m)?.back_to_back_mm ?? resultOf(pair.right, m)?.back_to_back_mm ?? null;
   if (mode === 'difference') {
     const a = value('adaptive');
     const s = value('steger');
@@ -112,18 +115,18 @@ function backToBack(pair, mode) {
  */
 function wheelCard(wheel, side, mode, passId) {
   if (!wheel) return h('div', { class: 'wheel-card none' }, `${side}: no wheel`);
-  const adaptive = wheel.results?.adaptive ?? null;
-  const steger = wheel.results?.steger ?? null;
+  const adaptive = resultOf(wheel, 'adaptive');
+  const steger = resultOf(wheel, 'steger');
   const shown = mode === 'steger' ? steger : adaptive;
   const cls = mode === 'difference' ? alarmClass(adaptive) : alarmClass(shown);
   const alarms = (shown?.alarms ?? []).map((/** @type {any} */ a) => a.message).join('; ');
   return h('a', {
-    class: `wheel-card ${cls} state-${wheel.status ?? wheel.state}`,
+    class: `wheel-card ${cls} state-${wheel.state}`,
     href: buildHash(['passes', passId, 'wheels', wheel.wheel_id], mode === 'difference' ? {} : { method: mode }),
     title: alarms || wheel.reason || '',
     dataset: { wheelId: String(wheel.wheel_id), side },
   },
-  h('div', { class: 'card-head' }, h('span', {}, side), h('span', { class: 'state' }, wheel.reason ? 'not measured' : wheel.status ?? wheel.state)),
+  h('div', { class: 'card-head' }, h('span', {}, side), h('span', { class: 'state' }, wheel.state.replace('_', ' '))),
   wheel.reason
     ? h('div', { class: 'reason' }, wheel.reason)
     : h('table', {}, SHOWN.map((p) => h('tr', {},

@@ -4,6 +4,7 @@
  * j/k move the selection, Enter opens it.
  */
 import { fmtNumber, fmtPercent, fmtTime } from '../lib/format.js';
+import { passStatus } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { h } from './dom.js';
 
@@ -66,12 +67,11 @@ export function renderPasses(root, state, handlers) {
  * @returns {HTMLElement}
  */
 function passRow(p, live, selected, onSelect) {
-  const status = live?.state ?? p.status ?? p.state ?? '–';
-  const progress = live?.progress ?? p.progress;
-  const running = status === 'running' || status === 'queued' || status === 'receiving' || status === 'open';
+  const { state: status, progress, running } = passStatus(p, live);
+  const job = live ?? p.job;
   const href = buildHash(['passes', p.id]);
   return h('tr', {
-    class: [selected ? 'selected' : '', p.alarms > 0 ? 'has-alarm' : ''].join(' ').trim() || null,
+    class: [selected ? 'selected' : '', p.alarm_count > 0 ? 'has-alarm' : ''].join(' ').trim() || null,
     dataset: { passId: String(p.id), href },
     onclick: onSelect,
     ondblclick: () => { window.location.hash = href; },
@@ -81,10 +81,10 @@ function passRow(p, live, selected, onSelect) {
   h('td', {}, p.site ?? '–'),
   h('td', {}, p.direction ?? '–'),
   h('td', { class: 'num' }, fmtNumber(p.speed_kmh, 1)),
-  h('td', { class: 'num' }, p.vehicles ?? '–'),
-  h('td', { class: 'num' }, `${live?.wheels_done ?? p.wheels_measured ?? '–'} / ${live?.wheels_total ?? p.wheels_total ?? '–'}`),
+  h('td', { class: 'num', title: (p.vehicles ?? []).join(', ') }, p.vehicles?.length ?? '–'),
+  h('td', { class: 'num' }, `${running ? job?.wheels_done ?? '–' : p.wheels_measured} / ${p.wheels_total}`),
   h('td', { class: `num ${p.wheels_not_measured > 0 ? 'warn' : ''}` }, p.wheels_not_measured ?? '–'),
-  h('td', { class: `num ${p.alarms > 0 ? 'alarm' : ''}` }, p.alarms ?? '–'),
+  h('td', { class: `num ${p.alarm_count > 0 ? 'alarm' : ''}` }, p.alarm_count),
   h('td', { class: `status status-${status}` }, status,
     running && progress != null
       ? h('span', { class: 'bar', title: fmtPercent(progress) }, h('span', { style: `width:${Math.round(progress * 100)}%` }))

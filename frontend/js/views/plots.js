@@ -7,18 +7,18 @@ import uPlot from '../../vendor/uPlot-1.6.32.esm.js';
 import { drawDifference } from '../draw/difference.js';
 import { METHOD_COLOURS } from '../draw/frame.js';
 import { drawProfile } from '../draw/profile.js';
-import { fmtNumber } from '../lib/format.js';
+import { fmtNumber, METHODS } from '../lib/format.js';
+import { trendColumns } from '../lib/records.js';
 import { fitCanvas, h } from './dom.js';
 
 /**
  * Draw the profile plot of the methods shown.
  * @param {HTMLCanvasElement} canvas
- * @param {Record<string, any>} profiles method → profile body from the API (or {error})
+ * @param {Record<string, any>} profiles method → ProfileRead from the API (or {error})
  * @param {string[]} methods methods to draw, first one gets its constructions drawn
- * @param {any} record the wheel record (for the parameter labels)
  * @returns {string|null} a message when there is nothing to draw
  */
-export function renderProfile(canvas, profiles, methods, record) {
+export function renderProfile(canvas, profiles, methods) {
   const usable = methods.filter((m) => profiles[m] && Array.isArray(profiles[m].x_mm));
   const { ctx, widthPx, heightPx, pixelRatio } = fitCanvas(canvas);
   if (usable.length === 0) {
@@ -26,12 +26,14 @@ export function renderProfile(canvas, profiles, methods, record) {
     return methods.map((m) => `${m}: ${profiles[m]?.error ?? 'no profile'}`).join('; ');
   }
   const first = profiles[usable[0]];
-  const result = record?.results?.[usable[0]] ?? {};
+  const values = first.parameters ?? {};
   drawProfile(ctx, {
     curves: usable.map((m) => ({ method: m, x_mm: profiles[m].x_mm, z_mm: profiles[m].z_mm })),
-    reference: first.reference ?? null,
-    constructions: first.constructions ?? null,
-    values: { sh: result.flange_height_mm, sd: result.flange_thickness_mm, qr: result.qr_mm },
+    reference: first.reference_x_mm?.length
+      ? { name: first.reference_profile ?? 'reference', x_mm: first.reference_x_mm, z_mm: first.reference_z_mm }
+      : null,
+    constructions: first.construction ?? null,
+    values: { sh: values.flange_height_mm, sd: values.flange_thickness_mm, qr: values.qr_mm },
   }, { widthPx, heightPx, pixelRatio });
   return null;
 }
@@ -60,22 +62,21 @@ const TREND_SERIES = [
 /**
  * Build (or rebuild) the trend plot of one wheel across passes.
  * @param {HTMLElement} root
- * @param {any[]} trend entries {pass_id, started_at, results: {method: R}}
+ * @param {any} trend a WheelTrend
  * @param {uPlot|null} previous the plot to replace
  * @returns {uPlot|null}
  */
 export function renderTrend(root, trend, previous) {
   previous?.destroy();
   root.replaceChildren();
-  const entries = [...trend].sort((a, b) => Date.parse(a.started_at) - Date.parse(b.started_at));
-  if (entries.length === 0) {
-    root.append(h('p', { class: 'empty' }, 'No earlier passes of this wheel.'));
+  const { x, columns } = trendColumns(trend, METHODS, TREND_SERIES.map((s) => s.key));
+  if (x.length === 0) {
+    root.append(h('p', { class: 'empty' }, 'No measured passes of this wheel yet.'));
     return null;
   }
-  const x = entries.map((e) => Date.parse(e.started_at) / 1000);
   const series = [{}];
   const data = [x];
-  for (const method of ['adaptive', 'steger']) {
+  for (const method of METHODS) {
     for (const s of TREND_SERIES) {
       series.push({
         label: `${s.label} ${method}`,
@@ -85,7 +86,7 @@ export function renderTrend(root, trend, previous) {
         points: { show: true, size: 5 },
         value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v),
       });
-      data.push(entries.map((e) => e.results?.[method]?.[s.key] ?? null));
+      data.push(columns[`${method}:${s.key}`]);
     }
   }
   const width = Math.max(280, root.clientWidth);

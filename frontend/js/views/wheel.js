@@ -6,6 +6,7 @@
  */
 import { differenceAlongStripe } from '../lib/method-difference.js';
 import { fmtNumber, fmtSensor, fmtSigned, METHODS, PARAMETERS } from '../lib/format.js';
+import { hasAlarmOn, limitStem, limitsFor, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { alarmClass, h } from './dom.js';
 import { FrameView } from './frame-view.js';
@@ -78,12 +79,12 @@ export class WheelView {
     if (changed('table', `${method}|${w.record?.wheel_id}|${w.loadMs}`)) this.renderTable(w.record, state.limits, method);
     if (changed('profile', `${method}|${w.loadMs}`)) {
       const order = method === 'steger' ? ['steger', 'adaptive'] : ['adaptive', 'steger'];
-      this.profileNote.textContent = renderProfile(this.profileCanvas, w.profiles, order, w.record)
+      this.profileNote.textContent = renderProfile(this.profileCanvas, w.profiles, order)
         ?? 'Dashed grey: reference. Constructions of the selected method: Sh (yellow), Sd (green), qR (pink).';
     }
     if (changed('trend', w.trend)) {
-      this.trendPlot = Array.isArray(w.trend) ? renderTrend(this.trendRoot, w.trend, this.trendPlot) : null;
-      if (!Array.isArray(w.trend)) this.trendRoot.replaceChildren(h('p', { class: 'error' }, `trend unavailable: ${w.trend?.error}`));
+      this.trendPlot = w.trend?.error ? null : renderTrend(this.trendRoot, w.trend, this.trendPlot);
+      if (w.trend?.error) this.trendRoot.replaceChildren(h('p', { class: 'error' }, `trend unavailable: ${w.trend?.error}`));
     }
     if (changed('viewer', w.viewerUrl ?? null)) this.renderViewer(w.viewerUrl);
   }
@@ -105,7 +106,8 @@ export class WheelView {
       h('h1', {}, h('a', { href: '#/passes' }, 'Passes'), ' › ',
         h('a', { href: buildHash(['passes', w.passId]) }, `Pass #${w.passId}`), ' › ',
         r ? `Vehicle ${r.vehicle_id} · axle ${r.axle} · ${r.side}` : `Wheel ${w.wheelId}`),
-      h('span', { class: `badge ${alarmClass(r?.results?.[method])}` }, r?.reason ? 'not measured' : alarmClass(r?.results?.[method])),
+      h('span', { class: `badge ${alarmClass(resultOf(r, method))}` },
+        r?.reason ? 'not measured' : { ok: 'within limits', alarm: 'ALARM', none: r?.state ?? '–' }[alarmClass(resultOf(r, method))]),
       h('div', { class: 'segmented', role: 'group', 'aria-label': 'sensor' }, w.frames.map((/** @type {any} */ f) =>
         h('button', { class: f.sensor === w.sensor ? 'on' : null, 'data-sensor': f.sensor,
           onclick: () => this.handlers.setQuery({ sensor: f.sensor }) }, fmtSensor(f.sensor)))),
@@ -137,21 +139,20 @@ export class WheelView {
       this.table.replaceChildren(h('p', { class: 'empty' }, 'No results for this wheel.'));
       return;
     }
-    const a = record.results?.adaptive ?? {};
-    const s = record.results?.steger ?? {};
-    const alarmed = (/** @type {any} */ r, /** @type {string} */ key) =>
-      (r.alarms ?? []).some((/** @type {any} */ al) => al.parameter === key || `${al.parameter}_mm` === key);
+    const a = resultOf(record, 'adaptive') ?? {};
+    const s = resultOf(record, 'steger') ?? {};
+    const limitRow = limitsFor(limits, (method === 'steger' ? s : a).reference_profile);
     this.table.replaceChildren(
       record.reason ? h('p', { class: 'notice' }, `Not measured: ${record.reason}`) : '',
       h('table', { class: 'grid compact' },
-        h('thead', {}, h('tr', {}, ['', 'Adaptive', 'Steger', 'Δ', 'Limits (mm)'].map((t, i) =>
+        h('thead', {}, h('tr', {}, ['', 'Adaptive', 'Steger', 'Δ', `Limits ${limitRow?.wheel_profile ?? ''} (mm)`].map((t, i) =>
           h('th', { class: i === 1 && method === 'adaptive' || i === 2 && method === 'steger' ? 'selected' : null }, t)))),
         h('tbody', {}, PARAMETERS.map((p) => h('tr', { dataset: { parameter: p.key } },
           h('th', { title: p.title }, p.label),
-          h('td', { class: `num ${alarmed(a, p.key) ? 'alarm' : ''}` }, fmtNumber(a[p.key])),
-          h('td', { class: `num ${alarmed(s, p.key) ? 'alarm' : ''}` }, fmtNumber(s[p.key])),
+          h('td', { class: `num ${hasAlarmOn(a, p.key, limitRow?.wheel_profile) ? 'alarm' : ''}` }, fmtNumber(a[p.key])),
+          h('td', { class: `num ${hasAlarmOn(s, p.key, limitRow?.wheel_profile) ? 'alarm' : ''}` }, fmtNumber(s[p.key])),
           h('td', { class: 'num' }, fmtSigned(a[p.key] != null && s[p.key] != null ? a[p.key] - s[p.key] : null)),
-          h('td', { class: 'num' }, limitText(limits, p.key)))))),
+          h('td', { class: 'num' }, limitText(limitRow, p.key)))))),
       h('ul', { class: 'alarms' }, [...(a.alarms ?? []).map((/** @type {any} */ al) => ['adaptive', al]),
         ...(s.alarms ?? []).map((/** @type {any} */ al) => ['steger', al])].map(([m, al]) =>
         h('li', { class: 'alarm' }, `${m}: ${al.message}`))),
@@ -167,13 +168,14 @@ export class WheelView {
 }
 
 /**
- * Limits of one parameter as "min – max", "≥ min" or "≤ max" from GET /api/limits.
+ * Limits of one parameter as "min – max", "≥ min" or "≤ max" from a LimitsRead row.
  * @param {any} limits
  * @param {string} key parameter key such as "flange_height_mm"
  * @returns {string}
  */
 function limitText(limits, key) {
-  const stem = key.replace(/_mm$/, '');
+  const stem = limitStem(key, limits?.wheel_profile);
+  if (stem === null) return '–';
   const min = limits?.[`${stem}_min_mm`];
   const max = limits?.[`${stem}_max_mm`];
   if (min != null && max != null) return `${fmtNumber(min, 1)} – ${fmtNumber(max, 1)}`;

@@ -1,0 +1,109 @@
+// @ts-check
+/**
+ * Reading the service's records (PassSummary, PassWheelRead, LimitsRead, WheelTrend) the way
+ * the views need them. Pure: no DOM, no network.
+ */
+
+/** Reference profile → limit family, as the service files its limits (EN or LM). */
+const PROFILE_FAMILY = { S1002: 'EN', LMA: 'LM', LM: 'LM' };
+
+/**
+ * The result of one method for a wheel, or null when that method has none.
+ * @param {any} wheel a PassWheelRead
+ * @param {string} method "adaptive" or "steger"
+ * @returns {any|null} a MethodResult
+ */
+export function resultOf(wheel, method) {
+  return wheel?.results?.find((/** @type {any} */ r) => r.method === method) ?? null;
+}
+
+/**
+ * The limit name ("flange_thickness") a displayed parameter is checked against, or null.
+ * EN limits check the flange thickness at 10 mm, LM limits the one at 12 mm (as the service).
+ * @param {string} key parameter key such as "flange_thickness_en_mm"
+ * @param {string|null|undefined} family "EN" or "LM"
+ * @returns {string|null}
+ */
+export function limitStem(key, family) {
+  if (key === 'flange_thickness_en_mm') return family === 'LM' ? null : 'flange_thickness';
+  if (key === 'flange_thickness_mm') return family === 'LM' ? 'flange_thickness' : null;
+  return key.replace(/_mm$/, '');
+}
+
+/**
+ * Whether a method result has an alarm on the displayed parameter `key`.
+ * @param {any} result a MethodResult or null
+ * @param {string} key parameter key with its unit suffix
+ * @param {string|null|undefined} family "EN" or "LM"
+ * @returns {boolean}
+ */
+export function hasAlarmOn(result, key, family) {
+  const stem = limitStem(key, family);
+  return stem !== null && (result?.alarms ?? []).some((/** @type {any} */ a) => a.parameter.replace(/_mm$/, '') === stem);
+}
+
+/**
+ * The limits row that applies to a result's reference profile (EN unless LM).
+ * @param {any[]|null} limits the list GET /api/limits returns
+ * @param {string|null|undefined} referenceProfile e.g. "S1002", "LMA"
+ * @returns {any|null} a LimitsRead
+ */
+export function limitsFor(limits, referenceProfile) {
+  const family = PROFILE_FAMILY[/** @type {'S1002'} */ ((referenceProfile ?? '').toUpperCase())] ?? 'EN';
+  return limits?.find((l) => l.wheel_profile === family) ?? null;
+}
+
+/**
+ * The state to show for a pass: its job's state while one exists, else open/closed.
+ * @param {any} pass a PassSummary
+ * @param {any} [live] the latest WebSocket JobProgress for it
+ * @returns {{state: string, progress: number|null, running: boolean}}
+ */
+export function passStatus(pass, live) {
+  const job = live ?? pass?.job ?? null;
+  const state = job?.state ?? pass?.state ?? 'unknown';
+  const running = state === 'queued' || state === 'running' || (!job && state === 'open');
+  return { state, progress: job?.progress ?? null, running };
+}
+
+/**
+ * The API query of the passes filter form: dates become UTC day bounds (the end exclusive).
+ * @param {Record<string, string>} filter form values: site, vehicle, since, until (YYYY-MM-DD), alarm
+ * @returns {Record<string, string>}
+ */
+export function passFilterQuery(filter) {
+  /** @type {Record<string, string>} */
+  const query = {};
+  if (filter.site) query.site = filter.site;
+  if (filter.vehicle) query.vehicle = filter.vehicle;
+  if (filter.since) query.started_from = `${filter.since}T00:00:00Z`;
+  if (filter.until) {
+    const next = new Date(`${filter.until}T00:00:00Z`);
+    next.setUTCDate(next.getUTCDate() + 1);
+    query.started_to = next.toISOString().replace('.000Z', 'Z');
+  }
+  if (filter.alarm === 'true') query.alarm = 'true';
+  return query;
+}
+
+/**
+ * A wheel trend as uPlot columns: pass times (s) and one column per method × parameter.
+ * @param {any} trend a WheelTrend {points: [{pass_id, started_at, method, ...}]}
+ * @param {string[]} methods
+ * @param {string[]} keys parameter keys
+ * @returns {{x: number[], columns: Record<string, Array<number|null>>}} columns keyed "method:key"
+ */
+export function trendColumns(trend, methods, keys) {
+  const byPass = new Map();
+  for (const point of trend?.points ?? []) {
+    if (!byPass.has(point.pass_id)) byPass.set(point.pass_id, { t: Date.parse(point.started_at) / 1000, methods: {} });
+    byPass.get(point.pass_id).methods[point.method] = point;
+  }
+  const passes = [...byPass.values()].sort((a, b) => a.t - b.t);
+  /** @type {Record<string, Array<number|null>>} */
+  const columns = {};
+  for (const m of methods) {
+    for (const k of keys) columns[`${m}:${k}`] = passes.map((p) => p.methods[m]?.[k] ?? null);
+  }
+  return { x: passes.map((p) => p.t), columns };
+}
