@@ -161,7 +161,7 @@ def _station(data: object, path: Path) -> Station:
         raise StationError(f"camera {duplicate!r} is given for more than one sensor")
     server = _text(data, "server", required=False)
     if server is not None:
-        check_server_url(server)
+        server = check_server_url(server)
     calibration = _text(data, "calibration", required=False)
     tag_reader = _table(data, "tag_reader", required=False)
     return Station(

@@ -1,0 +1,125 @@
+"""The capture loop with emulated cameras replaying a pass: labels come from the trigger
+sequence (the manifest's axle order as software triggers), pixels from the cameras."""
+
+from __future__ import annotations
+
+import json
+import queue
+import threading
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from backend.agent.axles import parse_tag, parse_wheel_event, start_reader
+from backend.agent.cameras import open_cameras
+from backend.agent.capture import Capture, SensorWorker
+from backend.agent.progress import Progress
+from backend.agent.replay import write_replay_station
+from backend.agent.spool import FrameItem, MissingItem, Spool
+from backend.agent.station import load_station
+from pipeline.archive import read_pass_archive
+from tests.backend.agent.conftest import make_archive
+
+
+def capture_into_spool(station_path: Path, *, allow_missing: bool = False) -> tuple[Spool, list]:
+    """Run the capture loop over the station's event files; return the spool and warnings."""
+    station = load_station(station_path)
+    spool = Spool(station.spool_dir, 64 * 2**20)
+    warnings: list[str] = []
+    progress = Progress(tuple(s.sensor for s in station.sensors), 2, spool, warnings.append)
+    cameras, missing = open_cameras(station, allow_missing=allow_missing)
+    workers = [
+        SensorWorker(c, cameras.get(c.sensor), missing.get(c.sensor), station, spool, progress)
+        for c in station.sensors
+    ]
+    stop = threading.Event()
+    events: queue.Queue[object] = queue.Queue()
+    tags: queue.Queue[object] = queue.Queue()
+    start_reader(station.wheel_sensor_source, parse_wheel_event, events, stop)
+    start_reader(station.tag_reader_source, parse_tag, tags, stop)
+    try:
+        Capture(station, workers, spool, progress, None).run(events, tags, stop)
+    finally:
+        for worker in workers:
+            worker.stop()
+        for camera in cameras.values():
+            camera.close()
+    return spool, warnings
+
+
+def drain(spool: Spool) -> list[FrameItem | MissingItem]:
+    """Everything spooled (the pass's close waits for acknowledgements, so it stays)."""
+    items = []
+    while isinstance(item := spool.take(0), FrameItem | MissingItem):
+        items.append(item)
+    return items
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16])
+def test_replayed_pass_is_spooled_with_the_manifests_labels_and_pixels(
+    tmp_path: Path, emulated_cameras: int, dtype: type
+) -> None:
+    archive_dir, frames = make_archive(tmp_path / "pass", dtype=dtype)
+    station_path = write_replay_station(archive_dir, tmp_path / "station")
+    spool, warnings = capture_into_spool(station_path)
+    items = drain(spool)
+    assert all(isinstance(i, FrameItem) for i in items), warnings
+    manifest = read_pass_archive(archive_dir, decode_frames=False).manifest
+    expected = {}
+    for wheel in manifest.wheels:
+        for position in ("inner", "outer"):
+            for path in wheel.frames(position):
+                expected[(wheel.vehicle_id, wheel.axle, wheel.sensor_name(position), path)] = None
+    got = {}
+    for item in items:
+        image = cv2.imdecode(np.frombuffer(item.path.read_bytes(), np.uint8), cv2.IMREAD_UNCHANGED)
+        got[(item.vehicle_id, item.axle, item.sensor)] = got.get(
+            (item.vehicle_id, item.axle, item.sensor), []
+        ) + [(item.seq, image)]
+    assert len(items) == len(expected) == 32
+    for vehicle, axle, sensor, path in expected:
+        seqs_images = sorted(got[(vehicle, axle, sensor)], key=lambda p: p[0])
+        k = int(path.rsplit("-", 1)[1].removesuffix(".png"))
+        seq, image = seqs_images[k]
+        axle_index = manifest.vehicles.index(vehicle) * 2 + axle - 1
+        assert seq == axle_index * 2 + k
+        assert image.dtype == dtype
+        np.testing.assert_array_equal(image, frames[path])
+
+
+def test_a_camera_not_attached_has_its_frames_declared_missing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("PYLON_CAMEMU", "3")
+    archive_dir, _ = make_archive(tmp_path / "pass", vehicles=("v",), axles=2)
+    station_path = write_replay_station(archive_dir, tmp_path / "station")
+    spool, _ = capture_into_spool(station_path, allow_missing=True)
+    items = drain(spool)
+    missing = [i for i in items if isinstance(i, MissingItem)]
+    assert [(m.vehicle_id, m.axle, m.side, m.sensor) for m in missing] == [
+        ("v", 1, "right", "right_outer"),
+        ("v", 2, "right", "right_outer"),
+    ]
+    assert missing[0].reason == "camera '0815-0003' for right_outer is not attached"
+    frames = [i for i in items if isinstance(i, FrameItem)]
+    assert {f.sensor for f in frames} == {"left_inner", "left_outer", "right_inner"}
+    assert len(frames) == 3 * 2 * 2
+
+
+def test_a_camera_that_never_fires_times_out_per_wheel_and_the_pass_goes_on(
+    tmp_path: Path, emulated_cameras: int
+) -> None:
+    archive_dir, _ = make_archive(tmp_path / "pass", vehicles=("v",), axles=2)
+    station_path = write_replay_station(archive_dir, tmp_path / "station")
+    data = json.loads(station_path.read_text())
+    data["sensors"]["left_outer"]["trigger_source"] = "Line1"
+    data["sensors"]["left_outer"]["timeout_s"] = 0.05
+    station_path.write_text(json.dumps(data))
+    spool, _ = capture_into_spool(station_path)
+    items = drain(spool)
+    missing = [i for i in items if isinstance(i, MissingItem)]
+    assert [(m.axle, m.sensor) for m in missing] == [(1, "left_outer"), (2, "left_outer")]
+    assert "left_outer (0815-0001) delivered no frame within 0.05 s" in missing[0].reason
+    assert sum(isinstance(i, FrameItem) for i in items) == 3 * 2 * 2

@@ -1,0 +1,72 @@
+"""The disk spool: bounded, persistent across restarts, closes a pass only when drained."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from backend.agent.spool import CloseItem, FrameItem, MissingItem, PassOpen, Spool
+
+REQUEST = PassOpen("s", "2026-11-23T22:00:00+00:00", "up", 20.0, 1, None)
+
+
+def test_items_come_out_in_capture_order_and_close_comes_last(tmp_path: Path) -> None:
+    spool = Spool(tmp_path, limit_bytes=1000)
+    key = spool.begin_pass(REQUEST)
+    assert spool.add_frame(key, "left_inner", 0, "v", 1, b"a" * 10)
+    spool.add_missing(key, "v", 1, "left", "left_outer", "camera gone")
+    spool.end_pass(key)
+    first, second = spool.take(0), spool.take(0)
+    assert isinstance(first, FrameItem) and (first.sensor, first.seq) == ("left_inner", 0)
+    assert isinstance(second, MissingItem) and second.reason == "camera gone"
+    assert spool.take(0) is None  # close waits for the acknowledgements
+    spool.ack(first)
+    spool.release(second)
+    assert spool.take(0) == second
+    spool.ack(second)
+    close = spool.take(0)
+    assert close == CloseItem(key)
+    spool.ack(close)
+    assert spool.wait_drained(0)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_full_buffer_refuses_frames_and_frees_space_on_ack(tmp_path: Path) -> None:
+    spool = Spool(tmp_path, limit_bytes=25)
+    key = spool.begin_pass(REQUEST)
+    assert spool.add_frame(key, "left_inner", 0, "v", 1, b"x" * 10)
+    assert spool.add_frame(key, "left_inner", 1, "v", 1, b"y" * 10)
+    assert not spool.add_frame(key, "left_inner", 2, "v", 1, b"z" * 10)
+    assert spool.used_bytes == 20
+    spool.ack(spool.take(0))
+    assert spool.add_frame(key, "left_inner", 2, "v", 1, b"z" * 10)
+
+
+def test_a_restarted_spool_resumes_what_was_not_acknowledged(tmp_path: Path) -> None:
+    spool = Spool(tmp_path, limit_bytes=1000)
+    key = spool.begin_pass(REQUEST)
+    spool.set_pass_id(key, 42)
+    for seq in range(3):
+        spool.add_frame(key, "right_outer", seq, "v-1", 2, bytes([seq]) * 5)
+    spool.add_missing(key, "v-1", 2, "right", "right_inner", "timeout")
+    spool.ack(spool.take(0))
+    (tmp_path / key / "f-right_outer-000009.png").write_bytes(b"half-written")
+
+    resumed = Spool(tmp_path, limit_bytes=1000)
+    assert resumed.pass_id(key) == 42
+    assert resumed.request(key) == REQUEST
+    assert resumed.waiting() == 3
+    assert resumed.used_bytes == 10
+    frames = resumed.waiting_frames(key)
+    assert [(f.seq, f.vehicle_id, f.axle) for f in frames] == [(1, "v-1", 2), (2, "v-1", 2)]
+    assert not (tmp_path / key / "f-right_outer-000009.png").exists()
+
+
+def test_frames_the_server_already_has_are_acknowledged_without_sending(tmp_path: Path) -> None:
+    spool = Spool(tmp_path, limit_bytes=1000)
+    key = spool.begin_pass(REQUEST)
+    spool.add_frame(key, "left_inner", 0, "v", 1, b"a")
+    spool.add_frame(key, "left_inner", 1, "v", 1, b"b")
+    first = spool.waiting_frames(key)[0]
+    stored = {("left_inner", 0, first.sha256), ("left_inner", 1, "other-sha")}
+    assert spool.ack_where(key, stored) == 1
+    assert [f.seq for f in spool.waiting_frames(key)] == [1]
