@@ -104,6 +104,7 @@ class Spool:
         self._passes: dict[str, _Pass] = {}
         self._used_bytes = 0
         self._missing_count = 0
+        self._declared: set[tuple[str, str, int, str]] = set()
         for pass_dir in sorted(p for p in self.folder.iterdir() if (p / "pass.json").is_file()):
             self._load_pass(pass_dir)
 
@@ -242,8 +243,16 @@ class Spool:
                 return CloseItem(key)
         return None
 
+    def is_declared(self, item: FrameItem) -> bool:
+        """True when the frame's wheel has a missing-frame declaration (it is not measured)."""
+        wheel = (item.key, item.vehicle_id, item.axle, item.sensor.split("_")[0])
+        with self._lock:
+            return wheel in self._declared
+
     def _enqueue(self, item: SpoolItem) -> None:
         with self._lock:
+            if isinstance(item, MissingItem):
+                self._declared.add((item.key, item.vehicle_id, item.axle, item.side))
             self._passes[item.key].outstanding += 1
             self._queue.append(item)
             self._lock.notify_all()

@@ -21,7 +21,7 @@ from backend.agent.client import (
     TokenRefused,
 )
 from backend.agent.progress import Progress
-from backend.agent.spool import CloseItem, FrameItem, MissingItem, Spool, SpoolItem
+from backend.agent.spool import CloseItem, FrameItem, MissingItem, PassOpen, Spool, SpoolItem
 
 BACKOFF_MIN_S = 0.2
 BACKOFF_MAX_S = 5.0
@@ -105,7 +105,8 @@ class Uploader:
                 self._spool.release(item)
                 self._fail(ValueError(f"server refused the pass: {exc}"))
                 return
-            self._progress.warn(f"server rejected {_describe(item)} for good: {exc}")
+            if not _settled(self._spool, item, exc):
+                self._progress.warn(f"server rejected {_describe(item)} for good: {exc}")
         self._spool.ack(item)
         self._progress.acknowledged(item, result)
         self._came_online()
@@ -176,11 +177,21 @@ class Uploader:
         self._stop.set()
 
 
-def _find_quietly(client: StreamClient, request: object) -> int | None:
+def _find_quietly(client: StreamClient, request: PassOpen) -> int | None:
     try:
-        return client.find_pass(request)  # type: ignore[arg-type]
+        return client.find_pass(request)
     except RequestRejected:
         return None
+
+
+def _settled(spool: Spool, item: SpoolItem, exc: RequestRejected) -> bool:
+    """A 409 that only says the wheel is already settled: "not measured" after a missing
+    declaration (a frame arriving after it, or a declaration sent twice)."""
+    if exc.status != 409:
+        return False
+    return isinstance(item, MissingItem) or (
+        isinstance(item, FrameItem) and spool.is_declared(item)
+    )
 
 
 def _describe(item: SpoolItem) -> str:
