@@ -1,0 +1,171 @@
+"""Flange parameters of a wheel profile in the profile frame (DESIGN.md).
+
+Sh = highest z of the flange; Sd(h) = x of the flange flank (the side facing the tread) at
+z = h, for h = 12 mm (LM wheels) and h = 10 mm (EN); qR = x_flank(10) − x_flank(Sh − 2).
+
+Two estimators with one definition: `curve_flange_parameters` reads them off a clean,
+ordered polyline by linear interpolation (reference tables, the simulator's true profiles);
+`fit_flange_parameters` estimates them from measured, noisy profile points with local
+least-squares fits, so no single noisy point decides a parameter.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.errors import PipelineError
+from pipeline.imaging import GEOMETRY_FLOAT
+
+SD_HEIGHT_MM = 12.0
+SD_EN_HEIGHT_MM = 10.0
+QR_DROP_MM = 2.0
+TOP_HALF_WINDOW_MM = 2.5
+"""Half-width in x of the flange-top fit: a quadratic departs from the R12 top arc of LMA
+by 2.5⁴/(8·12³) = 0.003 mm at its ends, well below the measurement's resolution."""
+FLANK_HALF_WINDOW_MM = 1.0
+"""Half-height in z of the flank fits (quadratic x(z) about the height)."""
+MIN_FIT_POINTS = 5
+
+
+class FlangeNotFoundError(PipelineError):
+    """The profile does not show a flange top or flank where the parameters need them."""
+
+
+@dataclass(frozen=True, slots=True)
+class FlangeParameters:
+    """Flange parameters of one wheel [mm].
+
+    Attributes
+    ----------
+    flange_height_mm : float
+        Sh, flange top above the reference point.
+    flange_thickness_mm : float
+        Sd at z = 12 mm from the back face.
+    flange_thickness_10_mm : float
+        Sd at z = 10 mm (EN variant).
+    qr_mm : float
+        qR = x_flank(10) − x_flank(Sh − 2).
+    """
+
+    flange_height_mm: float
+    flange_thickness_mm: float
+    flange_thickness_10_mm: float
+    qr_mm: float
+
+
+def _check_points(x_mm: object, z_mm: object) -> tuple[np.ndarray, np.ndarray]:
+    x = np.asarray(x_mm, dtype=GEOMETRY_FLOAT)
+    z = np.asarray(z_mm, dtype=GEOMETRY_FLOAT)
+    if x.ndim != 1 or x.shape != z.shape:
+        raise ValueError(f"x_mm and z_mm must be 1-D of equal length, got {x.shape}, {z.shape}")
+    if x.size < 2 or not (np.all(np.isfinite(x)) and np.all(np.isfinite(z))):
+        raise ValueError("x_mm and z_mm must hold at least 2 finite points")
+    return x, z
+
+
+def _crossing_after(x: np.ndarray, z: np.ndarray, start: int, height_mm: float) -> float:
+    """x of the first downward crossing of z = height after index `start` (linear)."""
+    above = z[start:] >= height_mm
+    down = np.flatnonzero(above[:-1] & ~above[1:])
+    if down.size == 0:
+        raise FlangeNotFoundError(f"the profile's flank never crosses z = {height_mm:.2f} mm")
+    i = start + int(down[0])
+    t = (z[i] - height_mm) / (z[i] - z[i + 1])
+    return float(x[i] + t * (x[i + 1] - x[i]))
+
+
+def curve_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameters:
+    """Flange parameters of a clean polyline ordered along the profile (x mostly rising).
+
+    Parameters
+    ----------
+    x_mm, z_mm : ndarray of shape (K,)
+        Profile points in the profile frame, ordered from the back face to the field side [mm].
+
+    Returns
+    -------
+    FlangeParameters
+
+    Raises
+    ------
+    FlangeNotFoundError
+        If the flank does not cross a height the parameters need.
+
+    Examples
+    --------
+    >>> from pipeline.reference import load_reference_profile
+    >>> p = load_reference_profile("LMA")
+    >>> round(curve_flange_parameters(p.x_mm, p.z_mm).flange_thickness_mm, 4)
+    31.9744
+    """
+    x, z = _check_points(x_mm, z_mm)
+    top = int(np.argmax(z))
+    height = float(z[top])
+    flank_12 = _crossing_after(x, z, top, SD_HEIGHT_MM)
+    flank_10 = _crossing_after(x, z, top, SD_EN_HEIGHT_MM)
+    flank_top = _crossing_after(x, z, top, height - QR_DROP_MM)
+    return FlangeParameters(height, flank_12, flank_10, flank_10 - flank_top)
+
+
+def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
+    """(x, z) of the flange top: vertex of a quadratic fitted about the highest points."""
+    order = np.argsort(z)[::-1][: max(MIN_FIT_POINTS, z.size // 200)]
+    x_top = float(np.median(x[order]))
+    for _ in range(2):
+        near = np.abs(x - x_top) <= TOP_HALF_WINDOW_MM
+        if np.count_nonzero(near) < MIN_FIT_POINTS:
+            raise FlangeNotFoundError("too few profile points on the flange top")
+        c2, c1, c0 = np.polyfit(x[near] - x_top, z[near], 2)
+        if c2 >= 0:
+            raise FlangeNotFoundError("the flange top is not a crest (fit curvature ≥ 0)")
+        shift = float(np.clip(-c1 / (2 * c2), -TOP_HALF_WINDOW_MM, TOP_HALF_WINDOW_MM))
+        x_top += shift
+    near = np.abs(x - x_top) <= TOP_HALF_WINDOW_MM
+    c2, c1, c0 = np.polyfit(x[near] - x_top, z[near], 2)
+    return float(x_top - c1 / (2 * c2)), float(c0 - c1 * c1 / (4 * c2))
+
+
+def _fit_flank(x: np.ndarray, z: np.ndarray, x_top: float, height_mm: float) -> float:
+    """x of the flank at z = height: quadratic x(z) fitted to flank points about the height."""
+    near = (x > x_top) & (x < x_top + 40.0) & (np.abs(z - height_mm) <= FLANK_HALF_WINDOW_MM)
+    if np.count_nonzero(near) < MIN_FIT_POINTS:
+        raise FlangeNotFoundError(f"too few flank points near z = {height_mm:.2f} mm")
+    dz = z[near] - height_mm
+    degree = 2 if np.ptp(dz) > FLANK_HALF_WINDOW_MM else 1
+    return float(np.polyval(np.polyfit(dz, x[near], degree), 0.0))
+
+
+def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameters:
+    """Flange parameters estimated from measured profile points by local least squares.
+
+    Parameters
+    ----------
+    x_mm, z_mm : ndarray of shape (K,)
+        Profile points in the profile frame, in any order [mm].
+
+    Returns
+    -------
+    FlangeParameters
+
+    Raises
+    ------
+    FlangeNotFoundError
+        If the flange top or the flank at a needed height has too few points.
+
+    Notes
+    -----
+    Sh is the vertex of a quadratic z(x) fitted within ±2.5 mm of the highest points. Each
+    flank abscissa is a quadratic x(z) fitted to points on the tread side of the top within
+    ±1 mm of the height, evaluated at that height.
+    """
+    x, z = _check_points(x_mm, z_mm)
+    x_top, height = _fit_top(x, z)
+    if not math.isfinite(height):
+        raise FlangeNotFoundError("the flange top fit failed")
+    flank_12 = _fit_flank(x, z, x_top, SD_HEIGHT_MM)
+    flank_10 = _fit_flank(x, z, x_top, SD_EN_HEIGHT_MM)
+    flank_top = _fit_flank(x, z, x_top, height - QR_DROP_MM)
+    return FlangeParameters(height, flank_12, flank_10, flank_10 - flank_top)
