@@ -11,7 +11,7 @@ import argparse
 import importlib
 import sys
 
-VERB_MODULES: list[str] = ["backend.cli.extract", "backend.cli.agent"]
+VERB_MODULES: list[str] = ["backend.cli.extract", "backend.cli.agent", "backend.cli.measure"]
 
 
 def build_parser() -> argparse.ArgumentParser:
