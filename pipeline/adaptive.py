@@ -5,33 +5,69 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
-from pipeline.ridges import ridge_response
-from pipeline.steger import ScaleAnalysis, analyse_scale
+from pipeline.gaussian import GaussianDerivatives
+from pipeline.ridges import min_structure_squared, ridge_response
+from pipeline.scalespace import (
+    MAX_LEVEL,
+    ScaleLevel,
+    sample_bilinear,
+    sample_derivatives,
+    scale_levels,
+    upsample_to_frame,
+)
+from pipeline.steger import LineAnalysis, analyse_lines
+
+HINT_REACH = 1.0
+"""A level-grid pixel hints at a centre when its Taylor step is within this many level
+pixels; the frame pixel holding the predicted centre and its 8 neighbours become candidates."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LevelResponse:
+    """What one scale says about the frame: V and σ²|λ1| on its level grid, centre hints.
+
+    `response` and `strength` (float32, level grid) are 0 where λ1 ≥ 0 or the structure is
+    too weak to matter; `hints` (bool, frame grid) marks frame pixels that may hold a centre
+    at this scale.
+    """
+
+    level: ScaleLevel
+    response: np.ndarray
+    strength: np.ndarray
+    hints: np.ndarray
 
 
 @dataclass(frozen=True, slots=True, eq=False)
 class MultiScaleAnalysis:
-    """Per-pixel results over the scales σ1..σS; arrays (M, N).
+    """Scale space of a frame and its multi-scale ridge response.
 
-    `response` is V(σA) = max over scales of the ridge response (float32, [0, 1)).
-    `scale_index` (int8) is the index of σB = argmax σ²|λ1| among scales with λ1 < 0, −1 where
-    no scale sees a bright line. `strength` = σB²|λ1(σB)| [grey levels]; `lambda1`, `nx`, `ny`,
-    `offset_px` are taken at σB (float32). `gradients` holds |∇I| per scale (for widths), and
-    `fixed` the full analysis of one scale when asked for (to reuse it for fixed-σ Steger).
+    `scales` holds one LevelResponse per scale σ1..σS; `response` (M, N) float32 is
+    V(σA) = max over scales of the ridge response, in [0, 1).
     """
 
     sigmas_px: tuple[float, ...]
+    scales: tuple[LevelResponse, ...]
     response: np.ndarray
+
+    @property
+    def levels(self) -> tuple[ScaleLevel, ...]:
+        return tuple(s.level for s in self.scales)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ScaleChoice:
+    """The best scale σB per pixel and the line analysis there; arrays (K,).
+
+    `scale_index` (int64) indexes the scales, −1 where no scale has λ1 < 0; `strength` is
+    σB²|λ1(σB)| [grey levels]; `lines` the line analysis at σB.
+    """
+
     scale_index: np.ndarray
     strength: np.ndarray
-    lambda1: np.ndarray
-    nx: np.ndarray
-    ny: np.ndarray
-    offset_px: np.ndarray
-    gradients: tuple[np.ndarray, ...]
-    fixed: ScaleAnalysis | None
+    lines: LineAnalysis
 
 
 def stripe_scales(width_min_px: float, width_max_px: float) -> tuple[float, float, float]:
@@ -44,72 +80,140 @@ def stripe_scales(width_min_px: float, width_max_px: float) -> tuple[float, floa
     )
 
 
+def _frame_units(level: ScaleLevel, index: np.ndarray) -> GaussianDerivatives:
+    """Derivatives at flat level-grid indices, converted to frame units."""
+    d = level.derivatives
+    first = np.float32(1 / level.stride)
+    second = np.float32(1 / level.stride**2)
+    return GaussianDerivatives(
+        sigma_px=level.sigma_px,
+        ix=d.ix.flat[index] * first,
+        iy=d.iy.flat[index] * first,
+        ixx=d.ixx.flat[index] * second,
+        ixy=d.ixy.flat[index] * second,
+        iyy=d.iyy.flat[index] * second,
+    )
+
+
+def _centre_hints(level: ScaleLevel, index: np.ndarray, lines: LineAnalysis, shape) -> np.ndarray:
+    """Frame pixels near centres predicted from level-grid pixels (bool (M, N))."""
+    near = np.abs(lines.offset_px) <= HINT_REACH * level.stride
+    grid_rows, grid_cols = np.divmod(index[near], level.derivatives.ix.shape[1])
+    origin = 0.5 * (level.stride - 1)
+    x = grid_cols * level.stride + origin + lines.offset_px[near] * lines.nx[near]
+    y = grid_rows * level.stride + origin + lines.offset_px[near] * lines.ny[near]
+    rows = np.clip(np.rint(y).astype(np.int64), 0, shape[0] - 1)
+    cols = np.clip(np.rint(x).astype(np.int64), 0, shape[1] - 1)
+    hints = np.zeros(shape, np.uint8)
+    hints[rows, cols] = 1
+    return cv2.dilate(hints, np.ones((3, 3), np.uint8)).astype(bool)
+
+
+def analyse_level(level: ScaleLevel, *, c_grey: float, shape: tuple[int, int]) -> LevelResponse:
+    """Ridge response, scale-normalised strength and centre hints of one scale.
+
+    Notes
+    -----
+    V > RIDGE_THRESHOLD needs λ1 < 0 (so Ixx + Iyy < 0) and S² = σ⁴(Ixx² + 2Ixy² + Iyy²) above
+    `min_structure_squared`; S² needs no eigen-decomposition, so the eigen-analysis runs only
+    where the trace is negative and S² exceeds a quarter of that bound (weaker pixels can
+    neither pass the threshold nor matter for σB).
+    """
+    d = level.derivatives
+    norm = np.float32(level.sigma_px**2 / level.stride**2)  # σ² and level→frame units of ∂²
+    trace = d.ixx + d.iyy
+    s2 = (d.ixx * d.ixx + d.iyy * d.iyy + 2 * d.ixy * d.ixy) * (norm * norm)
+    index = np.flatnonzero((trace < 0) & (s2 > 0.25 * min_structure_squared(c_grey)))
+    lines = analyse_lines(_frame_units(level, index))
+    sigma2 = np.float32(level.sigma_px**2)
+    response = np.zeros(d.ix.shape, np.float32)
+    strength = np.zeros(d.ix.shape, np.float32)
+    response.flat[index] = ridge_response(
+        lines.lambda1 * sigma2, lines.lambda2 * sigma2, c_grey=c_grey
+    )
+    strength.flat[index] = -sigma2 * np.minimum(lines.lambda1, 0)
+    hints = _centre_hints(level, index, lines, shape)
+    return LevelResponse(level=level, response=response, strength=strength, hints=hints)
+
+
 def analyse_scales(
     image: np.ndarray,
     sigmas_px: tuple[float, ...],
     *,
     c_grey: float,
-    fixed_sigma_px: float | None = None,
+    max_level: int = MAX_LEVEL,
 ) -> MultiScaleAnalysis:
-    """Run the line analysis at every scale and keep V's maximum and the best scale σB.
+    """Gaussian derivatives at every scale and the multi-scale ridge response V.
 
     Parameters
     ----------
     image : ndarray of shape (M, N), float32
         Grey frame [grey levels].
     sigmas_px : tuple of float
-        Scales [px], ascending.
+        Scales [px].
     c_grey : float
         Structure constant of the ridge response [grey levels].
-    fixed_sigma_px : float, optional
-        When equal to one of `sigmas_px`, that scale's full `ScaleAnalysis` is kept.
+    max_level : int
+        Coarsest pyramid level for large scales; 0 is the full-resolution reference.
 
     Returns
     -------
     MultiScaleAnalysis
+    """
+    levels = scale_levels(image, sigmas_px, max_level=max_level)
+    scales = tuple(analyse_level(lv, c_grey=c_grey, shape=image.shape) for lv in levels)
+    response = np.zeros(image.shape, np.float32)
+    for scale in scales:
+        v = upsample_to_frame(scale.response, scale.level.level, image.shape)
+        np.maximum(response, v, out=response)
+    return MultiScaleAnalysis(tuple(float(s) for s in sigmas_px), scales, response)
+
+
+def lines_at(level: ScaleLevel, rows: np.ndarray, cols: np.ndarray) -> LineAnalysis:
+    """Line analysis of one scale at frame pixels (rows, cols)."""
+    return analyse_lines(sample_derivatives(level, rows, cols))
+
+
+def choose_scales(
+    levels: tuple[ScaleLevel, ...], rows: np.ndarray, cols: np.ndarray
+) -> ScaleChoice:
+    """Per pixel, the scale σB maximising C(σ) = σ²|λ1| among scales with λ1 < 0.
 
     Notes
     -----
-    Scale-normalised strength C(σ) = σ²|λ1| (paper eq. (7)); σB = argmax C over the scales
-    where λ1 < 0. Both V and C use the same fixed σ² normalisation.
+    Paper eq. (7): the σ²-normalisation compensates the decay of λ1 with σ, so the maximum
+    of C picks the scale that matches the local stripe width.
     """
-    shape = image.shape
-    response = np.zeros(shape, np.float32)
-    best = np.zeros(shape, np.float32)
-    index = np.full(shape, -1, np.int8)
-    lambda1, nx, ny, offset = (np.zeros(shape, np.float32) for _ in range(4))
-    gradients = []
-    fixed = None
-    for i, sigma in enumerate(sigmas_px):
-        scale = analyse_scale(image, sigma)
-        np.maximum(
-            response,
-            ridge_response(scale.lambda1, scale.lambda2, sigma, c_grey=c_grey),
-            out=response,
-        )
-        strength = np.float32(sigma**2) * -np.minimum(scale.lambda1, 0)
+    count = rows.size
+    best = np.zeros(count, np.float32)
+    index = np.full(count, -1, np.int64)
+    fields = [np.zeros(count, np.float32) for _ in range(5)]
+    for i, level in enumerate(levels):
+        lines = lines_at(level, rows, cols)
+        strength = np.float32(level.sigma_px**2) * -np.minimum(lines.lambda1, 0)
         better = strength > best
         best[better] = strength[better]
         index[better] = i
-        for out, value in (
-            (lambda1, scale.lambda1),
-            (nx, scale.nx),
-            (ny, scale.ny),
-            (offset, scale.offset_px),
-        ):
+        values = (lines.lambda1, lines.lambda2, lines.nx, lines.ny, lines.offset_px)
+        for out, value in zip(fields, values, strict=True):
             out[better] = value[better]
-        gradients.append(scale.gradient)
-        if fixed_sigma_px is not None and sigma == fixed_sigma_px:
-            fixed = scale
-    return MultiScaleAnalysis(
-        sigmas_px=tuple(float(s) for s in sigmas_px),
-        response=response,
-        scale_index=index,
-        strength=best,
-        lambda1=lambda1,
-        nx=nx,
-        ny=ny,
-        offset_px=offset,
-        gradients=tuple(gradients),
-        fixed=fixed,
+    lambda1, lambda2, nx, ny, offset = fields
+    chosen = LineAnalysis(
+        sigma_px=float("nan"), lambda1=lambda1, lambda2=lambda2, nx=nx, ny=ny, offset_px=offset
     )
+    return ScaleChoice(scale_index=index, strength=best, lines=chosen)
+
+
+def scale_map(analysis: MultiScaleAnalysis, mask: np.ndarray) -> np.ndarray:
+    """σB per mask pixel from the level-grid strengths (bilinear), 0 elsewhere (float32)."""
+    rows, cols = np.nonzero(mask)
+    best = np.zeros(rows.size, np.float32)
+    chosen = np.zeros(rows.size, np.float32)
+    for scale in analysis.scales:
+        c = sample_bilinear(scale.level, scale.strength, rows, cols)
+        better = c > best
+        best[better] = c[better]
+        chosen[better] = scale.level.sigma_px
+    out = np.zeros(mask.shape, np.float32)
+    out[rows, cols] = chosen
+    return out

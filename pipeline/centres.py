@@ -7,14 +7,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.adaptive import MultiScaleAnalysis, analyse_scales, stripe_scales
+from pipeline.adaptive import (
+    LevelResponse,
+    MultiScaleAnalysis,
+    analyse_level,
+    analyse_scales,
+    choose_scales,
+    lines_at,
+    scale_map,
+    stripe_scales,
+)
 from pipeline.curvature import remove_curvature_bias
 from pipeline.gaussian import MIN_SIGMA_PX
 from pipeline.imaging import GEOMETRY_FLOAT, to_float_image, validate_image
 from pipeline.linking import link_points
 from pipeline.ridges import RIDGE_C_FULL_SCALE
+from pipeline.scalespace import ScaleLevel, scale_levels
 from pipeline.segmentation import segment_classic, segment_ridges
-from pipeline.steger import ScaleAnalysis, analyse_scale, centre_pixels
+from pipeline.steger import centre_pixels
 from pipeline.widths import stripe_widths
 
 METHODS = ("adaptive", "steger", "classic")
@@ -111,7 +121,7 @@ def full_scale(dtype: np.dtype) -> float:
 
 @dataclass(frozen=True, slots=True, eq=False)
 class _Selected:
-    """Centre pixels with the per-pixel line analysis they were accepted with."""
+    """Centre pixels with the line analysis they were accepted with; arrays (K,)."""
 
     rows: np.ndarray
     cols: np.ndarray
@@ -120,48 +130,58 @@ class _Selected:
     nx: np.ndarray
     ny: np.ndarray
     offset: np.ndarray
-    gradients: tuple[np.ndarray, ...]
-    scale_index: np.ndarray
+    level_index: np.ndarray
+    levels: tuple[ScaleLevel, ...]
 
 
-def _sigma_map(analysis: MultiScaleAnalysis, mask: np.ndarray) -> np.ndarray:
-    """σB per pixel inside the mask where a scale sees a bright line, else 0 (float32)."""
-    sigmas = np.asarray(analysis.sigmas_px, np.float32)
-    chosen = sigmas[np.maximum(analysis.scale_index, 0)]
-    return np.where(mask & (analysis.scale_index >= 0), chosen, np.float32(0)).astype(np.float32)
-
-
-def _select_adaptive(analysis: MultiScaleAnalysis, mask: np.ndarray) -> _Selected:
-    ok = mask & centre_pixels(analysis.lambda1, analysis.nx, analysis.ny, analysis.offset_px)
-    ok &= analysis.scale_index >= 0
-    rows, cols = np.nonzero(ok)
-    index = analysis.scale_index[rows, cols].astype(np.int64)
-    return _Selected(
-        rows=rows,
-        cols=cols,
+def _select_adaptive(
+    analysis: MultiScaleAnalysis, mask: np.ndarray
+) -> tuple[_Selected, np.ndarray]:
+    """Centre pixels at σB, and the σ map (σB per mask pixel, exact at the candidates)."""
+    hinted = np.logical_or.reduce([scale.hints for scale in analysis.scales])
+    rows, cols = np.nonzero(mask & hinted)
+    choice = choose_scales(analysis.levels, rows, cols)
+    lines = choice.lines
+    sigma_map = scale_map(analysis, mask)
+    sigmas = np.asarray((0.0, *analysis.sigmas_px), np.float32)
+    sigma_map[rows, cols] = sigmas[choice.scale_index + 1]
+    ok = centre_pixels(lines.lambda1, lines.nx, lines.ny, lines.offset_px)
+    ok &= choice.scale_index >= 0
+    index = choice.scale_index[ok]
+    selected = _Selected(
+        rows=rows[ok],
+        cols=cols[ok],
         sigma=np.asarray(analysis.sigmas_px, GEOMETRY_FLOAT)[index],
-        strength=analysis.strength[rows, cols],
-        nx=analysis.nx[rows, cols],
-        ny=analysis.ny[rows, cols],
-        offset=analysis.offset_px[rows, cols],
-        gradients=analysis.gradients,
-        scale_index=index,
+        strength=choice.strength[ok],
+        nx=lines.nx[ok],
+        ny=lines.ny[ok],
+        offset=lines.offset_px[ok],
+        level_index=index,
+        levels=analysis.levels,
     )
+    return selected, sigma_map
 
 
-def _select_fixed(scale: ScaleAnalysis, mask: np.ndarray) -> _Selected:
-    ok = mask & centre_pixels(scale.lambda1, scale.nx, scale.ny, scale.offset_px)
-    rows, cols = np.nonzero(ok)
+def _fixed_scale(frame: np.ndarray, sigma_px: float, c_grey: float) -> LevelResponse:
+    level = scale_levels(frame, (sigma_px,))[0]
+    return analyse_level(level, c_grey=c_grey, shape=frame.shape)
+
+
+def _select_fixed(scale: LevelResponse, mask: np.ndarray) -> _Selected:
+    rows, cols = np.nonzero(mask & scale.hints)
+    level = scale.level
+    lines = lines_at(level, rows, cols)
+    ok = centre_pixels(lines.lambda1, lines.nx, lines.ny, lines.offset_px)
     return _Selected(
-        rows=rows,
-        cols=cols,
-        sigma=np.full(rows.size, scale.sigma_px, GEOMETRY_FLOAT),
-        strength=scale.sigma_px**2 * -scale.lambda1[rows, cols],
-        nx=scale.nx[rows, cols],
-        ny=scale.ny[rows, cols],
-        offset=scale.offset_px[rows, cols],
-        gradients=(scale.gradient,),
-        scale_index=np.zeros(rows.size, np.int64),
+        rows=rows[ok],
+        cols=cols[ok],
+        sigma=np.full(int(ok.sum()), level.sigma_px, GEOMETRY_FLOAT),
+        strength=level.sigma_px**2 * -lines.lambda1[ok],
+        nx=lines.nx[ok],
+        ny=lines.ny[ok],
+        offset=lines.offset_px[ok],
+        level_index=np.zeros(int(ok.sum()), np.int64),
+        levels=(level,),
     )
 
 
@@ -197,13 +217,12 @@ def _assemble(
     _orient_normals(nx, ny, chains)
     order = np.concatenate(chains) if chains else np.zeros(0, np.int64)
     widths = np.full(order.size, np.nan)
-    for i, gradient in enumerate(selected.gradients):
-        at = np.flatnonzero(selected.scale_index[order] == i)
+    for i, level in enumerate(selected.levels):
+        at = np.flatnonzero(selected.level_index[order] == i)
         if at.size:
             p = order[at]
-            sigma = float(selected.sigma[p[0]])
-            reach = 2 * math.hypot(sigma, width_max / 4) + 1
-            widths[at] = stripe_widths(gradient, x[p], y[p], nx[p], ny[p], sigma, reach_px=reach)
+            reach = 2 * math.hypot(level.sigma_px, width_max / 4) + 1
+            widths[at] = stripe_widths(level, x[p], y[p], nx[p], ny[p], reach_px=reach)
     bounds = np.cumsum([0] + [c.size for c in chains])
     polylines = tuple(
         np.arange(a, b, dtype=np.int64) for a, b in zip(bounds[:-1], bounds[1:], strict=True)
@@ -312,16 +331,16 @@ def extract_centres(
     sigma_map = None
     if method == "classic":
         mask = segment_classic(image)
-        selected = _select_fixed(analyse_scale(frame, fixed_sigma), mask)
+        selected = _select_fixed(_fixed_scale(frame, fixed_sigma, c_grey), mask)
     else:
-        analysis = analyse_scales(frame, sigmas, c_grey=c_grey, fixed_sigma_px=fixed_sigma)
+        analysis = analyse_scales(frame, sigmas, c_grey=c_grey)
         mask = segment_ridges(analysis.response)
         if method == "steger":
-            scale = analysis.fixed or analyse_scale(frame, fixed_sigma)
+            reuse = [sc for sc in analysis.scales if sc.level.sigma_px == fixed_sigma]
+            scale = reuse[0] if reuse else _fixed_scale(frame, fixed_sigma, c_grey)
             selected = _select_fixed(scale, mask)
         else:
-            sigma_map = _sigma_map(analysis, mask)
-            selected = _select_adaptive(analysis, mask)
+            selected, sigma_map = _select_adaptive(analysis, mask)
     return _assemble(
         selected,
         mask,

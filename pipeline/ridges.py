@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 RIDGE_BETA = 0.5
@@ -14,18 +16,17 @@ RIDGE_C_FULL_SCALE = 0.01
 8-bit frame. A 30-grey-level, 5 px wide stripe reaches S ≈ 10 (σ = 2.9 px), read noise of
 σ 10 grey levels about 0.85 (one standard deviation)."""
 
+RIDGE_THRESHOLD = 0.5
+"""Threshold on the multi-scale ridge response V ∈ [0, 1): half the saturated response."""
 
-def ridge_response(
-    lambda1: np.ndarray, lambda2: np.ndarray, sigma_px: float, *, c_grey: float
-) -> np.ndarray:
-    """Frangi-like bright-ridge response V ∈ [0, 1) at one scale.
+
+def ridge_response(lambda1: np.ndarray, lambda2: np.ndarray, *, c_grey: float) -> np.ndarray:
+    """Frangi-like bright-ridge response V ∈ [0, 1) from σ²-normalised eigenvalues.
 
     Parameters
     ----------
     lambda1, lambda2 : ndarray, float32
-        Hessian eigenvalues with |λ1| ≥ |λ2| [grey levels/px²].
-    sigma_px : float
-        Scale of the eigenvalues [px]; they are σ²-normalised here.
+        σ²-normalised Hessian eigenvalues σ²λ with |λ1| ≥ |λ2| [grey levels].
     c_grey : float
         Structure constant c [grey levels], > 0.
 
@@ -36,12 +37,17 @@ def ridge_response(
 
     Notes
     -----
-    V = exp(−RA²/2β²)·(1 − exp(−S²/2c²)), RA = λ2/λ1, S = σ²·√(λ1² + λ2²) (paper eqs. (4)–(6),
+    V = exp(−RA²/2β²)·(1 − exp(−S²/2c²)), RA = λ2/λ1, S = √(λ1² + λ2²) (paper eqs. (4)–(6),
     with the fixed σ²-normalisation that makes scales comparable).
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(lambda1 < 0, lambda2 / lambda1, 0).astype(np.float32, copy=False)
-    s2 = np.float32(sigma_px**4) * (lambda1 * lambda1 + lambda2 * lambda2)
+    s2 = lambda1 * lambda1 + lambda2 * lambda2
     blob = np.exp(ratio * ratio * np.float32(-1 / (2 * RIDGE_BETA**2)))
     structure = 1 - np.exp(s2 * np.float32(-1 / (2 * c_grey**2)))
     return np.where(lambda1 < 0, blob * structure, 0).astype(np.float32, copy=False)
+
+
+def min_structure_squared(c_grey: float) -> float:
+    """Least S² [grey levels²] at which V can exceed RIDGE_THRESHOLD: −2c²·ln(1 − threshold)."""
+    return -2 * c_grey**2 * math.log(1 - RIDGE_THRESHOLD)

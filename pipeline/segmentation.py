@@ -6,10 +6,8 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy import ndimage
 
-RIDGE_THRESHOLD = 0.5
-"""Threshold on the multi-scale ridge response V ∈ [0, 1): half the saturated response."""
+from pipeline.ridges import RIDGE_THRESHOLD
 
 MIN_COMPONENT_AREA_PX = 40
 """Components smaller than this [px²] are noise or stray spots, never a stripe."""
@@ -27,7 +25,7 @@ CLASSIC_MEDIAN_PX = 5
 """Median filter aperture of the classic baseline [px]."""
 
 CLOSING_PX = 5
-"""Diameter of the disc that closes small notches of the mask before holes are filled [px]."""
+"""Diameter of the disc whose closing fills small holes and notches of the mask [px]."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -67,11 +65,14 @@ def component_shapes(labels: np.ndarray, count: int) -> ComponentShapes:
     return ComponentShapes(area_px=area, length_px=length, elongation=length**2 / safe)
 
 
-def _fill_holes(mask: np.ndarray) -> np.ndarray:
-    """Close small notches with a disc, then fill enclosed holes (paper §3.3)."""
+def _close_holes(mask: np.ndarray) -> np.ndarray:
+    """Fill small holes and notches of the mask with a morphological closing (paper §3.3).
+
+    A closing, not a flood fill of every enclosed region: the background enclosed by a bent
+    stripe is not part of it.
+    """
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (CLOSING_PX, CLOSING_PX))
-    closed = cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, disc)
-    return ndimage.binary_fill_holes(closed.astype(bool) | mask)
+    return cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, disc).astype(bool)
 
 
 def segment_ridges(response: np.ndarray) -> np.ndarray:
@@ -91,7 +92,7 @@ def segment_ridges(response: np.ndarray) -> np.ndarray:
     -----
     V > RIDGE_THRESHOLD, 8-connected components; candidates have area ≥ MIN_COMPONENT_AREA_PX
     and elongation ≥ MIN_ELONGATION; the longest is the stripe, and further candidates at least
-    KEEP_FRACTION of its length are kept as its pieces. Holes are then filled.
+    KEEP_FRACTION of its length are kept as its pieces. Small holes are then closed.
     """
     binary = (response > RIDGE_THRESHOLD).astype(np.uint8)
     count, labels = cv2.connectedComponents(binary, connectivity=8, ltype=cv2.CV_32S)
@@ -102,7 +103,7 @@ def segment_ridges(response: np.ndarray) -> np.ndarray:
         return np.zeros(response.shape, dtype=bool)
     main_length = shapes.length_px[candidate].max()
     keep = candidate & (shapes.length_px >= KEEP_FRACTION * main_length)
-    return _fill_holes(keep[labels])
+    return _close_holes(keep[labels])
 
 
 def to_uint8(image: np.ndarray) -> np.ndarray:
@@ -125,7 +126,7 @@ def segment_classic(image: np.ndarray) -> np.ndarray:
     Returns
     -------
     ndarray of shape (M, N), bool
-        Components at least KEEP_FRACTION of the largest one's area, holes filled.
+        Components at least KEEP_FRACTION of the largest one's area, small holes closed.
     """
     smooth = cv2.medianBlur(to_uint8(image), CLASSIC_MEDIAN_PX)
     _, binary = cv2.threshold(smooth, 0, 1, cv2.THRESH_BINARY | cv2.THRESH_OTSU)
@@ -135,4 +136,4 @@ def segment_classic(image: np.ndarray) -> np.ndarray:
     if count < 2 or area.max() < MIN_COMPONENT_AREA_PX:
         return np.zeros(image.shape, dtype=bool)
     keep = area >= max(KEEP_FRACTION * area.max(), MIN_COMPONENT_AREA_PX)
-    return _fill_holes(keep[labels])
+    return _close_holes(keep[labels])

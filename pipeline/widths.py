@@ -5,6 +5,9 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from pipeline.gaussian import BORDER
+from pipeline.scalespace import ScaleLevel
+
 STEP_PX = 0.25
 """Sampling step along the normal [px]."""
 
@@ -28,25 +31,22 @@ def _edge_distance(profile: np.ndarray) -> np.ndarray:
 
 
 def stripe_widths(
-    gradient: np.ndarray,
+    level: ScaleLevel,
     x: np.ndarray,
     y: np.ndarray,
     nx: np.ndarray,
     ny: np.ndarray,
-    sigma_px: float,
     *,
     reach_px: float,
 ) -> np.ndarray:
-    """Width of the stripe [px] at centre points that share one scale.
+    """Width of the stripe [px] at centre points found at one scale.
 
     Parameters
     ----------
-    gradient : ndarray of shape (M, N), float32
-        Gradient magnitude |∇I| at scale `sigma_px` [grey levels/px].
+    level : ScaleLevel
+        The scale the points were found at (its first derivatives are sampled).
     x, y, nx, ny : ndarray of shape (K,)
         Sub-pixel centres [px] and unit normals.
-    sigma_px : float
-        The scale of `gradient` [px].
     reach_px : float
         How far along the normal the edges are searched on each side [px].
 
@@ -58,15 +58,19 @@ def stripe_widths(
     Notes
     -----
     A Gaussian profile of standard deviation s smoothed at σ has its steepest slope at
-    ±√(s² + σ²). With d the mean distance of the two gradient maxima from the centre,
+    ±√(s² + σ²). With d the mean distance of the two gradient maxima |∇I| from the centre,
     s = √(d² − σ²) and the width is 4s, which is the true 1/e² width of a Gaussian stripe.
     """
     steps = np.arange(1, int(np.ceil(reach_px / STEP_PX)) + 1) * STEP_PX
+    derivatives = level.derivatives
     distances = []
     for sign in (1.0, -1.0):
-        map_x = (x[:, None] + sign * steps[None, :] * nx[:, None]).astype(np.float32)
-        map_y = (y[:, None] + sign * steps[None, :] * ny[:, None]).astype(np.float32)
-        profile = cv2.remap(gradient, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
-        distances.append(_edge_distance(profile))
+        map_x = level.to_level(x[:, None] + sign * steps[None, :] * nx[:, None])
+        map_y = level.to_level(y[:, None] + sign * steps[None, :] * ny[:, None])
+        gx, gy = (
+            cv2.remap(field, map_x, map_y, cv2.INTER_LINEAR, borderMode=BORDER)
+            for field in (derivatives.ix, derivatives.iy)
+        )
+        distances.append(_edge_distance(np.hypot(gx, gy)))
     half = 0.5 * (distances[0] + distances[1])
-    return 4 * np.sqrt(np.maximum(half**2 - sigma_px**2, 0))
+    return 4 * np.sqrt(np.maximum(half**2 - level.sigma_px**2, 0))
