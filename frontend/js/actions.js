@@ -27,16 +27,18 @@ export function createActions(api, store) {
       await fn();
     } catch (err) {
       store.set({ error: `${what}: ${err instanceof Error ? err.message : String(err)}` });
-      if (err instanceof ApiError && err.status === 401) store.set({ me: null, signInNeeded: true });
+      if (err instanceof ApiError && err.status === 401) store.set({ me: null });
     }
   };
   return {
     guard,
-    signIn: (/** @type {string} */ token) =>
-      guard('sign-in failed', async () => {
-        store.set({ token, error: null });
-        store.set({ me: await api.me(), signInNeeded: false });
-      }),
+    signIn: async (/** @type {string} */ token) => {
+      store.set({ token, error: null, signingIn: true });
+      await guard('sign-in failed', async () => {
+        store.set({ me: await api.me() });
+      });
+      store.set({ signingIn: false });
+    },
     loadPasses: (/** @type {Record<string, string>} */ filter) =>
       guard('could not load the passes', async () => {
         store.set({ passes: { ...store.get().passes, filter, loading: true } });

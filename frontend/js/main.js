@@ -26,7 +26,7 @@ const els = {
 
 const store = createStore({
   token: window.localStorage.getItem(TOKEN_KEY),
-  me: null, signInNeeded: false, route: parseHash(''), error: null, helpOpen: false,
+  me: null, signingIn: false, route: parseHash(''), error: null, helpOpen: false,
   passes: { items: [], filter: {}, loading: false }, selectedRow: 0, liveJobs: {}, socketOpen: false,
   pass: null, wheel: null, upload: null, limits: null, layers: DEFAULT_LAYERS,
 });
@@ -48,7 +48,7 @@ async function onHashChange() {
     window.localStorage.setItem(TOKEN_KEY, route.token);
     window.history.replaceState(null, '', `${window.location.pathname}#/passes`);
     await actions.signIn(route.token);
-    startWatching();
+    if (store.get().me) startWatching();
   }
   const layers = /** @type {typeof DEFAULT_LAYERS} */ (Object.fromEntries(LAYERS.map(([key]) => [key,
     route.query[key] === undefined ? DEFAULT_LAYERS[/** @type {keyof DEFAULT_LAYERS} */ (key)] : route.query[key] === '1'])));
@@ -116,7 +116,7 @@ function render() {
     signOut: () => {
       window.localStorage.removeItem(TOKEN_KEY);
       stopWatching?.();
-      store.set({ token: null, me: null, signInNeeded: true });
+      store.set({ token: null, me: null });
     },
   });
   if (state.route.name !== 'wheel' && wheelView) {
@@ -124,10 +124,11 @@ function render() {
     wheelView = null;
   }
   if (!state.me) {
-    if (state.signInNeeded || !state.token) {
+    if (!state.signingIn) {
       renderSignIn(els.view, async (token) => {
         window.localStorage.setItem(TOKEN_KEY, token);
         await actions.signIn(token);
+        if (!store.get().me) return;
         startWatching();
         lastLoadKey = '';
         onHashChange();

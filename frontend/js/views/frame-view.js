@@ -123,7 +123,8 @@ export class FrameView {
     this.lastDrawMs = ended - started;
     performance.measure('frame-draw', { start: started, end: ended });
     this.canvas.dataset.pointsDrawn = String(this.pointsDrawn);
-    this.canvas.dataset.scale = this.viewport.scale.toFixed(4);
+    // the viewport, for tools that point at image positions (tests, screen readers' helpers)
+    this.canvas.dataset.viewport = JSON.stringify(this.viewport);
   }
 
   drawLegend() {

@@ -22,7 +22,7 @@ export const SHORTCUTS = [
 export function renderShell(els, state, handlers) {
   const role = state.me?.role ?? null;
   const name = state.route?.name;
-  els.header.replaceChildren(
+  const parts = [
     h('a', { class: 'brand', href: '#/passes' }, 'wheelscan'),
     h('nav', {},
       h('a', { href: '#/passes', class: name === 'passes' || name === 'pass' || name === 'wheel' ? 'active' : null }, 'Passes'),
@@ -36,7 +36,8 @@ export function renderShell(els, state, handlers) {
     role ? h('span', { class: `role role-${role}`, title: state.me?.name ?? '' }, role) : null,
     role ? h('button', { class: 'link', onclick: handlers.signOut }, 'sign out') : null,
     h('span', { class: 'hint' }, 'press ? for keys'),
-  );
+  ];
+  els.header.replaceChildren(...parts.filter((part) => part !== null));
   els.banner.replaceChildren(
     ...(state.error
       ? [h('div', { class: 'error', role: 'alert' },
