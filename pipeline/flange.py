@@ -28,6 +28,10 @@ by 2.5⁴/(8·12³) = 0.003 mm at its ends, well below the measurement's resolut
 FLANK_HALF_WINDOW_MM = 1.0
 """Half-height in z of the flank fits (quadratic x(z) about the height)."""
 MIN_FIT_POINTS = 5
+OUTLIER_MADS = 3.0
+OUTLIER_FLOOR_MM = 0.03
+"""Fit points further than 3 robust standard deviations (at least 0.03 mm) from a first fit
+are dropped before the final fit, so a stray spot beside the stripe cannot pull a parameter."""
 
 
 class FlangeNotFoundError(PipelineError):
@@ -110,32 +114,39 @@ def curve_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParamet
     return FlangeParameters(height, flank_12, flank_10, flank_10 - flank_top)
 
 
+def _robust_polyfit(t: np.ndarray, v: np.ndarray, degree: int, what: str) -> np.ndarray:
+    """Least-squares polynomial v(t), refitted once without the outliers of the first fit."""
+    if t.size < MIN_FIT_POINTS:
+        raise FlangeNotFoundError(f"too few profile points on the {what}")
+    coefficients = np.polyfit(t, v, degree)
+    residual = np.abs(v - np.polyval(coefficients, t))
+    limit = max(OUTLIER_MADS * 1.4826 * float(np.median(residual)), OUTLIER_FLOOR_MM)
+    inlier = residual <= limit
+    if np.count_nonzero(inlier) < MIN_FIT_POINTS:
+        raise FlangeNotFoundError(f"too few consistent profile points on the {what}")
+    return np.polyfit(t[inlier], v[inlier], degree)
+
+
 def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
     """(x, z) of the flange top: vertex of a quadratic fitted about the highest points."""
     order = np.argsort(z)[::-1][: max(MIN_FIT_POINTS, z.size // 200)]
     x_top = float(np.median(x[order]))
-    for _ in range(2):
+    for _ in range(3):
         near = np.abs(x - x_top) <= TOP_HALF_WINDOW_MM
-        if np.count_nonzero(near) < MIN_FIT_POINTS:
-            raise FlangeNotFoundError("too few profile points on the flange top")
-        c2, c1, c0 = np.polyfit(x[near] - x_top, z[near], 2)
+        c2, c1, c0 = _robust_polyfit(x[near] - x_top, z[near], 2, "flange top")
         if c2 >= 0:
             raise FlangeNotFoundError("the flange top is not a crest (fit curvature ≥ 0)")
-        shift = float(np.clip(-c1 / (2 * c2), -TOP_HALF_WINDOW_MM, TOP_HALF_WINDOW_MM))
-        x_top += shift
-    near = np.abs(x - x_top) <= TOP_HALF_WINDOW_MM
-    c2, c1, c0 = np.polyfit(x[near] - x_top, z[near], 2)
-    return float(x_top - c1 / (2 * c2)), float(c0 - c1 * c1 / (4 * c2))
+        x_top += float(np.clip(-c1 / (2 * c2), -TOP_HALF_WINDOW_MM, TOP_HALF_WINDOW_MM))
+    return x_top, float(c0 - c1 * c1 / (4 * c2))
 
 
 def _fit_flank(x: np.ndarray, z: np.ndarray, x_top: float, height_mm: float) -> float:
     """x of the flank at z = height: quadratic x(z) fitted to flank points about the height."""
     near = (x > x_top) & (x < x_top + 40.0) & (np.abs(z - height_mm) <= FLANK_HALF_WINDOW_MM)
-    if np.count_nonzero(near) < MIN_FIT_POINTS:
-        raise FlangeNotFoundError(f"too few flank points near z = {height_mm:.2f} mm")
     dz = z[near] - height_mm
-    degree = 2 if np.ptp(dz) > FLANK_HALF_WINDOW_MM else 1
-    return float(np.polyval(np.polyfit(dz, x[near], degree), 0.0))
+    degree = 2 if dz.size and np.ptp(dz) > FLANK_HALF_WINDOW_MM else 1
+    what = f"flank near z = {height_mm:.2f} mm"
+    return float(np.polyval(_robust_polyfit(dz, x[near], degree, what), 0.0))
 
 
 def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameters:

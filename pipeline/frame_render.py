@@ -144,10 +144,11 @@ def add_specular_spots(
     if candidates.size == 0:
         return
     for i in rng.choice(candidates, size=min(int(rng.integers(3, 8)), candidates.size)):
-        offset = rng.choice([-1.0, 1.0]) * rng.uniform(12.0, 40.0)
-        cx = samples.pixels[i, 0] + rng.normal(0, 6.0)
-        cy = samples.pixels[i, 1] + offset
         sigma = rng.uniform(1.5, 4.0)
+        # Beside the stripe: clear of its 1/e² edge (0.5 w) by at least the spot's 3 σ.
+        clearance = 0.5 * samples.width_px[i] + 3.0 * sigma + rng.uniform(3.0, 25.0)
+        cx = samples.pixels[i, 0] + rng.normal(0, 6.0)
+        cy = samples.pixels[i, 1] + rng.choice([-1.0, 1.0]) * clearance
         r0, r1 = int(max(cy - 4 * sigma, 0)), int(min(cy + 4 * sigma + 1, image.shape[0]))
         c0, c1 = int(max(cx - 4 * sigma, 0)), int(min(cx + 4 * sigma + 1, image.shape[1]))
         if r0 >= r1 or c0 >= c1:

@@ -1,0 +1,253 @@
+"""From track-frame stripe points to one wheel's fused profile in the profile frame.
+
+Both sensors of a wheel land in the one track frame, so fusion is a union plus a consistency
+check. The datum follows DESIGN.md: x from the back face (found in the inner sensor's points
+as the innermost vertical line), z up towards the flange tip, z = 0 at the tread reference
+point x = 70 mm. At the wheel's lowest section a larger radius is a lower track Z, so
+z = Z(x = 70) − Z.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from pipeline.errors import PipelineError
+from pipeline.imaging import GEOMETRY_FLOAT
+
+REFERENCE_X_MM = 70.0
+WHEEL_REACH_MM = (-8.0, 145.0)
+"""Profile-frame x window of a wheel: back face (x = 0) to beyond the field face (≈ 135)."""
+WHEEL_Z_MM = (-45.0, 40.0)
+"""Profile-frame z window: rim faces (to −40) up to a worn flange top (< 36)."""
+SEARCH_U_MM = (560.0, 820.0)
+"""Where a back face can be: |X| of the back face, half back-to-back 1353/2 ± 100 mm."""
+BACK_FACE_Z_MM = (-35.0, 2.0)
+"""Part of the back face used for its fit: below the flange root, above the rim edge."""
+BACK_FACE_BAND_MM = 1.5
+REFERENCE_HALF_WINDOW_MM = 3.0
+"""Tread points within ±3 mm of x = 70 give the reference height (line fit)."""
+OVERLAP_NEIGHBOURS = 8
+MIN_BACK_FACE_POINTS = 20
+CONSENSUS_RADIUS_MM = 2.0
+CONSENSUS_TOLERANCE_MM = 0.4
+"""Where the other sensor has ≥ 5 points within 2 mm of a point, the point must lie within
+0.4 mm of their local line (curvature over 2 mm of the R12 flange top bends it 0.17 mm)."""
+LINK_RADIUS_MM = 0.5
+MIN_COMPONENT_POINTS = 40
+"""Profile pieces linked by < 0.5 mm gaps and holding fewer than 40 points (≈ 5 mm of
+stripe) are glints or stray spots, not the wheel."""
+
+
+class DatumError(PipelineError):
+    """The back face or the tread reference point cannot be found in the stripe points."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class FusedProfile:
+    """A wheel's profile from both sensors, in the profile frame, ordered along it.
+
+    Attributes
+    ----------
+    x_mm, z_mm : ndarray of shape (K,), float64
+        Points: the back face bottom-up, then the rest by increasing x [mm].
+    sensor : ndarray of shape (K,), int8
+        0 for the inner sensor, 1 for the outer one.
+    back_face_track_x_mm : float
+        Track-frame X of the back face (for the back-to-back distance) [mm].
+    reference_track_z_mm : float
+        Track-frame Z of the reference point x = 70 mm [mm].
+    overlap_residual_mm : float or None
+        RMS distance of the outer sensor's points from the inner sensor's local profile
+        where both see the wheel (None without overlap) [mm].
+    overlap_points : int
+        Outer points in that overlap.
+    rejected_points : int
+        Points dropped as inconsistent with the other sensor or as stray pieces.
+    """
+
+    x_mm: np.ndarray
+    z_mm: np.ndarray
+    sensor: np.ndarray
+    back_face_track_x_mm: float
+    reference_track_z_mm: float
+    overlap_residual_mm: float | None
+    overlap_points: int
+    rejected_points: int
+
+    def __post_init__(self) -> None:
+        for array in (self.x_mm, self.z_mm, self.sensor):
+            array.flags.writeable = False
+
+
+def _back_face_u(u_inner: np.ndarray) -> float:
+    """Rough back-face position: the 1 mm bin holding most inner points (a vertical line)."""
+    inside = u_inner[(u_inner > SEARCH_U_MM[0]) & (u_inner < SEARCH_U_MM[1])]
+    if inside.size < MIN_BACK_FACE_POINTS:
+        raise DatumError("the inner sensor shows no stripe where a back face can be")
+    edges = np.arange(SEARCH_U_MM[0], SEARCH_U_MM[1] + 1.0, 1.0)
+    counts, _ = np.histogram(inside, edges)
+    best = int(np.argmax(counts))
+    if counts[best] < MIN_BACK_FACE_POINTS:
+        raise DatumError("the inner sensor's stripe shows no vertical back face")
+    near = inside[np.abs(inside - (edges[best] + 0.5)) < BACK_FACE_BAND_MM]
+    return float(np.median(near))
+
+
+def _reference_z(u: np.ndarray, big_z: np.ndarray, u_back: float) -> float:
+    near = np.abs(u - u_back - REFERENCE_X_MM) <= REFERENCE_HALF_WINDOW_MM
+    if np.count_nonzero(near) < MIN_BACK_FACE_POINTS:
+        raise DatumError("no tread points around the reference point x = 70 mm")
+    dx = u[near] - u_back - REFERENCE_X_MM
+    slope, intercept = np.polyfit(dx, big_z[near], 1)
+    residual = big_z[near] - (intercept + slope * dx)
+    keep = np.abs(residual) <= max(3.0 * 1.4826 * np.median(np.abs(residual)), 0.05)
+    return float(np.polyfit(dx[keep], big_z[near][keep], 1)[1])
+
+
+def _refine_back_face(u: np.ndarray, z: np.ndarray, u_back: float) -> float:
+    face = (
+        (np.abs(u - u_back) < BACK_FACE_BAND_MM) & (z > BACK_FACE_Z_MM[0]) & (z < BACK_FACE_Z_MM[1])
+    )
+    if np.count_nonzero(face) < MIN_BACK_FACE_POINTS:
+        raise DatumError("too few back-face points below the flange root")
+    values = u[face]
+    spread = 1.4826 * np.median(np.abs(values - np.median(values)))
+    return float(np.mean(values[np.abs(values - np.median(values)) <= max(3 * spread, 0.02)]))
+
+
+def overlap_residual(inner_xz: np.ndarray, outer_xz: np.ndarray) -> tuple[float | None, int]:
+    """RMS distance of outer points from local lines through the nearest inner points [mm].
+
+    Only outer points within 0.5 mm of some inner point count (the overlap); the local line
+    is the principal axis of the 8 nearest inner points, so sampling density and the
+    direction of the profile do not matter.
+    """
+    if inner_xz.shape[0] < OVERLAP_NEIGHBOURS or outer_xz.shape[0] == 0:
+        return None, 0
+    tree = cKDTree(inner_xz)
+    distance, index = tree.query(outer_xz, k=OVERLAP_NEIGHBOURS)
+    in_overlap = distance[:, 0] <= 0.5
+    if np.count_nonzero(in_overlap) < OVERLAP_NEIGHBOURS:
+        return None, 0
+    neighbours = inner_xz[index[in_overlap]]
+    centred = neighbours - neighbours.mean(axis=1, keepdims=True)
+    _, _, vt = np.linalg.svd(centred)
+    normal = vt[:, 1, :]
+    offsets = outer_xz[in_overlap] - neighbours.mean(axis=1)
+    residual = np.einsum("ij,ij->i", offsets, normal)
+    return float(np.sqrt(np.mean(residual**2))), int(np.count_nonzero(in_overlap))
+
+
+def _consistent_with(points: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """True where `points` agree with the other sensor's local line, or it has no say there."""
+    ok = np.ones(points.shape[0], bool)
+    if points.shape[0] == 0 or other.shape[0] < 5:
+        return ok
+    tree = cKDTree(other)
+    for i, near in enumerate(tree.query_ball_point(points, CONSENSUS_RADIUS_MM)):
+        if len(near) < 5:
+            continue
+        local = other[near]
+        centre = local.mean(axis=0)
+        _, _, vt = np.linalg.svd(local - centre, full_matrices=False)
+        ok[i] = abs((points[i] - centre) @ vt[1]) <= CONSENSUS_TOLERANCE_MM
+    return ok
+
+
+def _main_components(xz: np.ndarray) -> np.ndarray:
+    """True for points in linked pieces of at least MIN_COMPONENT_POINTS points."""
+    pairs = cKDTree(xz).query_pairs(LINK_RADIUS_MM, output_type="ndarray")
+    graph = coo_matrix(
+        (np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(len(xz), len(xz))
+    )
+    _, labels = connected_components(graph, directed=False)
+    sizes = np.bincount(labels)
+    return sizes[labels] >= MIN_COMPONENT_POINTS
+
+
+def clean_profile_points(xz: np.ndarray, sensor: np.ndarray) -> np.ndarray:
+    """Mask of the profile points kept: cross-sensor consensus, then no small stray pieces.
+
+    Parameters
+    ----------
+    xz : ndarray of shape (K, 2)
+        Profile-frame points [mm].
+    sensor : ndarray of shape (K,), int8
+        0 inner, 1 outer.
+    """
+    keep = np.ones(len(xz), bool)
+    inner, outer = sensor == 0, sensor == 1
+    keep[inner] = _consistent_with(xz[inner], xz[outer])
+    keep[outer] = _consistent_with(xz[outer], xz[inner])
+    if np.count_nonzero(keep) < 2:
+        return keep
+    kept = np.flatnonzero(keep)
+    keep[kept] = _main_components(xz[kept])
+    return keep
+
+
+def fuse_profile(
+    inner_track_mm: np.ndarray, outer_track_mm: np.ndarray, *, side: str
+) -> FusedProfile:
+    """Fuse a wheel's inner and outer track-frame points into its profile.
+
+    Parameters
+    ----------
+    inner_track_mm, outer_track_mm : ndarray of shape (K, 3)
+        Stripe points of the inner and outer sensor in the track frame [mm].
+    side : str
+        "left" or "right": the profile's x runs towards −X or +X.
+
+    Returns
+    -------
+    FusedProfile
+
+    Raises
+    ------
+    DatumError
+        If the back face or the reference point cannot be found.
+    """
+    if side not in ("left", "right"):
+        raise ValueError(f"side must be 'left' or 'right', got {side!r}")
+    sign = 1.0 if side == "right" else -1.0
+    points = np.concatenate([inner_track_mm, outer_track_mm]).astype(GEOMETRY_FLOAT)
+    sensor = np.concatenate(
+        [np.zeros(len(inner_track_mm), np.int8), np.ones(len(outer_track_mm), np.int8)]
+    )
+    u, big_z = sign * points[:, 0], points[:, 2]
+    u_back = _back_face_u(u[sensor == 0])
+    z_ref = _reference_z(u, big_z, u_back)
+    u_back = _refine_back_face(u, z_ref - big_z, u_back)
+    z_ref = _reference_z(u, big_z, u_back)
+    x, z = u - u_back, z_ref - big_z
+    keep = (x > WHEEL_REACH_MM[0]) & (x < WHEEL_REACH_MM[1])
+    keep &= (z > WHEEL_Z_MM[0]) & (z < WHEEL_Z_MM[1])
+    x, z, sensor = x[keep], z[keep], sensor[keep]
+    clean = clean_profile_points(np.column_stack([x, z]), sensor)
+    x, z, sensor = x[clean], z[clean], sensor[clean]
+    on_face = (np.abs(x) < BACK_FACE_BAND_MM) & (z < BACK_FACE_Z_MM[1])
+    order = np.concatenate(
+        [
+            np.flatnonzero(on_face)[np.argsort(z[on_face])],
+            np.flatnonzero(~on_face)[np.argsort(x[~on_face])],
+        ]
+    )
+    residual, count = overlap_residual(
+        np.column_stack([x[sensor == 0], z[sensor == 0]])[~on_face[sensor == 0]],
+        np.column_stack([x[sensor == 1], z[sensor == 1]]),
+    )
+    return FusedProfile(
+        x_mm=x[order],
+        z_mm=z[order],
+        sensor=sensor[order],
+        back_face_track_x_mm=sign * u_back,
+        reference_track_z_mm=z_ref,
+        overlap_residual_mm=residual,
+        overlap_points=count,
+        rejected_points=int(np.count_nonzero(~clean)),
+    )
