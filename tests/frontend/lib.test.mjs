@@ -5,7 +5,7 @@ import { test } from 'node:test';
 import { VIRIDIS, lutIndex } from '../../frontend/js/lib/colormap.js';
 import { fmtNumber, fmtSigned, fmtTime } from '../../frontend/js/lib/format.js';
 import { tintMask } from '../../frontend/js/lib/layer-pixels.js';
-import { differenceAlongStripe, principalAxis } from '../../frontend/js/lib/method-difference.js';
+import { differenceAlongStripe } from '../../frontend/js/lib/method-difference.js';
 import { makePlotScale } from '../../frontend/js/lib/plot-scale.js';
 import { buildPointIndex, nearestPoint } from '../../frontend/js/lib/point-index.js';
 import { buildHash, parseHash } from '../../frontend/js/lib/route.js';
@@ -99,8 +99,24 @@ test('differenceAlongStripe measures a known offset with one sign despite flippe
   assert.equal(diff.unmatched, 0);
   for (const d of diff.diffPx) assert.ok(Math.abs(Math.abs(d) - 0.3) < 1e-9);
   assert.ok(Math.abs(Math.abs(diff.meanPx) - 0.3) < 1e-9, 'all offsets carry the same sign');
-  // along-stripe positions grow monotonically with t
-  for (let i = 1; i < diff.alongPx.length; i += 1) assert.ok(diff.alongPx[i] > diff.alongPx[i - 1]);
+  // the position along the stripe is the path length: 0.8 px per centre here
+  for (let i = 1; i < diff.alongPx.length; i += 1) assert.ok(Math.abs(diff.alongPx[i] - diff.alongPx[i - 1] - 0.8) < 1e-9);
+});
+
+test('differenceAlongStripe keeps its sign around a bend of the stripe', () => {
+  // an L: down a vertical line, then right along a horizontal one; Steger 0.25 px to the left of travel
+  const a = { x: [], y: [], nx: [], ny: [] };
+  const s = { x: [], y: [], nx: [], ny: [] };
+  // left of travel (cross(t, n) > 0): going down it is −x, going right it is +y
+  const add = (x, y, nx, ny, leftX, leftY) => {
+    a.x.push(x); a.y.push(y); a.nx.push(nx); a.ny.push(ny);
+    s.x.push(x - 0.25 * leftX); s.y.push(y - 0.25 * leftY); s.nx.push(nx); s.ny.push(ny);
+  };
+  for (let i = 0; i < 100; i += 1) add(10, i, i % 2 ? -1 : 1, 0, -1, 0);
+  for (let i = 1; i < 100; i += 1) add(10 + i, 99, 0, i % 2 ? -1 : 1, 0, 1);
+  const diff = differenceAlongStripe(a, s, 2);
+  const away = [...diff.diffPx].filter((_, i) => i < 97 || i > 101);
+  for (const d of away) assert.ok(Math.abs(d - 0.25) < 1e-9, `offset +0.25 px on both legs, got ${d}`);
 });
 
 test('differenceAlongStripe leaves centres without a partner unmatched', () => {
@@ -109,10 +125,6 @@ test('differenceAlongStripe leaves centres without a partner unmatched', () => {
   const diff = differenceAlongStripe(a, s, 2);
   assert.equal(diff.unmatched, 1);
   assert.equal(diff.diffPx.length, 2);
-});
-
-test('principalAxis follows a vertical stripe downward', () => {
-  assert.deepEqual(principalAxis([5, 5, 5], [0, 1, 2]).map((v) => Math.round(v * 1e9) / 1e9), [0, 1]);
 });
 
 test('niceTicks picks round steps inside the range', () => {

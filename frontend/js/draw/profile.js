@@ -67,7 +67,8 @@ export function drawProfile(ctx, data, options) {
     ctx.setLineDash([]);
   }
   ctx.lineWidth = 2;
-  for (const curve of data.curves) {
+  // the first curve is the selected method: draw it last, on top
+  for (const curve of [...data.curves].reverse()) {
     ctx.strokeStyle = METHOD_COLOURS[/** @type {'adaptive'|'steger'} */ (curve.method)] ?? '#fff';
     strokePolyline(ctx, scale, curve.x_mm, curve.z_mm);
   }

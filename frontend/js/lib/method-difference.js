@@ -18,7 +18,7 @@ import { buildPointIndex, nearestPoint } from './point-index.js';
 
 /**
  * @typedef {object} MethodDifference
- * @property {Float64Array} alongPx position along the stripe's main axis, px
+ * @property {Float64Array} alongPx path length along the stripe (adaptive centres in API order), px
  * @property {Float64Array} diffPx signed offset adaptive − Steger along the normal, px
  * @property {Float64Array} x adaptive centre x of each pair, px
  * @property {Float64Array} y adaptive centre y of each pair, px
@@ -30,6 +30,11 @@ import { buildPointIndex, nearestPoint } from './point-index.js';
 
 /**
  * Pair adaptive with Steger centres and measure their offset along the stripe.
+ *
+ * The API emits centres in chain order, so the position along the stripe is the running
+ * path length over the adaptive centres (a jump between chains adds its length, keeping the
+ * position monotonic). The offset's sign is taken on the left of the direction of travel,
+ * so it means the same thing along a curved stripe whatever sign each normal carries.
  * @param {CentreColumns} adaptive
  * @param {CentreColumns} steger
  * @param {number} [maxDistPx] pairing radius, px
@@ -37,23 +42,24 @@ import { buildPointIndex, nearestPoint } from './point-index.js';
  */
 export function differenceAlongStripe(adaptive, steger, maxDistPx = 2) {
   const index = buildPointIndex(steger.x, steger.y, Math.max(1, maxDistPx));
-  const [ux, uy] = principalAxis(adaptive.x, adaptive.y);
   const n = adaptive.x.length;
   const along = new Float64Array(n);
   const diff = new Float64Array(n);
   const px = new Float64Array(n);
   const py = new Float64Array(n);
   let k = 0;
+  let path = 0;
   for (let i = 0; i < n; i += 1) {
+    if (i > 0) path += Math.hypot(adaptive.x[i] - adaptive.x[i - 1], adaptive.y[i] - adaptive.y[i - 1]);
     const j = nearestPoint(index, adaptive.x[i], adaptive.y[i], maxDistPx);
     if (j < 0) continue;
-    // orient the normal consistently (towards +perpendicular of the main axis) so the
-    // sign of the offset means the same thing along the whole stripe
-    const flip = adaptive.nx[i] * -uy + adaptive.ny[i] * ux < 0 ? -1 : 1;
+    const [tx, ty] = tangentAt(adaptive, i);
+    // left of travel: cross(t, n) > 0
+    const flip = tx * adaptive.ny[i] - ty * adaptive.nx[i] < 0 ? -1 : 1;
     const dx = adaptive.x[i] - steger.x[j];
     const dy = adaptive.y[i] - steger.y[j];
     diff[k] = flip * (dx * adaptive.nx[i] + dy * adaptive.ny[i]);
-    along[k] = adaptive.x[i] * ux + adaptive.y[i] * uy;
+    along[k] = path;
     px[k] = adaptive.x[i];
     py[k] = adaptive.y[i];
     k += 1;
@@ -70,38 +76,15 @@ export function differenceAlongStripe(adaptive, steger, maxDistPx = 2) {
 }
 
 /**
- * Unit vector of the main (largest-variance) axis of a point set; (1, 0) when degenerate.
- * @param {ArrayLike<number>} x
- * @param {ArrayLike<number>} y
+ * Direction of travel at centre i: the chord between its neighbours (one-sided at the ends).
+ * @param {CentreColumns} c
+ * @param {number} i
  * @returns {[number, number]}
  */
-export function principalAxis(x, y) {
-  const n = x.length;
-  if (n < 2) return [1, 0];
-  let mx = 0;
-  let my = 0;
-  for (let i = 0; i < n; i += 1) {
-    mx += x[i];
-    my += y[i];
-  }
-  mx /= n;
-  my /= n;
-  let sxx = 0;
-  let sxy = 0;
-  let syy = 0;
-  for (let i = 0; i < n; i += 1) {
-    const dx = x[i] - mx;
-    const dy = y[i] - my;
-    sxx += dx * dx;
-    sxy += dx * dy;
-    syy += dy * dy;
-  }
-  // angle of the major axis of the 2×2 covariance matrix
-  const angle = 0.5 * Math.atan2(2 * sxy, sxx - syy);
-  const ux = Math.cos(angle);
-  const uy = Math.sin(angle);
-  // point the axis so that "along" grows with x, or with y for a vertical stripe
-  return ux < -1e-9 || (Math.abs(ux) <= 1e-9 && uy < 0) ? [-ux, -uy] : [ux, uy];
+function tangentAt(c, i) {
+  const a = Math.max(0, i - 1);
+  const b = Math.min(c.x.length - 1, i + 1);
+  return [c.x[b] - c.x[a], c.y[b] - c.y[a]];
 }
 
 /**
