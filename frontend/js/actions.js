@@ -53,8 +53,8 @@ export function createActions(api, store) {
         ]);
         store.set({ pass: { id: passId, loading: false, data, wheels }, limits });
       }),
-    loadWheel: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {string|undefined} */ sensor) =>
-      guard(`could not load wheel ${wheelId} of pass ${passId}`, () => loadWheel(api, store, passId, wheelId, sensor)),
+    loadWheel: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {string|undefined} */ sensor, /** @type {number} */ index) =>
+      guard(`could not load wheel ${wheelId} of pass ${passId}`, () => loadWheel(api, store, passId, wheelId, sensor, index)),
     patchWheel: (/** @type {object} */ patch) => store.set({ wheel: { ...store.get().wheel, ...patch } }),
     openViewer: (/** @type {string} */ passId, /** @type {string} */ wheelId) =>
       guard('could not open the 3D view', async () => {
@@ -104,43 +104,57 @@ function jobUpdate(store, msg) {
  * @param {string} passId
  * @param {string} wheelId
  * @param {string|undefined} sensor
+ * @param {number} index frame of that sensor, 0-based
  */
-async function loadWheel(api, store, passId, wheelId, sensor) {
+async function loadWheel(api, store, passId, wheelId, sensor, index) {
   const started = performance.now();
   const previous = store.get().wheel;
   const sameWheel = previous && previous.passId === passId && previous.wheelId === wheelId;
   store.set({ wheel: { ...(sameWheel ? previous : {}), passId, wheelId, loading: true, viewerUrl: null } });
-  const [frames, wheels, limits, profiles, trend] = await Promise.all([
-    api.listFrames(passId, wheelId),
+  const [wheels, limits, profiles, trend] = await Promise.all([
     api.listWheels(passId),
     store.get().limits ?? api.getLimits(),
     Promise.all(METHODS.map((m) => api.profile(passId, wheelId, m).catch((err) => ({ error: err.message })))),
     api.trend(wheelId).catch((err) => ({ error: err.message })),
   ]);
-  const frame = frames.find((/** @type {any} */ f) => f.sensor === sensor) ?? frames[0];
-  if (!frame) throw new ApiError('the service lists no frames for this wheel', 200, 'no_frames');
-  const { sensor: s, seq } = frame;
-  const [image, mask, sigma, sigmaScale, adaptive, steger] = await Promise.all([
-    api.frameLayer(passId, wheelId, s, seq, 'image'),
-    api.frameLayer(passId, wheelId, s, seq, 'mask', 'adaptive').then(maskLayer).catch(() => null),
-    api.frameLayer(passId, wheelId, s, seq, 'sigma', 'adaptive').catch(() => null),
-    api.sigmaScale(passId, wheelId, s, seq, 'adaptive').catch(() => null),
-    ...METHODS.map((m) => api.centres(passId, wheelId, s, seq, m).catch((err) => ({ error: err.message }))),
+  const record = wheels.find((/** @type {any} */ w) => String(w.wheel_id) === String(wheelId));
+  if (!record) throw new ApiError(`pass ${passId} has no wheel ${wheelId}`, 404, 'not_found');
+  const frames = framesOf(record);
+  const frame = frames.find((f) => f.sensor === sensor && f.index === index)
+    ?? frames.find((f) => f.sensor === sensor) ?? frames[0];
+  if (!frame) throw new ApiError(`no frames are stored for wheel ${wheelId} of pass ${passId}`, 404, 'no_frames');
+  const { sensor: s, index: i } = frame;
+  const [image, mask, sigma, adaptive, steger] = await Promise.all([
+    api.frameImage(passId, wheelId, s, i),
+    api.maskImage(passId, wheelId, s, i, 'adaptive').then(maskLayer).catch(() => null),
+    api.sigmaImage(passId, wheelId, s, i, 'adaptive').catch(() => null),
+    ...METHODS.map((m) => api.centres(passId, wheelId, s, i, m).catch((err) => ({ error: err.message }))),
   ]);
   store.set({
     limits,
     pass: { ...(store.get().pass?.id === passId ? store.get().pass : { id: passId, data: null }), wheels },
     wheel: {
       ...store.get().wheel,
-      passId, wheelId, frames, sensor: s, seq, loading: false,
-      record: wheels.find((/** @type {any} */ w) => String(w.wheel_id) === String(wheelId)) ?? null,
-      layers: { image, mask, sigma }, sigmaScale,
+      passId, wheelId, frames, sensor: s, index: i, loading: false, record,
+      layers: { image, mask, sigma: sigma?.bitmap ?? null },
+      sigmaScale: sigma ? { sigma_min_px: sigma.sigma_min_px, sigma_max_px: sigma.sigma_max_px } : null,
       centres: { adaptive, steger },
       profiles: { adaptive: profiles[0], steger: profiles[1] },
       trend,
       loadMs: performance.now() - started,
     },
   });
+}
+
+/**
+ * The frames of a wheel from its record's count per sensor, inner before outer.
+ * @param {any} record a PassWheelRead
+ * @returns {Array<{sensor: string, index: number}>}
+ */
+function framesOf(record) {
+  return Object.entries(record.frames ?? {})
+    .sort(([a], [b]) => a.localeCompare(b))
+    .flatMap(([sensor, count]) => Array.from({ length: Number(count) }, (_, index) => ({ sensor, index })));
 }
 
 /**

@@ -22,8 +22,14 @@ export class ApiError extends Error {
 
 /** @param {number|string} passId @param {number|string} wheelId */
 const wheelPath = (passId, wheelId) => `/api/passes/${passId}/wheels/${wheelId}`;
-/** @param {number|string} p @param {number|string} w @param {string} sensor @param {number} seq */
-const framePath = (p, w, sensor, seq) => `${wheelPath(p, w)}/frames/${sensor}/${seq}`;
+/**
+ * Path and query of one layer of a wheel's frame: the sensor's position (inner/outer) in
+ * the path, the frame's index among that sensor's frames of the wheel in the query.
+ * @param {number|string} p @param {number|string} w @param {string} layer "frames", "mask", "sigma", "centres"
+ * @param {string} sensor e.g. "left_inner" @param {number} index @param {string} suffix @param {string} [method]
+ */
+const layerPath = (p, w, layer, sensor, index, suffix, method) =>
+  `${wheelPath(p, w)}/${layer}/${sensor.split('_')[1]}${suffix}?${new URLSearchParams({ index: String(index), ...(method ? { method } : {}) })}`;
 
 /**
  * @typedef {object} Api
@@ -32,10 +38,10 @@ const framePath = (p, w, sensor, seq) => `${wheelPath(p, w)}/frames/${sensor}/${
  * @property {(passId: number|string) => Promise<any>} getPass
  * @property {(passId: number|string) => Promise<any[]>} listWheels
  * @property {() => Promise<any>} getLimits
- * @property {(passId: number|string, wheelId: number|string) => Promise<any[]>} listFrames
- * @property {(p: number|string, w: number|string, sensor: string, seq: number, layer: 'image'|'mask'|'sigma', method?: string) => Promise<ImageBitmap>} frameLayer
- * @property {(p: number|string, w: number|string, sensor: string, seq: number, method: string) => Promise<any>} sigmaScale
- * @property {(p: number|string, w: number|string, sensor: string, seq: number, method: string) => Promise<any>} centres
+ * @property {(p: number|string, w: number|string, sensor: string, index: number) => Promise<ImageBitmap>} frameImage
+ * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string) => Promise<ImageBitmap>} maskImage
+ * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string) => Promise<{bitmap: ImageBitmap, sigma_min_px: number, sigma_max_px: number, colormap: string}>} sigmaImage
+ * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string) => Promise<any>} centres
  * @property {(passId: number|string, wheelId: number|string, method: string) => Promise<any>} profile
  * @property {(wheelId: number|string) => Promise<any[]>} trend
  * @property {(passId: number|string, wheelId: number|string|null, format: string) => Promise<{blob: Blob, filename: string}>} report
@@ -68,28 +74,35 @@ export function createApi(getToken, base = '') {
   };
   /** @param {string} path */
   const json = async (path) => (await request(path)).json();
-  /** @param {string} path */
-  const bitmap = async (path) => {
-    const blob = await (await request(path)).blob();
+  /** @param {Response} response @param {string} path */
+  const decode = async (response, path) => {
     try {
-      return await createImageBitmap(blob);
+      return await createImageBitmap(await response.blob());
     } catch {
       throw new ApiError(`the service sent an image the browser cannot decode (${path})`, 200, 'decode');
     }
   };
+  /** @param {string} path */
+  const bitmap = async (path) => decode(await request(path), path);
   return {
     me: () => json('/api/me'),
     listPasses: (filter) => json(`/api/passes?${new URLSearchParams(filter)}`),
     getPass: (passId) => json(`/api/passes/${passId}`),
     listWheels: (passId) => json(`/api/passes/${passId}/wheels`),
     getLimits: () => json('/api/limits'),
-    listFrames: (p, w) => json(`${wheelPath(p, w)}/frames`),
-    frameLayer: (p, w, sensor, seq, layer, method) =>
-      bitmap(`${framePath(p, w, sensor, seq)}/${layer}.png${method ? `?method=${encodeURIComponent(method)}` : ''}`),
-    sigmaScale: (p, w, sensor, seq, method) =>
-      json(`${framePath(p, w, sensor, seq)}/sigma?method=${encodeURIComponent(method)}&values=false`),
-    centres: (p, w, sensor, seq, method) =>
-      json(`${framePath(p, w, sensor, seq)}/centres?method=${encodeURIComponent(method)}`),
+    frameImage: (p, w, sensor, index) => bitmap(layerPath(p, w, 'frames', sensor, index, '.png')),
+    maskImage: (p, w, sensor, index, method) => bitmap(layerPath(p, w, 'mask', sensor, index, '.png', method)),
+    sigmaImage: async (p, w, sensor, index, method) => {
+      const path = layerPath(p, w, 'sigma', sensor, index, '.png', method);
+      const response = await request(path);
+      return {
+        sigma_min_px: Number(response.headers.get('X-Sigma-Min-Px')),
+        sigma_max_px: Number(response.headers.get('X-Sigma-Max-Px')),
+        colormap: response.headers.get('X-Colormap') ?? 'viridis',
+        bitmap: await decode(response, path),
+      };
+    },
+    centres: (p, w, sensor, index, method) => json(layerPath(p, w, 'centres', sensor, index, '', method)),
     profile: (p, w, method) => json(`${wheelPath(p, w)}/profile?method=${encodeURIComponent(method)}`),
     trend: (wheelId) => json(`/api/wheels/${wheelId}/trend`),
     report: async (p, w, format) => {

@@ -59,7 +59,9 @@ async function onHashChange() {
   lastLoadKey = loadKey;
   if (route.name === 'passes') await actions.loadPasses(route.query);
   else if (route.name === 'pass') await actions.loadPass(route.params.passId);
-  else if (route.name === 'wheel') await actions.loadWheel(route.params.passId, route.params.wheelId, route.query.sensor);
+  else if (route.name === 'wheel') {
+    await actions.loadWheel(route.params.passId, route.params.wheelId, route.query.sensor, Number(route.query.frame ?? 0));
+  }
 }
 
 /**
@@ -68,7 +70,9 @@ async function onHashChange() {
  * @returns {string}
  */
 function loadKeyOf(route) {
-  if (route.name === 'wheel') return `wheel/${route.params.passId}/${route.params.wheelId}/${route.query.sensor ?? ''}`;
+  if (route.name === 'wheel') {
+    return `wheel/${route.params.passId}/${route.params.wheelId}/${route.query.sensor ?? ''}/${route.query.frame ?? 0}`;
+  }
   if (route.name === 'passes') return `passes?${new URLSearchParams(route.query)}`;
   return `${route.name}/${route.params.passId ?? ''}`;
 }
@@ -208,8 +212,9 @@ function wheelKey(e, state) {
     ']': () => /** @type {HTMLElement|null} */ (document.querySelector('a[rel=next]'))?.click(),
     i: () => {
       const frames = state.wheel?.frames ?? [];
-      const at = frames.findIndex((/** @type {any} */ f) => f.sensor === state.wheel.sensor);
-      if (frames.length > 1) setQuery({ sensor: frames[(at + 1) % frames.length].sensor });
+      const at = frames.findIndex((/** @type {any} */ f) => f.sensor === state.wheel.sensor && f.index === state.wheel.index);
+      const next = frames[(at + 1) % frames.length];
+      if (frames.length > 1) setQuery({ sensor: next.sensor, frame: String(next.index) });
     },
   };
   if (moves[e.key]) {

@@ -108,9 +108,10 @@ export class WheelView {
         r ? `Vehicle ${r.vehicle_id} · axle ${r.axle} · ${r.side}` : `Wheel ${w.wheelId}`),
       h('span', { class: `badge ${alarmClass(resultOf(r, method))}` },
         r?.reason ? 'not measured' : { ok: 'within limits', alarm: 'ALARM', none: r?.state ?? '–' }[alarmClass(resultOf(r, method))]),
-      h('div', { class: 'segmented', role: 'group', 'aria-label': 'sensor' }, w.frames.map((/** @type {any} */ f) =>
-        h('button', { class: f.sensor === w.sensor ? 'on' : null, 'data-sensor': f.sensor,
-          onclick: () => this.handlers.setQuery({ sensor: f.sensor }) }, fmtSensor(f.sensor)))),
+      h('div', { class: 'segmented', role: 'group', 'aria-label': 'frame' }, w.frames.map((/** @type {any} */ f) =>
+        h('button', { class: f.sensor === w.sensor && f.index === w.index ? 'on' : null, 'data-sensor': f.sensor,
+          onclick: () => this.handlers.setQuery({ sensor: f.sensor, frame: String(f.index) }) },
+        fmtSensor(f.sensor), w.frames.filter((/** @type {any} */ g) => g.sensor === f.sensor).length > 1 ? ` ${f.index + 1}` : ''))),
       h('div', { class: 'segmented', role: 'group', 'aria-label': 'method' }, METHODS.map((m) =>
         h('button', { class: m === method ? 'on' : null, 'data-method': m, 'aria-pressed': String(m === method),
           onclick: () => this.handlers.setQuery({ method: m }) }, m === 'adaptive' ? 'Adaptive' : 'Steger'))),

@@ -1,0 +1,187 @@
+"""Fixtures of the browser tests: the real service (uvicorn subprocess on a temp data dir with
+SQLite), tokens made by the CLI, a simulated 1-vehicle pass, and Debian's headless Chromium
+driven by Playwright."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import zipfile
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import httpx
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+SCREENSHOTS = Path(__file__).resolve().parent / "screenshots"
+CHROMIUM = Path("/usr/bin/chromium")
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+SERVER_START_TIMEOUT_S = 60.0
+
+
+@dataclass(frozen=True, slots=True)
+class Service:
+    """A running service and what the tests need to talk to it."""
+
+    url: str
+    data_dir: Path
+    env: dict[str, str]
+
+    def token(self, role: str) -> str:
+        """A fresh token with `role`, made by `wheelscan token create`."""
+        result = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "backend.cli",
+                "token",
+                "create",
+                "--role",
+                role,
+                "--name",
+                f"e2e {role}",
+            ],
+            env=self.env,
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+            cwd=ROOT,
+        )
+        assert result.returncode == 0, result.stderr
+        return result.stdout.strip().splitlines()[-1]
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
+
+
+def _wait_healthy(url: str, process: subprocess.Popen[bytes], log: Path) -> None:
+    deadline = time.monotonic() + SERVER_START_TIMEOUT_S
+    while time.monotonic() < deadline:
+        if process.poll() is not None:
+            pytest.fail(f"the service exited with {process.returncode}:\n{log.read_text()[-3000:]}")
+        try:
+            if httpx.get(f"{url}/healthz", timeout=1.0).status_code == 200:
+                return
+        except httpx.TransportError:
+            pass
+        time.sleep(0.2)
+    pytest.fail(f"the service did not answer /healthz in {SERVER_START_TIMEOUT_S} s")
+
+
+@pytest.fixture(scope="session")
+def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
+    """The real service on loopback: `wheelscan serve` with a temp data dir and SQLite."""
+    data_dir = tmp_path_factory.mktemp("e2e-data")
+    port = _free_port()
+    env = {
+        **os.environ,
+        "WHEELSCAN_DATA_DIR": str(data_dir),
+        "WHEELSCAN_WORKERS": "1",
+        "WHEELSCAN_VIEWER_PORT": str(_free_port()),
+    }
+    env.pop("WHEELSCAN_DATABASE_URL", None)
+    env.pop("WHEELSCAN_BROKER_URL", None)
+    log = data_dir / "server.log"
+    with log.open("wb") as sink:
+        process = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "backend.cli",
+                "serve",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                str(port),
+            ],
+            env=env,
+            stdout=sink,
+            stderr=subprocess.STDOUT,
+            cwd=ROOT,
+        )
+    url = f"http://127.0.0.1:{port}"
+    try:
+        _wait_healthy(url, process, log)
+        yield Service(url=url, data_dir=data_dir, env=env)
+    finally:
+        process.terminate()
+        try:
+            process.wait(timeout=20)
+        except subprocess.TimeoutExpired:
+            process.kill()
+
+
+@pytest.fixture(scope="session")
+def pass_archive(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A simulated pass (1 vehicle, 2 axles: 4 wheels, 1600×1200 frames) zipped for upload."""
+    out = tmp_path_factory.mktemp("e2e-pass")
+    folder = out / "pass"
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "backend.cli",
+            "synth-pass",
+            str(folder),
+            "--vehicles",
+            "1",
+            "--axles",
+            "2",
+            "--seed",
+            "6",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+        cwd=ROOT,
+    )
+    assert result.returncode == 0, result.stderr
+    archive = out / "e2e-pass.zip"
+    with zipfile.ZipFile(archive, "w", zipfile.ZIP_DEFLATED) as zf:
+        for path in sorted(folder.rglob("*")):
+            if path.is_file() and path.name != "truth.json":
+                zf.write(path, path.relative_to(folder).as_posix())
+    return archive
+
+
+@pytest.fixture(scope="session")
+def browser() -> Iterator[object]:
+    """Debian's Chromium, headless, under Playwright."""
+    if not CHROMIUM.exists():
+        pytest.skip(f"{CHROMIUM} is missing: run `make system-deps` (browser tests NOT run)")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as playwright:
+        instance = playwright.chromium.launch(
+            executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_ARGS
+        )
+        try:
+            yield instance
+        finally:
+            instance.close()
+
+
+@pytest.fixture(scope="session")
+def screenshots() -> Path:
+    """Where each view's screenshot is saved (git-ignored), emptied once per session."""
+    shutil.rmtree(SCREENSHOTS, ignore_errors=True)
+    SCREENSHOTS.mkdir(parents=True)
+    return SCREENSHOTS
