@@ -88,6 +88,10 @@ def _wait_healthy(url: str, process: subprocess.Popen[bytes], log: Path) -> None
 @pytest.fixture(scope="session")
 def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
     """The real service on loopback: `wheelscan serve` with a temp data dir and SQLite."""
+    from backend.cli import VERB_MODULES
+
+    if "backend.cli.serve" not in VERB_MODULES:
+        pytest.skip("`wheelscan serve` (issue 5) is not registered yet: browser tests NOT run")
     data_dir = tmp_path_factory.mktemp("e2e-data")
     port = _free_port()
     env = {
