@@ -70,7 +70,11 @@ class Site(Base):
 
 
 class Calibration(Base):
-    """One version of a site's calibration (wheelscan-calibration/1); never edited in place."""
+    """One version of a site's calibration (wheelscan-calibration/1); never edited in place.
+
+    `registered` versions were registered by an admin: the newest is the site's current one.
+    A calibration that came inside an uploaded archive is kept (unregistered) for that pass.
+    """
 
     __tablename__ = "calibration"
     __table_args__ = (UniqueConstraint("site_id", "version"),)
@@ -81,6 +85,7 @@ class Calibration(Base):
     sha256: Mapped[str] = mapped_column(String(64))
     document: Mapped[dict[str, Any]]
     note: Mapped[str | None] = mapped_column(Text)
+    registered: Mapped[bool] = mapped_column(default=True)
     created_at: Mapped[datetime] = mapped_column(default=utc_now)
 
     site: Mapped[Site] = relationship(back_populates="calibrations")
@@ -191,6 +196,7 @@ class Measurement(Base):
     quality: Mapped[dict[str, Any]] = mapped_column(default=dict)
     profile: Mapped[dict[str, Any] | None]
     alarms: Mapped[list[Any]] = mapped_column(default=list)
+    alarm_count: Mapped[int] = mapped_column(Integer, default=0)
     pipeline_version: Mapped[str] = mapped_column(String(20))
     created_at: Mapped[datetime] = mapped_column(default=utc_now)
 

@@ -1,0 +1,61 @@
+"""PNG renderings for the browser: frames, stripe masks and coloured σ maps (downscaled)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+from matplotlib import colormaps
+
+SIGMA_COLORMAP = "viridis"
+
+
+def _downscale(image: np.ndarray, max_width_px: int | None, *, nearest: bool) -> np.ndarray:
+    if max_width_px is None or image.shape[1] <= max_width_px:
+        return image
+    height_px = max(1, round(image.shape[0] * max_width_px / image.shape[1]))
+    interpolation = cv2.INTER_NEAREST if nearest else cv2.INTER_AREA
+    return cv2.resize(image, (max_width_px, height_px), interpolation=interpolation)
+
+
+def encode_png(image: np.ndarray) -> bytes:
+    ok, buffer = cv2.imencode(".png", image, [cv2.IMWRITE_PNG_COMPRESSION, 3])
+    if not ok:
+        raise ValueError(
+            f"image of shape {image.shape} and dtype {image.dtype} is not PNG-encodable"
+        )
+    return buffer.tobytes()
+
+
+def frame_png(png_bytes: bytes, max_width_px: int | None) -> bytes:
+    """A stored frame, downscaled to `max_width_px` when wider (grey levels kept)."""
+    if max_width_px is None:
+        return png_bytes
+    image = cv2.imdecode(np.frombuffer(png_bytes, np.uint8), cv2.IMREAD_UNCHANGED)
+    return encode_png(_downscale(image, max_width_px, nearest=False))
+
+
+def mask_png(mask: np.ndarray, max_width_px: int | None) -> bytes:
+    """The stripe mask as an 8-bit PNG: 255 on the stripe, 0 elsewhere."""
+    image = np.where(mask, 255, 0).astype(np.uint8)
+    return encode_png(_downscale(image, max_width_px, nearest=True))
+
+
+def sigma_png(
+    sigma_map: np.ndarray, sigma_min_px: float, sigma_max_px: float, max_width_px: int | None
+) -> bytes:
+    """σ map coloured with `SIGMA_COLORMAP` over [sigma_min_px, sigma_max_px]; RGBA with
+    transparent pixels where no scale was chosen (σ = 0), so it overlays the frame."""
+    small = _downscale(sigma_map, max_width_px, nearest=True)
+    span = max(sigma_max_px - sigma_min_px, 1e-9)
+    unit = np.clip((small - sigma_min_px) / span, 0.0, 1.0)
+    rgba = (colormaps[SIGMA_COLORMAP](unit) * 255).astype(np.uint8)
+    rgba[..., 3] = np.where(small > 0, 255, 0)
+    return encode_png(cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGRA))
+
+
+def sigma_scale(sigma_map: np.ndarray) -> tuple[float, float]:
+    """(min, max) of the chosen scales [px] (0 = none chosen is left out)."""
+    chosen = sigma_map[sigma_map > 0]
+    if chosen.size == 0:
+        return 0.0, 0.0
+    return float(chosen.min()), float(chosen.max())

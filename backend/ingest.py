@@ -1,0 +1,202 @@
+"""Ingest of an uploaded pass archive: validate everything, then store it in one go.
+
+Nothing is stored before the whole archive has been validated (zip safety, manifest,
+calibration, every frame decoded and checked against its sensor's calibration). Frames go
+into the content-addressed store, rows into one transaction; a repeated upload of the same
+archive (same sha256) returns the pass already made from it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import tempfile
+from pathlib import Path
+from typing import BinaryIO
+
+from sqlalchemy import select
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+from backend.auth import record_audit
+from backend.config import Settings
+from backend.errors import InvalidInputError, PayloadTooLargeError
+from backend.sites import add_calibration_version, current_calibration, get_or_create_site
+from backend.storage import BlobStore
+from backend.wheels import create_job, get_or_create_wheel
+from db.models import ApiToken, Frame, Job, Pass, PassWheel, Site
+from pipeline.archive import ArchiveLimits, PassArchive, read_pass_archive
+from pipeline.calibration import parse_calibration
+from pipeline.errors import ArchiveError
+from pipeline.manifest import WheelEntry
+
+COPY_CHUNK_BYTES = 1024 * 1024
+
+
+def archive_limits(settings: Settings) -> ArchiveLimits:
+    """Zip safety limits from the settings."""
+    return ArchiveLimits(
+        max_members=settings.max_archive_members,
+        max_member_bytes=settings.max_frame_bytes,
+        max_total_bytes=settings.max_uncompressed_bytes,
+        max_compression_ratio=settings.max_compression_ratio,
+    )
+
+
+def receive_upload(stream: BinaryIO, settings: Settings) -> tuple[Path, str]:
+    """Copy an upload into a private temporary file, enforcing the size limit.
+
+    Returns the file's path and the sha256 of its bytes; the caller removes the file.
+    """
+    incoming = settings.data_dir / "incoming"
+    incoming.mkdir(parents=True, exist_ok=True)
+    digest = hashlib.sha256()
+    handle = tempfile.NamedTemporaryFile(dir=incoming, suffix=".zip", delete=False)
+    size_bytes = 0
+    with handle:
+        while chunk := stream.read(COPY_CHUNK_BYTES):
+            size_bytes += len(chunk)
+            if size_bytes > settings.max_upload_bytes:
+                handle.close()
+                Path(handle.name).unlink(missing_ok=True)
+                raise PayloadTooLargeError(
+                    f"upload is larger than {settings.max_upload_bytes} bytes; "
+                    "split the pass or raise WHEELSCAN_MAX_UPLOAD_BYTES"
+                )
+            digest.update(chunk)
+            handle.write(chunk)
+    if size_bytes == 0:
+        Path(handle.name).unlink(missing_ok=True)
+        raise InvalidInputError("the uploaded file is empty; send a wheelscan-pass/1 zip")
+    return Path(handle.name), digest.hexdigest()
+
+
+def existing_upload(session: Session, archive_sha256: str) -> tuple[Pass, Job] | None:
+    """The pass (and its job) already made from the archive with this sha256, if any."""
+    train_pass = session.scalar(select(Pass).where(Pass.archive_sha256 == archive_sha256))
+    if train_pass is None:
+        return None
+    job = session.scalars(
+        select(Job).where(Job.pass_id == train_pass.id).order_by(Job.id).limit(1)
+    ).one()
+    return train_pass, job
+
+
+def validate_archive(session: Session, path: Path, settings: Settings) -> PassArchive:
+    """Fully validate an archive (no side effects); InvalidInputError says what to fix."""
+    limits = archive_limits(settings)
+    try:
+        archive = read_pass_archive(path, decode_frames=False, limits=limits)
+        if not archive.has_own_calibration:
+            site = session.scalar(select(Site).where(Site.name == archive.manifest.site))
+            registered = current_calibration(session, site) if site is not None else None
+            if registered is None:
+                raise InvalidInputError(
+                    f"site {archive.manifest.site!r} has no registered calibration: put "
+                    "calibration.json in the archive or register one "
+                    f"(POST /api/sites/{archive.manifest.site}/calibrations)"
+                )
+            site_calibration = parse_calibration(registered.document)
+        else:
+            site_calibration = None
+        return read_pass_archive(
+            path, site_calibration=site_calibration, decode_frames=True, limits=limits
+        )
+    except ArchiveError as exc:
+        raise InvalidInputError(f"pass archive: {exc}") from None
+
+
+def store_archive(
+    session: Session,
+    store: BlobStore,
+    archive: PassArchive,
+    archive_sha256: str,
+    token: ApiToken | None,
+) -> tuple[Pass, Job, list[int]]:
+    """Store a validated archive: frames, pass, wheels (queued) and job, then commit.
+
+    Returns the pass, its job and the ids of the pass wheels to measure. A concurrent upload
+    of the same archive that committed first wins; its pass is returned instead.
+    """
+    manifest = archive.manifest
+    site = get_or_create_site(session, manifest.site)
+    if archive.has_own_calibration:
+        calibration = add_calibration_version(
+            session, site, archive.calibration, registered=False, note="from an uploaded archive"
+        )
+    else:
+        calibration = current_calibration(session, site)
+    train_pass = Pass(
+        site_id=site.id,
+        calibration_id=calibration.id,
+        started_at=manifest.started_at,
+        direction=manifest.direction,
+        speed_kmh=manifest.speed_kmh,
+        source="upload",
+        archive_sha256=archive_sha256,
+        state="closed",
+        frames_per_sensor=max(
+            len(w.frames(p)) for w in manifest.wheels for p in ("inner", "outer")
+        ),
+        vehicles=list(manifest.vehicles),
+    )
+    session.add(train_pass)
+    session.flush()
+    train_pass.closed_at = train_pass.created_at
+    next_seq: dict[str, int] = {}
+    pass_wheel_ids = []
+    for entry in manifest.wheels:
+        wheel = get_or_create_wheel(session, entry.vehicle_id, entry.axle, entry.side)
+        pass_wheel = PassWheel(pass_id=train_pass.id, wheel_id=wheel.id, state="queued")
+        session.add(pass_wheel)
+        for position in ("inner", "outer"):
+            sensor = entry.sensor_name(position)
+            for path in entry.frames(position):
+                _add_frame(session, store, archive, train_pass, entry, sensor, path, next_seq)
+        session.flush()
+        pass_wheel_ids.append(pass_wheel.id)
+    job = create_job(session, train_pass, wheels_total=len(pass_wheel_ids))
+    record_audit(session, token, "pass.upload", "pass", train_pass.id, {"sha256": archive_sha256})
+    try:
+        session.commit()
+    except IntegrityError:
+        session.rollback()
+        found = existing_upload(session, archive_sha256)
+        if found is None:
+            raise
+        return found[0], found[1], []
+    return train_pass, job, pass_wheel_ids
+
+
+def _add_frame(
+    session: Session,
+    store: BlobStore,
+    archive: PassArchive,
+    train_pass: Pass,
+    entry: WheelEntry,
+    sensor: str,
+    path: str,
+    next_seq: dict[str, int],
+) -> None:
+    data = archive.frame_bytes(path)
+    sha256 = store.put(data, ".png")
+    calibration = archive.calibration.sensor(sensor)
+    seq = next_seq.get(sensor, 0)
+    next_seq[sensor] = seq + 1
+    session.add(
+        Frame(
+            pass_id=train_pass.id,
+            sensor=sensor,
+            seq=seq,
+            sha256=sha256,
+            vehicle_id=entry.vehicle_id,
+            axle=entry.axle,
+            width_px=calibration.image_width_px,
+            height_px=calibration.image_height_px,
+            bit_depth=calibration.bit_depth,
+        )
+    )
+
+
+def discard(path: Path) -> None:
+    """Remove a received upload (after storing or refusing it)."""
+    path.unlink(missing_ok=True)

@@ -1,0 +1,118 @@
+"""Fleet alarm limits: defaults, lookup, and the comparison of wheel parameters with them.
+
+EN defaults (issue 5): flange height Sh 27.5–36 mm, flange thickness Sd 22–33 mm measured at
+the EN height of 10 mm, qR ≥ 6.5 mm, back-to-back 1357–1363 mm. LM defaults follow the
+operator's rules for LM-profile wheelsets (Sd measured at 12 mm; wheelset inner distance
+1353 ± 3 mm); both are editable per fleet through the API.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from db.models import FleetLimit
+
+WHEEL_PROFILES = ("EN", "LM")
+
+DEFAULT_LIMITS_MM: dict[str, dict[str, float]] = {
+    "EN": {
+        "flange_height_min_mm": 27.5,
+        "flange_height_max_mm": 36.0,
+        "flange_thickness_min_mm": 22.0,
+        "flange_thickness_max_mm": 33.0,
+        "qr_min_mm": 6.5,
+        "back_to_back_min_mm": 1357.0,
+        "back_to_back_max_mm": 1363.0,
+    },
+    "LM": {
+        "flange_height_min_mm": 25.0,
+        "flange_height_max_mm": 33.0,
+        "flange_thickness_min_mm": 23.0,
+        "flange_thickness_max_mm": 34.0,
+        "qr_min_mm": 6.5,
+        "back_to_back_min_mm": 1350.0,
+        "back_to_back_max_mm": 1356.0,
+    },
+}
+
+REFERENCE_PROFILE_FAMILY = {"S1002": "EN", "LMA": "LM", "LM": "LM"}
+
+LIMIT_FIELDS = tuple(DEFAULT_LIMITS_MM["EN"])
+
+
+@dataclass(frozen=True, slots=True)
+class Alarm:
+    """One parameter outside its limit."""
+
+    parameter: str
+    value_mm: float
+    bound: str
+    limit_mm: float
+
+    def as_dict(self) -> dict[str, Any]:
+        word = "below" if self.bound == "min" else "above"
+        return {
+            "parameter": self.parameter,
+            "value_mm": self.value_mm,
+            "bound": self.bound,
+            "limit_mm": self.limit_mm,
+            "message": f"{self.parameter} {self.value_mm:.2f} mm is {word} {self.limit_mm:g} mm",
+        }
+
+
+def profile_family(reference_profile: str | None) -> str:
+    """EN or LM: which limit set applies to a wheel measured against `reference_profile`."""
+    return REFERENCE_PROFILE_FAMILY.get((reference_profile or "").upper(), "EN")
+
+
+def ensure_default_limits(session: Session, fleet: str = "default") -> None:
+    """Insert the default limits of `fleet` where it has none yet (never overwrites edits)."""
+    present = set(
+        session.scalars(select(FleetLimit.wheel_profile).where(FleetLimit.fleet == fleet))
+    )
+    for family in WHEEL_PROFILES:
+        if family not in present:
+            session.add(FleetLimit(fleet=fleet, wheel_profile=family, **DEFAULT_LIMITS_MM[family]))
+    session.flush()
+
+
+def limits_for(session: Session, fleet: str, family: str) -> dict[str, float]:
+    """The limits of `fleet` for a profile family, falling back to the defaults."""
+    row = session.scalar(
+        select(FleetLimit).where(FleetLimit.fleet == fleet, FleetLimit.wheel_profile == family)
+    )
+    if row is None:
+        return dict(DEFAULT_LIMITS_MM[family])
+    return {name: getattr(row, name) for name in LIMIT_FIELDS}
+
+
+def evaluate_alarms(
+    parameters_mm: dict[str, float | None], limits_mm: dict[str, float], family: str
+) -> list[dict[str, Any]]:
+    """Compare a wheel's parameters with limits; returns the alarms as plain dicts.
+
+    For EN limits the flange thickness compared is the one at the EN height (10 mm); for LM
+    limits the one at 12 mm. Missing parameters (None) raise no alarm.
+    """
+    thickness_key = "flange_thickness_en_mm" if family == "EN" else "flange_thickness_mm"
+    checks = [
+        ("flange_height_mm", parameters_mm.get("flange_height_mm"), "flange_height"),
+        ("flange_thickness_mm", parameters_mm.get(thickness_key), "flange_thickness"),
+        ("qr_mm", parameters_mm.get("qr_mm"), "qr"),
+        ("back_to_back_mm", parameters_mm.get("back_to_back_mm"), "back_to_back"),
+    ]
+    alarms: list[Alarm] = []
+    for name, value, stem in checks:
+        if value is None:
+            continue
+        low = limits_mm.get(f"{stem}_min_mm")
+        high = limits_mm.get(f"{stem}_max_mm")
+        if low is not None and value < low:
+            alarms.append(Alarm(name, float(value), "min", low))
+        if high is not None and value > high:
+            alarms.append(Alarm(name, float(value), "max", high))
+    return [alarm.as_dict() for alarm in alarms]

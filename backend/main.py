@@ -1,0 +1,68 @@
+"""The FastAPI application: create_app() wires settings, database, store, runner and routes."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI
+from fastapi.staticfiles import StaticFiles
+
+from backend.config import Settings, get_settings
+from backend.errors import install_error_handlers
+from backend.limits import ensure_default_limits
+from backend.routes import ROUTERS
+from backend.runner import ProcessPoolRunner, TaskRunner
+from backend.storage import BlobStore
+from db.engine import make_engine, make_session_factory, upgrade_database
+
+logger = logging.getLogger(__name__)
+
+
+def create_app(settings: Settings | None = None, runner: TaskRunner | None = None) -> FastAPI:
+    """Build the service: migrate the database, then serve the API and the front end.
+
+    Parameters
+    ----------
+    settings : Settings, optional
+        Defaults to the process settings (environment variables).
+    runner : TaskRunner, optional
+        Where per-wheel tasks run; defaults to a process pool of `settings.workers`.
+    """
+    settings = settings or get_settings()
+    settings.data_dir.mkdir(parents=True, exist_ok=True)
+    engine = make_engine(settings.resolved_database_url)
+    upgrade_database(engine)
+    session_factory = make_session_factory(engine)
+    with session_factory() as session:
+        ensure_default_limits(session)
+        session.commit()
+    task_runner = runner or ProcessPoolRunner(settings, session_factory)
+
+    @asynccontextmanager
+    async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
+        resumed = task_runner.resume()
+        if resumed:
+            logger.info("resumed %d interrupted wheel measurement(s)", resumed)
+        yield
+        task_runner.shutdown()
+        engine.dispose()
+
+    app = FastAPI(
+        title="wheelscan",
+        summary="Wayside railway wheel profile measurement: passes, wheels, jobs and reports.",
+        version="0.1.0",
+        lifespan=lifespan,
+    )
+    app.state.settings = settings
+    app.state.engine = engine
+    app.state.session_factory = session_factory
+    app.state.store = BlobStore(settings.frames_dir)
+    app.state.runner = task_runner
+    install_error_handlers(app)
+    for router in ROUTERS:
+        app.include_router(router)
+    if settings.frontend_dir.is_dir():
+        app.mount("/", StaticFiles(directory=settings.frontend_dir, html=True), name="frontend")
+    return app

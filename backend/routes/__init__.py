@@ -1,0 +1,29 @@
+"""HTTP routes, one module per resource (plural nouns)."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter
+
+from backend.routes import (
+    calibrations,
+    health,
+    jobs,
+    limits,
+    passes,
+    reports,
+    streams,
+    tokens,
+    wheels,
+)
+
+ROUTERS: list[APIRouter] = [
+    health.router,
+    tokens.router,
+    calibrations.router,
+    limits.router,
+    passes.router,
+    streams.router,
+    jobs.router,
+    wheels.router,
+    reports.router,
+]

@@ -1,0 +1,54 @@
+"""API tokens (admin): create, list, revoke."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, status
+from sqlalchemy import select
+
+from backend.auth import create_token, record_audit
+from backend.deps import AdminDep, SessionDep, ViewerDep
+from backend.errors import NotFoundError
+from backend.schemas import Me, TokenCreate, TokenCreated, TokenRead
+from db.models import ApiToken
+from db.types import utc_now
+
+router = APIRouter(prefix="/api", tags=["tokens"])
+
+
+@router.get("/me")
+def get_me(viewer: ViewerDep) -> Me:
+    """The role and name of the presented token (any role)."""
+    return Me(role=viewer.role, name=viewer.name, prefix=viewer.prefix)
+
+
+@router.get("/tokens")
+def list_tokens(session: SessionDep, _admin: AdminDep) -> list[TokenRead]:
+    """Every token (never the secret itself), newest first."""
+    rows = session.scalars(select(ApiToken).order_by(ApiToken.id.desc()))
+    return [TokenRead.model_validate(row) for row in rows]
+
+
+@router.post("/tokens", status_code=status.HTTP_201_CREATED)
+def post_token(body: TokenCreate, session: SessionDep, admin: AdminDep) -> TokenCreated:
+    """Create a token; the response is the only time its secret is shown."""
+    row, plaintext = create_token(
+        session, role=body.role, name=body.name, expires_at=body.expires_at
+    )
+    record_audit(session, admin, "token.create", "token", row.id, {"role": row.role})
+    session.commit()
+    return TokenCreated.model_validate(
+        {**TokenRead.model_validate(row).model_dump(), "token": plaintext}
+    )
+
+
+@router.delete("/tokens/{token_id}")
+def revoke_token(token_id: int, session: SessionDep, admin: AdminDep) -> TokenRead:
+    """Revoke a token at once (idempotent)."""
+    row = session.get(ApiToken, token_id)
+    if row is None:
+        raise NotFoundError(f"token {token_id} not found")
+    if row.revoked_at is None:
+        row.revoked_at = utc_now()
+        record_audit(session, admin, "token.revoke", "token", row.id)
+        session.commit()
+    return TokenRead.model_validate(row)

@@ -1,0 +1,42 @@
+"""The 3D view of a wheel: builds its viser scene and returns the URL the page embeds."""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from fastapi import APIRouter, Query, Request
+from fastapi.concurrency import run_in_threadpool
+from pydantic import BaseModel
+
+from backend.deps import PassWheelDep, SessionDep, SettingsDep, StoreDep, ViewerDep
+from backend.routes.passes import ERRORS
+from backend.viewer import WheelViewer, load_wheel_scene_data
+
+router = APIRouter(prefix="/api", tags=["3D viewer"])
+
+
+class ViewerRead(BaseModel):
+    """Where the 3D view of a wheel is served (embed `url` in an iframe)."""
+
+    url: str
+    wheel_id: int
+    method: str
+
+
+@router.get("/passes/{pass_id}/wheels/{wheel_id}/viewer", responses=ERRORS)
+async def get_wheel_viewer(
+    request: Request,
+    pass_wheel: PassWheelDep,
+    session: SessionDep,
+    store: StoreDep,
+    settings: SettingsDep,
+    _viewer: ViewerDep,
+    method: Annotated[Literal["adaptive", "steger"], Query()] = "adaptive",
+) -> ViewerRead:
+    """Show the wheel in the 3D viewer; returns the viewer's URL (for an iframe)."""
+    data = await run_in_threadpool(load_wheel_scene_data, session, store, pass_wheel, method)
+    viewer: WheelViewer = getattr(request.app.state, "viewer", None) or WheelViewer(settings)
+    request.app.state.viewer = viewer
+    port = await run_in_threadpool(viewer.show, data)
+    host = request.url.hostname or settings.viewer_host
+    return ViewerRead(url=f"http://{host}:{port}/", wheel_id=data.wheel_id, method=method)

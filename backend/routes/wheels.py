@@ -1,0 +1,277 @@
+"""Per-wheel data of a pass (frames, masks, σ maps, centres, profile) and wheel trends.
+
+Images are PNG (downscaled with `max_width`); centres and profiles are columnar JSON
+(equal-length arrays) that the browser draws directly.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+import numpy as np
+from fastapi import APIRouter, Query, Response
+from sqlalchemy import select
+
+from backend.artefacts import FrameArtefacts, load_artefacts
+from backend.deps import PassWheelDep, SessionDep, StoreDep, ViewerDep, WheelDep
+from backend.errors import NotFoundError
+from backend.images import SIGMA_COLORMAP, frame_png, mask_png, sigma_png, sigma_scale
+from backend.queries import METHODS, method_result, pass_wheels
+from backend.routes.passes import ERRORS
+from backend.schemas import CentresRead, PassWheelRead, ProfileRead, TrendPoint, WheelTrend
+from db.models import Frame, Measurement, MeasurementFrame, Pass, PassWheel
+from pipeline.reference import REFERENCE_PROFILES, load_reference_profile
+
+router = APIRouter(prefix="/api", tags=["wheels"])
+
+Position = Literal["inner", "outer"]
+Method = Literal["adaptive", "steger"]
+WHEEL = "/passes/{pass_id}/wheels/{wheel_id}"
+PNG = {200: {"content": {"image/png": {}}, "description": "PNG image"}, **ERRORS}
+MaxWidth = Annotated[int | None, Query(ge=16, le=8192, description="downscale to this width [px]")]
+FrameIndex = Annotated[int, Query(ge=0, description="frame of this sensor for the wheel, 0-based")]
+
+
+def _frame(session: SessionDep, pass_wheel: PassWheel, position: str, index: int) -> Frame:
+    wheel = pass_wheel.wheel
+    sensor = f"{wheel.side}_{position}"
+    frames = list(
+        session.scalars(
+            select(Frame)
+            .where(
+                Frame.pass_id == pass_wheel.pass_id,
+                Frame.vehicle_id == wheel.vehicle_id,
+                Frame.axle == wheel.axle,
+                Frame.sensor == sensor,
+            )
+            .order_by(Frame.seq)
+        )
+    )
+    if index >= len(frames):
+        raise NotFoundError(f"wheel has {len(frames)} {sensor} frame(s); index {index} is beyond")
+    return frames[index]
+
+
+def _measurement(pass_wheel: PassWheel, method: str) -> Measurement:
+    for measurement in pass_wheel.measurements:
+        if measurement.method == method:
+            return measurement
+    raise NotFoundError(
+        f"wheel {pass_wheel.wheel_id} of pass {pass_wheel.pass_id} has no {method} result "
+        f"(state: {pass_wheel.state.replace('_', ' ')})"
+    )
+
+
+def _artefacts(
+    session: SessionDep,
+    store: StoreDep,
+    pass_wheel: PassWheel,
+    method: str,
+    position: str,
+    index: int,
+) -> tuple[Frame, FrameArtefacts]:
+    frame = _frame(session, pass_wheel, position, index)
+    measurement = _measurement(pass_wheel, method)
+    row = session.scalar(
+        select(MeasurementFrame).where(
+            MeasurementFrame.measurement_id == measurement.id,
+            MeasurementFrame.sensor == frame.sensor,
+            MeasurementFrame.seq == frame.seq,
+        )
+    )
+    if row is None:
+        raise NotFoundError(
+            f"no {method} extraction is stored for {frame.sensor} frame {frame.seq}"
+        )
+    return frame, load_artefacts(store, row.artefact_sha256)
+
+
+@router.get(WHEEL, responses=ERRORS)
+def get_pass_wheel(
+    pass_wheel: PassWheelDep, session: SessionDep, _viewer: ViewerDep
+) -> PassWheelRead:
+    """One wheel of a pass: identity, state, parameters per method, alarms."""
+    rows = pass_wheels(session, pass_wheel.train_pass)
+    return next(row for row in rows if row.wheel_id == pass_wheel.wheel_id)
+
+
+@router.get(WHEEL + "/frames/{position}.png", response_class=Response, responses=PNG)
+def get_frame_png(
+    position: Position,
+    pass_wheel: PassWheelDep,
+    session: SessionDep,
+    store: StoreDep,
+    _viewer: ViewerDep,
+    index: FrameIndex = 0,
+    max_width: MaxWidth = None,
+) -> Response:
+    """A frame of the wheel's inner or outer sensor as PNG (8/16-bit grey as recorded)."""
+    frame = _frame(session, pass_wheel, position, index)
+    data = frame_png(store.get(frame.sha256, ".png"), max_width)
+    return Response(data, media_type="image/png", headers={"X-Frame-Sha256": frame.sha256})
+
+
+@router.get(WHEEL + "/mask/{position}.png", response_class=Response, responses=PNG)
+def get_mask_png(
+    position: Position,
+    pass_wheel: PassWheelDep,
+    session: SessionDep,
+    store: StoreDep,
+    _viewer: ViewerDep,
+    method: Method = "adaptive",
+    index: FrameIndex = 0,
+    max_width: MaxWidth = None,
+) -> Response:
+    """The stripe mask the method searched centres in (255 = stripe)."""
+    _frame_row, artefacts = _artefacts(session, store, pass_wheel, method, position, index)
+    return Response(mask_png(artefacts.mask, max_width), media_type="image/png")
+
+
+def _sigma_map(artefacts: FrameArtefacts, method: str) -> np.ndarray:
+    if artefacts.sigma_map is None:
+        raise NotFoundError(f"the {method} method uses one fixed σ and has no σ map")
+    return artefacts.sigma_map
+
+
+@router.get(WHEEL + "/sigma/{position}.png", response_class=Response, responses=PNG)
+def get_sigma_png(
+    position: Position,
+    pass_wheel: PassWheelDep,
+    session: SessionDep,
+    store: StoreDep,
+    _viewer: ViewerDep,
+    method: Method = "adaptive",
+    index: FrameIndex = 0,
+    max_width: MaxWidth = None,
+) -> Response:
+    """The σ map coloured (transparent where no scale was chosen). Its colour scale is in
+    the headers X-Colormap, X-Sigma-Min-Px and X-Sigma-Max-Px."""
+    _frame_row, artefacts = _artefacts(session, store, pass_wheel, method, position, index)
+    sigma_map = _sigma_map(artefacts, method)
+    low, high = sigma_scale(sigma_map)
+    return Response(
+        sigma_png(sigma_map, low, high, max_width),
+        media_type="image/png",
+        headers={
+            "X-Colormap": SIGMA_COLORMAP,
+            "X-Sigma-Min-Px": f"{low}",
+            "X-Sigma-Max-Px": f"{high}",
+        },
+    )
+
+
+@router.get(
+    WHEEL + "/sigma/{position}.f32",
+    response_class=Response,
+    responses={200: {"content": {"application/octet-stream": {}}}, **ERRORS},
+)
+def get_sigma_raw(
+    position: Position,
+    pass_wheel: PassWheelDep,
+    session: SessionDep,
+    store: StoreDep,
+    _viewer: ViewerDep,
+    method: Method = "adaptive",
+    index: FrameIndex = 0,
+) -> Response:
+    """The raw σ map [px]: row-major little-endian float32, 0 outside the mask; the size
+    is in the headers X-Width-Px and X-Height-Px (a Float32Array in the browser)."""
+    _frame_row, artefacts = _artefacts(session, store, pass_wheel, method, position, index)
+    sigma_map = _sigma_map(artefacts, method)
+    height_px, width_px = sigma_map.shape
+    return Response(
+        np.ascontiguousarray(sigma_map, "<f4").tobytes(),
+        media_type="application/octet-stream",
+        headers={"X-Width-Px": str(width_px), "X-Height-Px": str(height_px)},
+    )
+
+
+@router.get(WHEEL + "/centres/{position}", responses=ERRORS)
+def get_centres(
+    position: Position,
+    pass_wheel: PassWheelDep,
+    session: SessionDep,
+    store: StoreDep,
+    _viewer: ViewerDep,
+    method: Method = "adaptive",
+    index: FrameIndex = 0,
+) -> CentresRead:
+    """Centre points of one frame, columnar: x, y [px], sigma [px], strength, nx, ny."""
+    frame, artefacts = _artefacts(session, store, pass_wheel, method, position, index)
+    points = {name: np.round(values, 4).tolist() for name, values in artefacts.points.items()}
+    return CentresRead(
+        method=method,
+        sensor=frame.sensor,
+        seq=frame.seq,
+        width_px=frame.width_px,
+        height_px=frame.height_px,
+        count=len(points["x"]),
+        **points,
+    )
+
+
+@router.get(WHEEL + "/profile", responses=ERRORS)
+def get_profile(
+    pass_wheel: PassWheelDep, _viewer: ViewerDep, method: Method = "adaptive"
+) -> ProfileRead:
+    """The fused profile and its reference profile [mm], with the Sh/Sd/qR construction."""
+    measurement = _measurement(pass_wheel, method)
+    profile = measurement.profile or {}
+    reference = measurement.reference_profile
+    ref = load_reference_profile(reference) if reference in REFERENCE_PROFILES else None
+    result = method_result(measurement)
+    return ProfileRead(
+        method=method,
+        reference_profile=reference,
+        x_mm=profile.get("x_mm", []),
+        z_mm=profile.get("z_mm", []),
+        reference_x_mm=ref.x_mm.tolist() if ref else [],
+        reference_z_mm=ref.z_mm.tolist() if ref else [],
+        construction=profile.get("construction", {}),
+        parameters={
+            name: getattr(result, name)
+            for name in (
+                "flange_height_mm",
+                "flange_thickness_mm",
+                "flange_thickness_en_mm",
+                "qr_mm",
+                "back_to_back_mm",
+            )
+        },
+    )
+
+
+@router.get("/wheels/{wheel_id}/trend", responses=ERRORS)
+def get_trend(wheel: WheelDep, session: SessionDep, _viewer: ViewerDep) -> WheelTrend:
+    """One wheel across passes, oldest first: its parameters per method and alarms."""
+    rows = session.execute(
+        select(PassWheel, Pass)
+        .join(Pass, PassWheel.pass_id == Pass.id)
+        .where(PassWheel.wheel_id == wheel.id)
+        .order_by(Pass.started_at, Pass.id)
+    ).all()
+    points = [
+        TrendPoint(
+            pass_id=train_pass.id,
+            started_at=train_pass.started_at,
+            site=train_pass.site.name,
+            method=m.method,
+            status=m.status,
+            flange_height_mm=m.flange_height_mm,
+            flange_thickness_mm=m.flange_thickness_mm,
+            flange_thickness_en_mm=m.flange_thickness_en_mm,
+            qr_mm=m.qr_mm,
+            back_to_back_mm=m.back_to_back_mm,
+            alarm_count=m.alarm_count,
+        )
+        for pass_wheel, train_pass in rows
+        for m in pass_wheel.measurements
+        if m.method in METHODS
+    ]
+    return WheelTrend(
+        wheel_id=wheel.id,
+        vehicle_id=wheel.vehicle_id,
+        axle=wheel.axle,
+        side=wheel.side,
+        points=points,
+    )

@@ -1,0 +1,119 @@
+"""Where per-wheel tasks run: a process pool inside the server (the default).
+
+A runner only decides *where* `backend.tasks.measure_pass_wheel` runs; the task itself
+claims its wheel in the database, so any runner (this pool, or Celery workers started by
+the scale-out configuration) can call the same function without measuring a wheel twice.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+from collections.abc import Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from threading import Lock
+from typing import Protocol
+
+from sqlalchemy import select, update
+from sqlalchemy.orm import Session, sessionmaker
+
+from backend.config import Settings
+from backend.tasks import measure_pass_wheel, record_wheel_crash
+from backend.wheels import refresh_job
+from db.models import Job, PassWheel
+
+logger = logging.getLogger(__name__)
+
+
+class TaskRunner(Protocol):
+    """What the service needs from a runner."""
+
+    def submit(self, pass_wheel_ids: Sequence[int]) -> None:
+        """Run the measurement of these pass wheels (already in state "queued")."""
+
+    def resume(self) -> int:
+        """After a restart: queue again what was interrupted; returns how many wheels."""
+
+    def shutdown(self) -> None:
+        """Stop taking work; what did not finish is resumed by the next start."""
+
+
+class ProcessPoolRunner:
+    """Per-wheel tasks in a pool of worker processes of this server.
+
+    Workers are started with "spawn" (no fork of a threaded server) and only when the
+    first task arrives. A worker that dies hard (segfault, out of memory) breaks the
+    pool: its wheel is recorded as failed and a new pool takes over.
+    """
+
+    def __init__(self, settings: Settings, session_factory: sessionmaker[Session]) -> None:
+        self._settings = settings
+        self._session_factory = session_factory
+        self._lock = Lock()
+        self._executor: ProcessPoolExecutor | None = None
+
+    def _pool(self) -> ProcessPoolExecutor:
+        with self._lock:
+            if self._executor is None:
+                self._executor = ProcessPoolExecutor(
+                    max_workers=self._settings.workers,
+                    mp_context=multiprocessing.get_context("spawn"),
+                )
+            return self._executor
+
+    def submit(self, pass_wheel_ids: Sequence[int]) -> None:
+        for pass_wheel_id in pass_wheel_ids:
+            self._submit_one(pass_wheel_id)
+
+    def _submit_one(self, pass_wheel_id: int) -> None:
+        future = self._pool().submit(
+            measure_pass_wheel,
+            pass_wheel_id,
+            self._settings.resolved_database_url,
+            str(self._settings.data_dir),
+        )
+        future.add_done_callback(lambda done: self._finished(pass_wheel_id, done))
+
+    def _finished(self, pass_wheel_id: int, future: Future[str]) -> None:
+        if future.cancelled():
+            return
+        error = future.exception()
+        if error is None:
+            return
+        if isinstance(error, BrokenProcessPool):
+            with self._lock:
+                self._executor = None
+        logger.error("pass wheel %d: task ended with %r", pass_wheel_id, error)
+        try:
+            with self._session_factory() as session:
+                record_wheel_crash(session, pass_wheel_id, f"worker crashed: {error!r}")
+        except Exception:
+            logger.exception("pass wheel %d: could not record the crash", pass_wheel_id)
+
+    def resume(self) -> int:
+        with self._session_factory() as session:
+            session.execute(
+                update(PassWheel).where(PassWheel.state == "running").values(state="queued")
+            )
+            session.commit()
+            queued = list(
+                session.scalars(
+                    select(PassWheel.id).where(PassWheel.state == "queued").order_by(PassWheel.id)
+                )
+            )
+            unfinished = list(session.scalars(select(Job.pass_id).where(Job.state != "done")))
+        self.submit(queued)
+        if unfinished:
+            with self._session_factory() as session:
+                for pass_id in unfinished:
+                    refresh_job(session, pass_id)
+        return len(queued)
+
+    def shutdown(self) -> None:
+        """Cancel queued tasks (they stay "queued" and resume on the next start) and wait
+        for the wheels being measured right now."""
+        with self._lock:
+            executor, self._executor = self._executor, None
+        if executor is not None:
+            executor.shutdown(wait=True, cancel_futures=True)

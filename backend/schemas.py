@@ -1,0 +1,306 @@
+"""Pydantic request and response models of the HTTP API (units in the field names)."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any, Generic, Literal, TypeVar
+
+from pydantic import AwareDatetime, BaseModel, ConfigDict, Field
+
+Role = Literal["viewer", "operator", "admin"]
+Side = Literal["left", "right"]
+Sensor = Literal["left_inner", "left_outer", "right_inner", "right_outer"]
+
+
+class ORMModel(BaseModel):
+    model_config = ConfigDict(from_attributes=True)
+
+
+class ErrorRead(BaseModel):
+    detail: str
+    code: str
+
+
+class Health(BaseModel):
+    status: Literal["ok"]
+    database: str
+    pipeline_version: str
+    version: str
+
+
+class Me(BaseModel):
+    """Who the presented token is."""
+
+    role: Role
+    name: str
+    prefix: str
+
+
+class TokenCreate(BaseModel):
+    role: Role
+    name: str = Field(min_length=1, max_length=100)
+    expires_at: AwareDatetime | None = None
+
+
+class TokenRead(ORMModel):
+    id: int
+    name: str
+    role: Role
+    prefix: str
+    created_at: datetime
+    expires_at: datetime | None
+    revoked_at: datetime | None
+
+
+class TokenCreated(TokenRead):
+    token: str = Field(description="the bearer token; shown only once")
+
+
+class SiteCreate(BaseModel):
+    name: str = Field(min_length=1, max_length=100, pattern=r"^[^/]+$")
+
+
+class SiteRead(ORMModel):
+    id: int
+    name: str
+    created_at: datetime
+    current_calibration_version: int | None = None
+
+
+class CalibrationCreate(BaseModel):
+    document: dict[str, Any] = Field(description="a wheelscan-calibration/1 object")
+    note: str | None = Field(default=None, max_length=1000)
+
+
+class CalibrationRead(ORMModel):
+    id: int
+    site_id: int
+    version: int
+    sha256: str
+    note: str | None
+    registered: bool
+    created_at: datetime
+    document: dict[str, Any]
+
+
+class LimitsRead(ORMModel):
+    fleet: str
+    wheel_profile: Literal["EN", "LM"]
+    flange_height_min_mm: float
+    flange_height_max_mm: float
+    flange_thickness_min_mm: float
+    flange_thickness_max_mm: float
+    qr_min_mm: float
+    back_to_back_min_mm: float
+    back_to_back_max_mm: float
+    updated_at: datetime
+
+
+class LimitsUpdate(BaseModel):
+    flange_height_min_mm: float = Field(gt=0, lt=100)
+    flange_height_max_mm: float = Field(gt=0, lt=100)
+    flange_thickness_min_mm: float = Field(gt=0, lt=100)
+    flange_thickness_max_mm: float = Field(gt=0, lt=100)
+    qr_min_mm: float = Field(gt=0, lt=100)
+    back_to_back_min_mm: float = Field(gt=1000, lt=2000)
+    back_to_back_max_mm: float = Field(gt=1000, lt=2000)
+
+
+class PassAccepted(BaseModel):
+    pass_id: int
+    job_id: int
+
+
+class StreamOpen(BaseModel):
+    site: str = Field(min_length=1, max_length=100)
+    started_at: AwareDatetime
+    direction: str | None = Field(default=None, max_length=40)
+    speed_kmh: float | None = Field(default=None, ge=0, le=500)
+    frames_per_sensor: int = Field(default=1, ge=1, le=1000)
+    calibration: dict[str, Any] | None = None
+
+
+class FramePut(BaseModel):
+    sha256: str
+    wheel_complete: bool
+
+
+class FrameRead(ORMModel):
+    sensor: Sensor
+    seq: int
+    sha256: str
+    vehicle_id: str
+    axle: int
+
+
+class MissingSensor(BaseModel):
+    vehicle_id: str = Field(min_length=1, max_length=100)
+    axle: int = Field(ge=0)
+    side: Side
+    sensor: Sensor
+    reason: str = Field(min_length=1, max_length=500)
+
+
+class WheelStateRead(BaseModel):
+    vehicle_id: str
+    axle: int
+    side: Side
+    state: str
+    reason: str | None
+
+
+class JobRead(ORMModel):
+    id: int
+    kind: str
+    pass_id: int
+    state: str
+    progress: float
+    wheels_total: int
+    wheels_done: int
+    error: str | None
+    pipeline_version: str
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None
+
+
+class JobProgress(BaseModel):
+    job_id: int
+    pass_id: int
+    state: str
+    progress: float
+    wheels_done: int
+    wheels_total: int
+
+
+class PassSummary(BaseModel):
+    id: int
+    site: str
+    started_at: datetime
+    direction: str | None
+    speed_kmh: float | None
+    fleet: str
+    source: Literal["upload", "stream"]
+    state: Literal["open", "closed"]
+    calibration_version: int
+    vehicles: list[str]
+    wheels_total: int
+    wheels_measured: int
+    wheels_not_measured: int
+    alarm_count: int
+    job: JobProgress | None
+
+
+ItemT = TypeVar("ItemT")
+
+
+class Page(BaseModel, Generic[ItemT]):
+    items: list[ItemT]
+    total: int
+    offset: int
+    limit: int
+
+
+class MethodResult(BaseModel):
+    method: str
+    status: str
+    reason: str | None
+    flange_height_mm: float | None
+    flange_thickness_mm: float | None
+    flange_thickness_en_mm: float | None
+    qr_mm: float | None
+    back_to_back_mm: float | None
+    reference_profile: str | None
+    sigma_mean_px: float | None
+    sigma_min_px: float | None
+    sigma_max_px: float | None
+    point_count: int
+    quality: dict[str, Any]
+    alarms: list[dict[str, Any]]
+    pipeline_version: str
+
+
+class PassWheelRead(BaseModel):
+    wheel_id: int
+    vehicle_id: str
+    axle: int
+    side: Side
+    state: str
+    reason: str | None
+    missing_sensors: list[str]
+    frames: dict[str, int] = Field(description="frame count per sensor")
+    results: list[MethodResult]
+    alarm_count: int
+
+
+class CentresRead(BaseModel):
+    """Columnar centre points of one frame: equal-length arrays, ready to draw."""
+
+    method: str
+    sensor: Sensor
+    seq: int
+    width_px: int
+    height_px: int
+    count: int
+    x: list[float]
+    y: list[float]
+    sigma: list[float]
+    strength: list[float]
+    nx: list[float]
+    ny: list[float]
+
+
+class SigmaMapRead(BaseModel):
+    method: str
+    sensor: Sensor
+    seq: int
+    width_px: int
+    height_px: int
+    sigma_min_px: float
+    sigma_max_px: float
+    values: list[list[float | None]] = Field(description="σ [px] per pixel row; null outside")
+
+
+class ProfileRead(BaseModel):
+    """Fused profile and reference, columnar [mm], with the parameter construction points."""
+
+    method: str
+    reference_profile: str | None
+    x_mm: list[float]
+    z_mm: list[float]
+    reference_x_mm: list[float]
+    reference_z_mm: list[float]
+    construction: dict[str, Any]
+    parameters: dict[str, float | None]
+
+
+class TrendPoint(BaseModel):
+    pass_id: int
+    started_at: datetime
+    site: str
+    method: str
+    status: str
+    flange_height_mm: float | None
+    flange_thickness_mm: float | None
+    flange_thickness_en_mm: float | None
+    qr_mm: float | None
+    back_to_back_mm: float | None
+    alarm_count: int
+
+
+class WheelTrend(BaseModel):
+    wheel_id: int
+    vehicle_id: str
+    axle: int
+    side: Side
+    points: list[TrendPoint]
+
+
+class AuditRead(ORMModel):
+    id: int
+    at: datetime
+    actor: str
+    action: str
+    target_type: str
+    target_id: str | None
+    detail: dict[str, Any]

@@ -1,0 +1,77 @@
+"""Wheel identities, pass wheels and jobs: the rows the ingest paths and the tasks share."""
+
+from __future__ import annotations
+
+from sqlalchemy import func, select, update
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+from db.models import TERMINAL_WHEEL_STATES, Job, Pass, PassWheel, Wheel
+from db.types import utc_now
+from pipeline import PIPELINE_VERSION
+
+
+def get_or_create_wheel(session: Session, vehicle_id: str, axle: int, side: str) -> Wheel:
+    """The wheel (vehicle_id, axle, side), created when first seen (race-safe)."""
+    query = select(Wheel).where(
+        Wheel.vehicle_id == vehicle_id, Wheel.axle == axle, Wheel.side == side
+    )
+    wheel = session.scalar(query)
+    if wheel is not None:
+        return wheel
+    try:
+        with session.begin_nested():
+            wheel = Wheel(vehicle_id=vehicle_id, axle=axle, side=side)
+            session.add(wheel)
+    except IntegrityError:
+        wheel = session.scalars(query).one()
+    return wheel
+
+
+def create_job(session: Session, train_pass: Pass, *, wheels_total: int) -> Job:
+    """A measurement job for `train_pass` (queued until its first wheel starts)."""
+    job = Job(
+        kind="measure_pass",
+        pass_id=train_pass.id,
+        state="queued",
+        wheels_total=wheels_total,
+        pipeline_version=PIPELINE_VERSION,
+    )
+    session.add(job)
+    session.flush()
+    return job
+
+
+def refresh_job(session: Session, pass_id: int) -> Job:
+    """Recount a pass's job from its wheels and commit; the job is done when the pass is
+    closed and every wheel is measured, not measured or failed.
+
+    The job row is locked first (PostgreSQL) and the counts are taken in one UPDATE, so
+    concurrent workers finishing wheels of the same pass never write a stale count.
+    """
+    job = session.scalars(
+        select(Job).where(Job.pass_id == pass_id).order_by(Job.id).limit(1).with_for_update()
+    ).one()
+    total = select(func.count(PassWheel.id)).where(PassWheel.pass_id == pass_id)
+    done = total.where(PassWheel.state.in_(TERMINAL_WHEEL_STATES))
+    started = total.where(PassWheel.state != "receiving").where(PassWheel.state != "queued")
+    session.execute(
+        update(Job)
+        .where(Job.id == job.id)
+        .values(
+            wheels_total=total.scalar_subquery(),
+            wheels_done=done.scalar_subquery(),
+            updated_at=utc_now(),
+        )
+    )
+    session.refresh(job)
+    now = utc_now()
+    job.progress = job.wheels_done / job.wheels_total if job.wheels_total else 0.0
+    pass_closed = session.scalar(select(Pass.state).where(Pass.id == pass_id)) == "closed"
+    if job.state == "queued" and (session.scalar(started) or 0) > 0:
+        job.state, job.started_at = "running", now
+    if pass_closed and job.wheels_done == job.wheels_total and job.state != "done":
+        job.state, job.finished_at, job.progress = "done", now, 1.0
+        job.started_at = job.started_at or now
+    session.commit()
+    return job
