@@ -27,16 +27,17 @@ pixels; the frame pixel holding the predicted centre and its 8 neighbours become
 
 @dataclass(frozen=True, slots=True, eq=False)
 class LevelResponse:
-    """What one scale says about the frame: V and σ²|λ1| on its level grid, centre hints.
+    """What one scale says about the frame: V, ridge-peak strength and centre hints.
 
-    `response` and `strength` (float32, level grid) are 0 where λ1 ≥ 0 or the structure is
-    too weak to matter; `hints` (bool, frame grid) marks frame pixels that may hold a centre
-    at this scale.
+    `response` (float32, level grid) is V, 0 where λ1 ≥ 0 or the structure is too weak to
+    matter; `peak_strength` (float32, level grid) is C = σ²|λ1| [grey levels] max-filtered
+    across the stripe, the value at the ridge; `hints` (bool, frame grid) marks frame pixels
+    that may hold a centre at this scale.
     """
 
     level: ScaleLevel
     response: np.ndarray
-    strength: np.ndarray
+    peak_strength: np.ndarray
     hints: np.ndarray
 
 
@@ -109,8 +110,22 @@ def _centre_hints(level: ScaleLevel, index: np.ndarray, lines: LineAnalysis, sha
     return cv2.dilate(hints, np.ones((3, 3), np.uint8)).astype(bool)
 
 
-def analyse_level(level: ScaleLevel, *, c_grey: float, shape: tuple[int, int]) -> LevelResponse:
-    """Ridge response, scale-normalised strength and centre hints of one scale.
+def analyse_level(
+    level: ScaleLevel, *, c_grey: float, shape: tuple[int, int], peak_reach_px: float
+) -> LevelResponse:
+    """Ridge response, ridge-peak strength and centre hints of one scale.
+
+    Parameters
+    ----------
+    level : ScaleLevel
+        Derivatives of the scale.
+    c_grey : float
+        Structure constant of the ridge response [grey levels].
+    shape : tuple of int
+        Frame shape (M, N).
+    peak_reach_px : float
+        Half-size [px] of the square over which C = σ²|λ1| is max-filtered: about half the
+        widest stripe, so every pixel of a stripe's cross-section sees the value at its ridge.
 
     Notes
     -----
@@ -132,8 +147,10 @@ def analyse_level(level: ScaleLevel, *, c_grey: float, shape: tuple[int, int]) -
         lines.lambda1 * sigma2, lines.lambda2 * sigma2, c_grey=c_grey
     )
     strength.flat[index] = -sigma2 * np.minimum(lines.lambda1, 0)
+    half = max(1, round(peak_reach_px / level.stride))
+    peak = cv2.dilate(strength, np.ones((2 * half + 1, 2 * half + 1), np.uint8))
     hints = _centre_hints(level, index, lines, shape)
-    return LevelResponse(level=level, response=response, strength=strength, hints=hints)
+    return LevelResponse(level=level, response=response, peak_strength=peak, hints=hints)
 
 
 def analyse_scales(
@@ -141,6 +158,7 @@ def analyse_scales(
     sigmas_px: tuple[float, ...],
     *,
     c_grey: float,
+    peak_reach_px: float,
     max_level: int = MAX_LEVEL,
 ) -> MultiScaleAnalysis:
     """Gaussian derivatives at every scale and the multi-scale ridge response V.
@@ -153,6 +171,8 @@ def analyse_scales(
         Scales [px].
     c_grey : float
         Structure constant of the ridge response [grey levels].
+    peak_reach_px : float
+        Half-size of the max filter of C [px] (see `analyse_level`).
     max_level : int
         Coarsest pyramid level for large scales; 0 is the full-resolution reference.
 
@@ -161,7 +181,10 @@ def analyse_scales(
     MultiScaleAnalysis
     """
     levels = scale_levels(image, sigmas_px, max_level=max_level)
-    scales = tuple(analyse_level(lv, c_grey=c_grey, shape=image.shape) for lv in levels)
+    scales = tuple(
+        analyse_level(lv, c_grey=c_grey, shape=image.shape, peak_reach_px=peak_reach_px)
+        for lv in levels
+    )
     response = np.zeros(image.shape, np.float32)
     for scale in scales:
         v = upsample_to_frame(scale.response, scale.level.level, image.shape)
@@ -174,46 +197,53 @@ def lines_at(level: ScaleLevel, rows: np.ndarray, cols: np.ndarray) -> LineAnaly
     return analyse_lines(sample_derivatives(level, rows, cols))
 
 
+def _chosen_index(scales: tuple[LevelResponse, ...], rows, cols) -> np.ndarray:
+    """Index of the scale with the largest ridge-peak strength per pixel, −1 if none > 0."""
+    best = np.zeros(rows.size, np.float32)
+    index = np.full(rows.size, -1, np.int64)
+    for i, scale in enumerate(scales):
+        c = sample_bilinear(scale.level, scale.peak_strength, rows, cols)
+        better = c > best
+        best[better] = c[better]
+        index[better] = i
+    return index
+
+
 def choose_scales(
-    levels: tuple[ScaleLevel, ...], rows: np.ndarray, cols: np.ndarray
+    scales: tuple[LevelResponse, ...], rows: np.ndarray, cols: np.ndarray
 ) -> ScaleChoice:
-    """Per pixel, the scale σB maximising C(σ) = σ²|λ1| among scales with λ1 < 0.
+    """Per pixel, the scale σB maximising C(σ) = σ²|λ1| at its ridge, and the lines there.
 
     Notes
     -----
     Paper eq. (7): the σ²-normalisation compensates the decay of λ1 with σ, so the maximum
-    of C picks the scale that matches the local stripe width.
+    of C picks the scale that matches the local stripe width. C is compared at the ridge
+    (max-filtered across the stripe), so every pixel of one cross-section chooses the same
+    scale: choosing per pixel would let the flanks pick another scale than the centre, and
+    two scales' centres of a curved stripe differ by (σ2² − σ1²)/(2R), enough to double or
+    drop centres.
     """
-    count = rows.size
-    best = np.zeros(count, np.float32)
-    index = np.full(count, -1, np.int64)
-    fields = [np.zeros(count, np.float32) for _ in range(5)]
-    for i, level in enumerate(levels):
-        lines = lines_at(level, rows, cols)
-        strength = np.float32(level.sigma_px**2) * -np.minimum(lines.lambda1, 0)
-        better = strength > best
-        best[better] = strength[better]
-        index[better] = i
-        values = (lines.lambda1, lines.lambda2, lines.nx, lines.ny, lines.offset_px)
+    index = _chosen_index(scales, rows, cols)
+    fields = [np.zeros(rows.size, np.float32) for _ in range(6)]
+    for i, scale in enumerate(scales):
+        at = np.flatnonzero(index == i)
+        lines = lines_at(scale.level, rows[at], cols[at])
+        strength = np.float32(scale.level.sigma_px**2) * -np.minimum(lines.lambda1, 0)
+        values = (strength, lines.lambda1, lines.lambda2, lines.nx, lines.ny, lines.offset_px)
         for out, value in zip(fields, values, strict=True):
-            out[better] = value[better]
-    lambda1, lambda2, nx, ny, offset = fields
+            out[at] = value
+    strength, lambda1, lambda2, nx, ny, offset = fields
     chosen = LineAnalysis(
         sigma_px=float("nan"), lambda1=lambda1, lambda2=lambda2, nx=nx, ny=ny, offset_px=offset
     )
-    return ScaleChoice(scale_index=index, strength=best, lines=chosen)
+    return ScaleChoice(scale_index=index, strength=strength, lines=chosen)
 
 
 def scale_map(analysis: MultiScaleAnalysis, mask: np.ndarray) -> np.ndarray:
-    """σB per mask pixel from the level-grid strengths (bilinear), 0 elsewhere (float32)."""
+    """σB per mask pixel (the same choice as `choose_scales`), 0 elsewhere (float32 (M, N))."""
     rows, cols = np.nonzero(mask)
-    best = np.zeros(rows.size, np.float32)
-    chosen = np.zeros(rows.size, np.float32)
-    for scale in analysis.scales:
-        c = sample_bilinear(scale.level, scale.strength, rows, cols)
-        better = c > best
-        best[better] = c[better]
-        chosen[better] = scale.level.sigma_px
+    index = _chosen_index(analysis.scales, rows, cols)
+    sigmas = np.asarray((0.0, *analysis.sigmas_px), np.float32)
     out = np.zeros(mask.shape, np.float32)
-    out[rows, cols] = chosen
+    out[rows, cols] = sigmas[index + 1]
     return out

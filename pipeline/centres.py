@@ -140,12 +140,9 @@ def _select_adaptive(
     """Centre pixels at σB, and the σ map (σB per mask pixel, exact at the candidates)."""
     hinted = np.logical_or.reduce([scale.hints for scale in analysis.scales])
     rows, cols = np.nonzero(mask & hinted)
-    choice = choose_scales(analysis.levels, rows, cols)
+    choice = choose_scales(analysis.scales, rows, cols)
     lines = choice.lines
-    sigma_map = scale_map(analysis, mask)
-    sigmas = np.asarray((0.0, *analysis.sigmas_px), np.float32)
-    sigma_map[rows, cols] = sigmas[choice.scale_index + 1]
-    ok = centre_pixels(lines.lambda1, lines.nx, lines.ny, lines.offset_px)
+    ok = centre_pixels(rows, cols, lines, choice.strength, mask.shape)
     ok &= choice.scale_index >= 0
     index = choice.scale_index[ok]
     selected = _Selected(
@@ -159,19 +156,19 @@ def _select_adaptive(
         level_index=index,
         levels=analysis.levels,
     )
-    return selected, sigma_map
+    return selected, scale_map(analysis, mask)
 
 
 def _fixed_scale(frame: np.ndarray, sigma_px: float, c_grey: float) -> LevelResponse:
     level = scale_levels(frame, (sigma_px,))[0]
-    return analyse_level(level, c_grey=c_grey, shape=frame.shape)
+    return analyse_level(level, c_grey=c_grey, shape=frame.shape, peak_reach_px=0)
 
 
 def _select_fixed(scale: LevelResponse, mask: np.ndarray) -> _Selected:
     rows, cols = np.nonzero(mask & scale.hints)
     level = scale.level
     lines = lines_at(level, rows, cols)
-    ok = centre_pixels(lines.lambda1, lines.nx, lines.ny, lines.offset_px)
+    ok = centre_pixels(rows, cols, lines, -lines.lambda1, mask.shape)
     return _Selected(
         rows=rows[ok],
         cols=cols[ok],
@@ -333,7 +330,7 @@ def extract_centres(
         mask = segment_classic(image)
         selected = _select_fixed(_fixed_scale(frame, fixed_sigma, c_grey), mask)
     else:
-        analysis = analyse_scales(frame, sigmas, c_grey=c_grey)
+        analysis = analyse_scales(frame, sigmas, c_grey=c_grey, peak_reach_px=width_max / 2)
         mask = segment_ridges(analysis.response)
         if method == "steger":
             reuse = [sc for sc in analysis.scales if sc.level.sigma_px == fixed_sigma]

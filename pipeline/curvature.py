@@ -7,6 +7,9 @@ import numpy as np
 WINDOW_SIGMAS = 2.0
 """Half-width of the fitting window along the polyline, in units of the point's σ."""
 
+FIT_ROUNDS = 3
+"""Curvature fits per polyline; each round fits the points corrected by the previous one."""
+
 MIN_HALF_WINDOW_PX = 4.0
 """Least half-width of the fitting window [px]: enough points for a stable quadratic."""
 
@@ -76,12 +79,18 @@ def remove_curvature_bias(
     towards the centre of curvature by σ²/(2R) to first order, for any symmetric profile:
     the blurred profile of a ring is ∝ r^(−1/2)·exp(−(r−R)²/2σt²)·(1 + (r−R)s²/(2Rσt²)), whose
     maximum sits at r = R − σ²/(2R). At σ = 7.5 px and R = 100 px that is 0.28 px.
+    κ is fitted again on the corrected points (FIT_ROUNDS in all): where neighbouring points
+    were found at different scales their biases differ, and the raw points show a step
+    that the first fit mistakes for curvature.
     """
     x_out = x.astype(np.float64, copy=True)
     y_out = y.astype(np.float64, copy=True)
     for chain in polylines:
-        kappa = local_curvature(x[chain], y[chain], nx[chain], ny[chain], sigma[chain])
-        shift = 0.5 * sigma[chain] ** 2 * kappa
-        x_out[chain] -= shift * nx[chain]
-        y_out[chain] -= shift * ny[chain]
+        cx, cy = x_out[chain], y_out[chain]
+        for _ in range(FIT_ROUNDS):
+            kappa = local_curvature(cx, cy, nx[chain], ny[chain], sigma[chain])
+            shift = 0.5 * sigma[chain] ** 2 * kappa
+            cx = x[chain] - shift * nx[chain]
+            cy = y[chain] - shift * ny[chain]
+        x_out[chain], y_out[chain] = cx, cy
     return x_out, y_out

@@ -30,8 +30,9 @@ FLANK_HALF_WINDOW_MM = 1.0
 MIN_FIT_POINTS = 5
 OUTLIER_MADS = 3.0
 OUTLIER_FLOOR_MM = 0.03
-"""Fit points further than 3 robust standard deviations (at least 0.03 mm) from a first fit
-are dropped before the final fit, so a stray spot beside the stripe cannot pull a parameter."""
+OUTLIER_PASSES = 4
+"""Fit points further than 3 robust standard deviations (at least 0.03 mm) from the fit are
+dropped and the fit repeated (up to 4 passes), so a stray spot cannot pull a parameter."""
 
 
 class FlangeNotFoundError(PipelineError):
@@ -115,15 +116,19 @@ def curve_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParamet
 
 
 def _robust_polyfit(t: np.ndarray, v: np.ndarray, degree: int, what: str) -> np.ndarray:
-    """Least-squares polynomial v(t), refitted once without the outliers of the first fit."""
+    """Least-squares polynomial v(t), refitted without outliers until the inliers settle."""
     if t.size < MIN_FIT_POINTS:
         raise FlangeNotFoundError(f"too few profile points on the {what}")
-    coefficients = np.polyfit(t, v, degree)
-    residual = np.abs(v - np.polyval(coefficients, t))
-    limit = max(OUTLIER_MADS * 1.4826 * float(np.median(residual)), OUTLIER_FLOOR_MM)
-    inlier = residual <= limit
-    if np.count_nonzero(inlier) < MIN_FIT_POINTS:
-        raise FlangeNotFoundError(f"too few consistent profile points on the {what}")
+    inlier = np.ones(t.size, bool)
+    for _ in range(OUTLIER_PASSES):
+        coefficients = np.polyfit(t[inlier], v[inlier], degree)
+        residual = np.abs(v - np.polyval(coefficients, t))
+        limit = max(OUTLIER_MADS * 1.4826 * float(np.median(residual[inlier])), OUTLIER_FLOOR_MM)
+        if np.array_equal(residual <= limit, inlier):
+            return coefficients
+        inlier = residual <= limit
+        if np.count_nonzero(inlier) < MIN_FIT_POINTS:
+            raise FlangeNotFoundError(f"too few consistent profile points on the {what}")
     return np.polyfit(t[inlier], v[inlier], degree)
 
 

@@ -30,7 +30,8 @@ BACK_FACE_Z_MM = (-35.0, 2.0)
 """Part of the back face used for its fit: below the flange root, above the rim edge."""
 BACK_FACE_BAND_MM = 1.5
 REFERENCE_HALF_WINDOW_MM = 3.0
-"""Tread points within ±3 mm of x = 70 give the reference height (line fit)."""
+"""Tread points within ±3 mm of x = 70 give the reference height (quadratic fit, so a worn
+tread's curvature does not bias it)."""
 OVERLAP_NEIGHBOURS = 8
 MIN_BACK_FACE_POINTS = 20
 CONSENSUS_RADIUS_MM = 2.0
@@ -103,10 +104,10 @@ def _reference_z(u: np.ndarray, big_z: np.ndarray, u_back: float) -> float:
     if np.count_nonzero(near) < MIN_BACK_FACE_POINTS:
         raise DatumError("no tread points around the reference point x = 70 mm")
     dx = u[near] - u_back - REFERENCE_X_MM
-    slope, intercept = np.polyfit(dx, big_z[near], 1)
-    residual = big_z[near] - (intercept + slope * dx)
+    coefficients = np.polyfit(dx, big_z[near], 2)
+    residual = big_z[near] - np.polyval(coefficients, dx)
     keep = np.abs(residual) <= max(3.0 * 1.4826 * np.median(np.abs(residual)), 0.05)
-    return float(np.polyfit(dx[keep], big_z[near][keep], 1)[1])
+    return float(np.polyfit(dx[keep], big_z[near][keep], 2)[2])
 
 
 def _refine_back_face(u: np.ndarray, z: np.ndarray, u_back: float) -> float:

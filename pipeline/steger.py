@@ -54,16 +54,53 @@ def analyse_lines(derivatives: GaussianDerivatives) -> LineAnalysis:
     )
 
 
-def centre_pixels(lambda1: np.ndarray, nx, ny, offset_px: np.ndarray) -> np.ndarray:
-    """Which pixels hold a bright-line centre.
+def centre_pixels(
+    rows: np.ndarray,
+    cols: np.ndarray,
+    lines: LineAnalysis,
+    strength: np.ndarray,
+    shape: tuple[int, int],
+) -> np.ndarray:
+    """Which candidate pixels hold a bright-line centre.
+
+    Parameters
+    ----------
+    rows, cols : ndarray of shape (K,), int
+        Candidate pixels (unique).
+    lines : LineAnalysis
+        Line analysis at the candidates (arrays (K,)).
+    strength : ndarray of shape (K,)
+        Line strength used to settle seams (σ²|λ1|).
+    shape : tuple of int
+        Frame shape (M, N).
+
+    Returns
+    -------
+    ndarray of shape (K,), bool
 
     Notes
     -----
     A bright line has λ1 < 0; the centre lies in the pixel when |t·nx| ≤ 0.5 and
-    |t·ny| ≤ 0.5 (paper eq. (10)), so each centre is found by exactly one pixel.
+    |t·ny| ≤ 0.5 (paper eq. (10)), so each centre is found by one pixel. Where neighbouring
+    pixels analysed the line at different scales their centres can disagree by a few tenths
+    of a pixel, so that each points into the other and neither holds one: a seam. There, the
+    strongest prediction landing in a pixel that no centre occupies is kept (one per pixel,
+    its source pixel then taken too), which closes the seam without duplicating centres.
     """
-    return (
-        (lambda1 < 0)
-        & (np.abs(offset_px * nx) <= MAX_OFFSET_PX)
-        & (np.abs(offset_px * ny) <= MAX_OFFSET_PX)
-    )
+    bright = lines.lambda1 < 0
+    dx = lines.offset_px * lines.nx
+    dy = lines.offset_px * lines.ny
+    accepted = bright & (np.abs(dx) <= MAX_OFFSET_PX) & (np.abs(dy) <= MAX_OFFSET_PX)
+    target_r = rows + np.rint(dy).astype(np.int64)
+    target_c = cols + np.rint(dx).astype(np.int64)
+    seam = bright & ~accepted & (np.abs(dx) <= 1.5) & (np.abs(dy) <= 1.5)
+    seam &= (target_r >= 0) & (target_r < shape[0]) & (target_c >= 0) & (target_c < shape[1])
+    occupied = np.zeros(shape, bool)
+    occupied[rows[accepted], cols[accepted]] = True
+    seam &= ~occupied[np.clip(target_r, 0, shape[0] - 1), np.clip(target_c, 0, shape[1] - 1)]
+    for k in np.flatnonzero(seam)[np.argsort(-strength[seam], kind="stable")]:
+        if occupied[target_r[k], target_c[k]] or occupied[rows[k], cols[k]]:
+            continue
+        occupied[target_r[k], target_c[k]] = occupied[rows[k], cols[k]] = True
+        accepted[k] = True
+    return accepted

@@ -4,12 +4,19 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
 from tqdm import tqdm
 
+from pipeline.archive import read_pass_archive
+from pipeline.calibration import read_calibration
+from pipeline.measurement import PassWheelResult, measure_pass
 from pipeline.simulator import AXLES_PER_VEHICLE, write_synthetic_passes
+from pipeline.version import PIPELINE_VERSION
+
+PARAMETER_KEYS = ("flange_height_mm", "flange_thickness_mm", "flange_thickness_10_mm", "qr_mm")
 
 
 def _positive_int(text: str) -> int:
@@ -33,6 +40,65 @@ def _synth_pass(args: argparse.Namespace) -> int:
         )
     for folder in folders:
         sys.stdout.write(f"{folder}\n")
+    return 0
+
+
+def wheel_row(result: PassWheelResult) -> dict[str, object]:
+    """One wheel × method of a measured pass as the JSON row of `wheelscan measure`."""
+    m, wheel = result.measurement, result.wheel
+    parameters = m.parameters
+    profile = m.profile
+    row: dict[str, object] = {
+        "vehicle_id": wheel.vehicle_id,
+        "axle": wheel.axle,
+        "side": wheel.side,
+        "method": m.method,
+        "status": m.status,
+        "reason": m.reason,
+    }
+    for key in PARAMETER_KEYS:
+        row[key] = None if parameters is None else round(getattr(parameters, key), 4)
+    b2b = result.back_to_back_mm
+    row["back_to_back_mm"] = None if b2b is None else round(b2b, 4)
+    residual = None if profile is None else profile.overlap_residual_mm
+    row["quality"] = {
+        "points_inner": m.points_inner,
+        "points_outer": m.points_outer,
+        "overlap_residual_mm": None if residual is None else round(residual, 4),
+        "overlap_points": 0 if profile is None else profile.overlap_points,
+        "rejected_points": 0 if profile is None else profile.rejected_points,
+    }
+    return row
+
+
+def _methods(text: str) -> tuple[str, ...]:
+    return ("adaptive", "steger") if text == "both" else (text,)
+
+
+def _measure(args: argparse.Namespace) -> int:
+    calibration = read_calibration(args.calibration) if args.calibration else None
+    archive = read_pass_archive(args.pass_path, site_calibration=calibration)
+    methods = _methods(args.method)
+    total = len(archive.manifest.wheels) * len(methods)
+    with tqdm(total=total, desc="measure", unit="wheel", file=sys.stderr) as bar:
+        results = measure_pass(
+            archive, methods=methods, progress=lambda done, _t: bar.update(done - bar.n)
+        )
+    manifest = archive.manifest
+    document = {
+        "pipeline_version": PIPELINE_VERSION,
+        "site": manifest.site,
+        "started_at": manifest.started_at.isoformat(),
+        "methods": list(methods),
+        "wheels": [wheel_row(r) for r in results],
+    }
+    text = json.dumps(document, indent=2) + "\n"
+    if str(args.json) == "-":
+        sys.stdout.write(text)
+    else:
+        Path(args.json).write_text(text, encoding="utf-8")
+    measured = sum(r.measurement.status == "measured" for r in results)
+    sys.stderr.write(f"measured {measured} of {len(results)} wheel results\n")
     return 0
 
 
@@ -60,3 +126,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     synth.add_argument("--bit-depth", type=int, choices=(8, 16), default=8)
     synth.add_argument("--frames-per-sensor", type=_positive_int, default=1)
     synth.set_defaults(func=_synth_pass)
+
+    measure = subparsers.add_parser(
+        "measure", help="measure every wheel of a pass archive (folder or .zip)"
+    )
+    measure.add_argument("pass_path", metavar="PASS", type=Path)
+    measure.add_argument("--method", choices=("adaptive", "steger", "both"), default="adaptive")
+    measure.add_argument(
+        "--json", required=True, metavar="OUT", help="output JSON file, - for stdout"
+    )
+    measure.add_argument(
+        "--calibration", type=Path, help="site calibration, for archives without calibration.json"
+    )
+    measure.set_defaults(func=_measure)

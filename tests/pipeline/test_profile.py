@@ -1,0 +1,96 @@
+"""Fusion and datum from track-frame points of a known wheel (no images involved)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.flange import fit_flange_parameters
+from pipeline.profile import DatumError, fuse_profile, overlap_residual
+from pipeline.reference import load_reference_profile
+from pipeline.wheel import Wear, wheel_profile
+
+PROFILE = wheel_profile(load_reference_profile("LMA"), Wear(0.5, 1.0, 0.3))
+
+
+def _track_points(side: str, back_face_x_mm: float, rng=None, noise_mm: float = 0.0):
+    """Inner: back face and flange (x < 25); outer: flange top onwards (x > 10). Z = −z."""
+    sign = 1.0 if side == "right" else -1.0
+    x, z = PROFILE.x_mm, PROFILE.z_mm
+    points = np.column_stack([sign * (back_face_x_mm + x), np.zeros_like(x), -z])
+    if rng is not None:
+        points[:, [0, 2]] += rng.normal(0, noise_mm, (len(x), 2))
+    return points[(x < 25) & (z > -39)], points[(x > 10) & (x < x.max())]
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_exact_points_give_the_true_datum_and_parameters(side: str) -> None:
+    inner, outer = _track_points(side, 677.25)
+    profile = fuse_profile(inner, outer, side=side)
+    sign = 1.0 if side == "right" else -1.0
+    assert profile.back_face_track_x_mm == pytest.approx(sign * 677.25, abs=1e-6)
+    assert profile.reference_track_z_mm == pytest.approx(0.0, abs=1e-3)
+    assert profile.overlap_residual_mm is not None and profile.overlap_residual_mm < 0.01
+    p = fit_flange_parameters(profile.x_mm, profile.z_mm)
+    truth = PROFILE.truth
+    assert p.flange_height_mm == pytest.approx(truth.flange_height_mm, abs=0.01)
+    assert p.flange_thickness_mm == pytest.approx(truth.flange_thickness_mm, abs=0.01)
+    assert p.flange_thickness_10_mm == pytest.approx(truth.flange_thickness_10_mm, abs=0.01)
+    assert p.qr_mm == pytest.approx(truth.qr_mm, abs=0.02)
+
+
+def test_profile_is_ordered_back_face_up_then_along_x() -> None:
+    inner, outer = _track_points("right", 676.5)
+    profile = fuse_profile(inner, outer, side="right")
+    face = (np.abs(profile.x_mm) < 1.5) & (profile.z_mm < 2.0)
+    n = np.count_nonzero(face)
+    assert face[:n].all()
+    assert np.all(np.diff(profile.z_mm[:n]) >= 0)
+    assert np.all(np.diff(profile.x_mm[n:]) >= 0)
+
+
+def test_stray_spike_from_one_sensor_is_dropped() -> None:
+    inner, outer = _track_points("right", 676.5)
+    top = PROFILE.x_mm[np.argmax(PROFILE.z_mm)]
+    spike_z = -(PROFILE.truth.flange_height_mm + np.linspace(0.5, 5.0, 30))
+    spike = np.column_stack([np.full(30, 676.5 + top), np.zeros(30), spike_z])
+    profile = fuse_profile(np.concatenate([inner, spike]), outer, side="right")
+    assert profile.rejected_points >= 30
+    p = fit_flange_parameters(profile.x_mm, profile.z_mm)
+    assert p.flange_height_mm == pytest.approx(PROFILE.truth.flange_height_mm, abs=0.01)
+
+
+def test_noisy_points_stay_within_a_few_hundredths() -> None:
+    inner, outer = _track_points("left", 676.0, np.random.default_rng(4), 0.03)
+    profile = fuse_profile(inner, outer, side="left")
+    p = fit_flange_parameters(profile.x_mm, profile.z_mm)
+    assert p.flange_height_mm == pytest.approx(PROFILE.truth.flange_height_mm, abs=0.03)
+    assert p.flange_thickness_mm == pytest.approx(PROFILE.truth.flange_thickness_mm, abs=0.03)
+    assert 0.02 < profile.overlap_residual_mm < 0.08
+
+
+def test_offset_sensor_shows_in_the_overlap_residual() -> None:
+    inner, outer = _track_points("right", 676.5)
+    outer = outer + np.array([0.0, 0.0, 0.2])
+    profile = fuse_profile(inner, outer, side="right")
+    assert profile.overlap_residual_mm == pytest.approx(0.2, abs=0.06)
+
+
+def test_no_back_face_is_a_datum_error() -> None:
+    _, outer = _track_points("right", 676.5)
+    with pytest.raises(DatumError, match="back.face"):
+        fuse_profile(outer[outer[:, 0] > 690], outer, side="right")
+
+
+def test_unknown_side() -> None:
+    inner, outer = _track_points("right", 676.5)
+    with pytest.raises(ValueError, match="side must be 'left' or 'right', got 'middle'"):
+        fuse_profile(inner, outer, side="middle")
+
+
+def test_overlap_residual_of_a_line_by_hand() -> None:
+    t = np.linspace(0, 10, 101)
+    inner = np.column_stack([t, np.zeros_like(t)])
+    outer = np.column_stack([t[20:80], np.full(60, 0.1)])
+    residual, count = overlap_residual(inner, outer)
+    assert residual == pytest.approx(0.1, abs=1e-9) and count == 60
