@@ -1,7 +1,15 @@
 """wheelscan pipeline: pure image → measurement functions (NumPy, SciPy, OpenCV only)."""
 
+from pipeline.archive import PassArchive, read_pass_archive, write_pass_archive
+from pipeline.calibration import (
+    StationCalibration,
+    load_calibration_json,
+    read_calibration,
+    write_calibration,
+)
 from pipeline.centres import Centres, extract_centres
 from pipeline.errors import ArchiveError, CalibrationError, NoStripeError, PipelineError
+from pipeline.measurement import WheelMeasurement, axle_back_to_back, measure_pass, measure_wheel
 from pipeline.version import PIPELINE_VERSION
 
 __all__ = [
@@ -10,6 +18,17 @@ __all__ = [
     "CalibrationError",
     "Centres",
     "NoStripeError",
+    "PassArchive",
     "PipelineError",
+    "StationCalibration",
+    "WheelMeasurement",
+    "axle_back_to_back",
     "extract_centres",
+    "load_calibration_json",
+    "measure_pass",
+    "measure_wheel",
+    "read_calibration",
+    "read_pass_archive",
+    "write_calibration",
+    "write_pass_archive",
 ]
