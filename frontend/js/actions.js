@@ -8,6 +8,9 @@ import { METHODS } from './lib/format.js';
 import { tintMask } from './lib/layer-pixels.js';
 import { passFilterQuery } from './lib/records.js';
 
+/** Job states after which nothing more happens. */
+const JOB_ENDS = ['done', 'failed'];
+
 /** Tint of the stripe mask layer (RGBA): translucent magenta, visible on grey frames. */
 const MASK_TINT = /** @type {[number, number, number, number]} */ ([236, 72, 153, 110]);
 
@@ -80,6 +83,11 @@ export function createActions(api, store) {
         store.set({ upload: { ...store.get().upload, uploadFraction: 1, ...created } });
         const job = await api.getJob(created.job_id);
         jobUpdate(store, { ...job, job_id: created.job_id, pass_id: created.pass_id });
+        // the job's own socket reports every step up to and including the end
+        const stop = api.watch(`jobs/${created.job_id}`, (msg) => {
+          jobUpdate(store, msg);
+          if (JOB_ENDS.includes(msg.state)) stop();
+        }, () => {});
       }),
     jobUpdate: (/** @type {any} */ msg) => jobUpdate(store, msg),
   };

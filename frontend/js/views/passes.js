@@ -8,6 +8,10 @@ import { passStatus } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { h } from './dom.js';
 
+/** Table columns: title and class (numbers align right under their heading). */
+const COLUMNS = [['Pass', null], ['Time', null], ['Site', null], ['Dir.', null], ['km/h', 'num'],
+  ['Vehicles', 'num'], ['Measured', 'num'], ['Not measured', 'num'], ['Wheels in alarm', 'num'], ['Status', null]];
+
 const FILTERS = [
   { key: 'site', label: 'Site', type: 'text', size: 10 },
   { key: 'vehicle', label: 'Vehicle', type: 'text', size: 10 },
@@ -44,15 +48,14 @@ export function renderPasses(root, state, handlers) {
   h('button', { type: 'submit' }, 'Apply'),
   h('span', { class: 'count' })));
   /** @type {HTMLElement} */ (form.querySelector('.count')).textContent =
-    passes.loading ? 'loading…' : `${passes.total ?? passes.items.length} passes`;
+    passes.loading ? 'loading…' : `${passes.total} pass${passes.total === 1 ? '' : 'es'}`;
   const rows = passes.items.map((/** @type {any} */ p, /** @type {number} */ i) => passRow(p, state.liveJobs?.[p.id], i === state.selectedRow, () => handlers.select(i)));
   root.replaceChildren(
     h('section', { class: 'passes' },
       h('h1', {}, 'Passes'),
       form,
       h('table', { class: 'grid' },
-        h('thead', {}, h('tr', {}, ['Pass', 'Time', 'Site', 'Dir.', 'km/h', 'Vehicles', 'Wheels', 'Not meas.', 'Alarms', 'Status']
-          .map((t) => h('th', {}, t)))),
+        h('thead', {}, h('tr', {}, COLUMNS.map(([t, cls]) => h('th', { class: cls }, t)))),
         h('tbody', {}, rows.length ? rows : h('tr', {}, h('td', { colspan: 10, class: 'empty' },
           passes.loading ? 'Loading passes…' : 'No passes match. Upload one or widen the filters.')))),
     ),
