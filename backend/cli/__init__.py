@@ -11,7 +11,12 @@ import argparse
 import importlib
 import sys
 
-VERB_MODULES: list[str] = ["backend.cli.extract", "backend.cli.agent", "backend.cli.measure"]
+VERB_MODULES: list[str] = [
+    "backend.cli.extract",
+    "backend.cli.agent",
+    "backend.cli.measure",
+    "backend.cli.worker",
+]
 
 
 def build_parser() -> argparse.ArgumentParser:
