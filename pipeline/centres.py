@@ -24,7 +24,7 @@ from pipeline.linking import link_points
 from pipeline.ridges import RIDGE_C_FULL_SCALE
 from pipeline.scalespace import ScaleLevel, scale_levels
 from pipeline.segmentation import segment_classic, segment_ridges
-from pipeline.steger import centre_pixels
+from pipeline.steger import centre_pixels, newton_step
 from pipeline.widths import stripe_widths
 
 METHODS = ("adaptive", "steger", "classic")
@@ -208,8 +208,13 @@ def _assemble(
     nx = selected.nx.astype(GEOMETRY_FLOAT)
     ny = selected.ny.astype(GEOMETRY_FLOAT)
     offset = selected.offset.astype(GEOMETRY_FLOAT)
-    x = selected.cols + offset * nx  # Steger eq. (9)
+    x = selected.cols + offset * nx  # paper eq. (9)
     y = selected.rows + offset * ny
+    for i, level in enumerate(selected.levels):
+        at = np.flatnonzero(selected.level_index == i)
+        step = newton_step(level, x[at], y[at], nx[at], ny[at])
+        x[at] += step * nx[at]
+        y[at] += step * ny[at]
     chains = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
     _orient_normals(nx, ny, chains)
     order = np.concatenate(chains) if chains else np.zeros(0, np.int64)

@@ -116,11 +116,37 @@ def _cubic_weights(frac: np.ndarray) -> np.ndarray:
     a = −1/2 is the one choice that reproduces quadratics exactly (third-order accurate);
     OpenCV's INTER_CUBIC uses a = −3/4, which does not even reproduce a linear ramp.
     """
-    t = frac[:, None] + np.array([1.0, 0.0, -1.0, -2.0], np.float32)[None, :]
+    t = frac.astype(np.float32)[:, None] + np.array([1.0, 0.0, -1.0, -2.0], np.float32)[None, :]
     d = np.abs(t)
     near = (1.5 * d - 2.5) * d * d + 1
     far = ((-0.5 * d + 2.5) * d - 4) * d + 2
     return np.where(d <= 1, near, np.where(d < 2, far, 0)).astype(np.float32)
+
+
+def interpolate_cubic(field: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Keys cubic convolution of a 2-D field at grid coordinates (u = column, v = row).
+
+    Parameters
+    ----------
+    field : ndarray of shape (H, W), float32
+    u, v : ndarray of shape (K,)
+        Coordinates on the field's grid; outside it the field is reflected (BORDER).
+
+    Returns
+    -------
+    ndarray of shape (K,), float32
+    """
+    u0, v0 = np.floor(u), np.floor(v)
+    wu, wv = _cubic_weights(u - u0), _cubic_weights(v - v0)
+    height, width = field.shape
+    flat = field.ravel()
+    row_index = [_reflect(v0.astype(np.int64) + i - 1, height) * width for i in range(4)]
+    col_index = [_reflect(u0.astype(np.int64) + j - 1, width) for j in range(4)]
+    out = np.zeros(u.size, np.float32)
+    for i in range(4):
+        along = sum(wu[:, j] * flat[row_index[i] + col_index[j]] for j in range(4))
+        out += wv[:, i] * along
+    return out
 
 
 def sample_field(level: ScaleLevel, field: np.ndarray, rows, cols) -> np.ndarray:
@@ -130,19 +156,9 @@ def sample_field(level: ScaleLevel, field: np.ndarray, rows, cols) -> np.ndarray
     """
     if level.level == 0:
         return field[rows, cols]
-    u = level.to_level(cols.astype(np.float64))
-    v = level.to_level(rows.astype(np.float64))
-    u0, v0 = np.floor(u), np.floor(v)
-    wu, wv = _cubic_weights(u - u0), _cubic_weights(v - v0)
-    height, width = field.shape
-    flat = field.ravel()
-    row_index = [_reflect(v0.astype(np.int64) + i - 1, height) * width for i in range(4)]
-    col_index = [_reflect(u0.astype(np.int64) + j - 1, width) for j in range(4)]
-    out = np.zeros(rows.size, np.float32)
-    for i in range(4):
-        along = sum(wu[:, j] * flat[row_index[i] + col_index[j]] for j in range(4))
-        out += wv[:, i] * along
-    return out
+    return interpolate_cubic(
+        field, level.to_level(cols.astype(np.float64)), level.to_level(rows.astype(np.float64))
+    )
 
 
 def _reflect(index: np.ndarray, size: int) -> np.ndarray:

@@ -8,6 +8,7 @@ import numpy as np
 
 from pipeline.gaussian import GaussianDerivatives
 from pipeline.hessian import hessian_eigen
+from pipeline.scalespace import ScaleLevel, interpolate_cubic
 
 MAX_OFFSET_PX = 0.5
 """A centre is kept only inside its own pixel: |t·nx| ≤ 0.5 and |t·ny| ≤ 0.5 (paper eq. (10))."""
@@ -104,3 +105,42 @@ def centre_pixels(
         occupied[target_r[k], target_c[k]] = occupied[rows[k], cols[k]] = True
         accepted[k] = True
     return accepted
+
+
+def newton_step(level: ScaleLevel, x: np.ndarray, y: np.ndarray, nx, ny) -> np.ndarray:
+    """Second Taylor step t₂ [px] along the normal, taken at the sub-pixel centres.
+
+    Parameters
+    ----------
+    level : ScaleLevel
+        The scale the centres were found at.
+    x, y : ndarray of shape (K,)
+        First sub-pixel centres [px] (paper eq. (9)).
+    nx, ny : ndarray of shape (K,)
+        Their unit normals.
+
+    Returns
+    -------
+    ndarray of shape (K,), float64
+        t₂ = −(n·∇I)/(nᵀHn) with the derivatives interpolated (Keys cubic) at (x, y); 0 where
+        nᵀHn ≥ 0 or |t₂| > MAX_OFFSET_PX (no trustworthy second step).
+
+    Notes
+    -----
+    The first step comes from a quadratic model at the pixel centre, up to 0.7 px from the
+    line; on a Gaussian profile of total scale σt it leaves an error ≈ −t³/σt², 0.013 px at
+    t = 0.5 px for a 5 px stripe at σ = 2.9 px. A second step from the first estimate, where
+    t is near 0, removes it (Newton's method on the first derivative along the normal).
+    """
+    d = level.derivatives
+    u, v = level.to_level(x), level.to_level(y)
+    first = 1 / level.stride
+    second = first * first
+    gx, gy = (interpolate_cubic(f, u, v) * first for f in (d.ix, d.iy))
+    hxx, hxy, hyy = (interpolate_cubic(f, u, v) * second for f in (d.ixx, d.ixy, d.iyy))
+    slope = nx * gx + ny * gy
+    curvature = nx * nx * hxx + 2 * nx * ny * hxy + ny * ny * hyy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        step = -slope / curvature
+    trusted = (curvature < 0) & (np.abs(step) <= MAX_OFFSET_PX)
+    return np.where(trusted, step, 0.0)
