@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 APT_STAMP := $(VENV)/.apt-installed
-DEBIAN_PACKAGES := chromium poppler-utils fonts-dejavu-core
+DEBIAN_PACKAGES := chromium poppler-utils fonts-dejavu-core docker-compose
 
 .PHONY: run test lint bench venv system-deps clean
 
