@@ -9,11 +9,12 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
+from backend.celery_runner import make_task_runner
 from backend.config import Settings, get_settings
 from backend.errors import install_error_handlers
 from backend.limits import ensure_default_limits
 from backend.routes import ROUTERS
-from backend.runner import ProcessPoolRunner, TaskRunner
+from backend.runner import TaskRunner
 from backend.storage import BlobStore
 from db.engine import make_engine, make_session_factory, upgrade_database
 
@@ -28,7 +29,8 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     settings : Settings, optional
         Defaults to the process settings (environment variables).
     runner : TaskRunner, optional
-        Where per-wheel tasks run; defaults to a process pool of `settings.workers`.
+        Where per-wheel tasks run; defaults to Celery workers when `settings.broker_url`
+        is set, else a process pool of `settings.workers`.
     """
     settings = settings or get_settings()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
@@ -38,7 +40,7 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     with session_factory() as session:
         ensure_default_limits(session)
         session.commit()
-    task_runner = runner or ProcessPoolRunner(settings, session_factory)
+    task_runner = runner or make_task_runner(settings, session_factory)
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
