@@ -5,6 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter
 
 from backend.routes import (
+    blobs,
     calibrations,
     health,
     jobs,
@@ -13,6 +14,7 @@ from backend.routes import (
     reports,
     streams,
     tokens,
+    viewer,
     wheels,
 )
 
@@ -26,4 +28,6 @@ ROUTERS: list[APIRouter] = [
     jobs.router,
     wheels.router,
     reports.router,
+    blobs.router,
+    viewer.router,
 ]
