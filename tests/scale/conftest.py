@@ -1,0 +1,90 @@
+"""Fixtures of the scale-out tests: a simulated pass, its in-process results, a throw-away
+PostgreSQL database, the machine's Redis and a private Redis that tests may restart."""
+
+from __future__ import annotations
+
+import subprocess
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import redis
+
+from backend.celery_runner import MEASURE_QUEUE
+from backend.config import Settings
+from tests.databases import throwaway_database
+from tests.scale.topology import (
+    REDIS_SERVER,
+    RedisServer,
+    api,
+    measurement_results,
+    synthetic_pass_zip,
+    upload,
+    wait_for_pass,
+)
+
+SHARED_REDIS_URL = "redis://127.0.0.1:6379/13"
+"""The machine's Redis; database 13 is reserved for these tests."""
+REDIS_START = (
+    'redis-server --daemonize yes --bind 127.0.0.1 -::1 --port 6379 --save "" '
+    "--appendonly no --dir /var/lib/redis --logfile /var/log/redis/ci.log"
+)
+PASS_TIMEOUT_S = 120.0
+
+
+@pytest.fixture(scope="session")
+def pass_archive(tmp_path_factory: pytest.TempPathFactory) -> bytes:
+    """One two-axle vehicle: 4 wheels, one 1600×1200 frame per sensor (small: 2 cores)."""
+    return synthetic_pass_zip(tmp_path_factory.mktemp("scale-pass"), 1, axles_per_vehicle=2)
+
+
+@pytest.fixture(scope="session")
+def in_process_results(
+    pass_archive: bytes, tmp_path_factory: pytest.TempPathFactory
+) -> dict[tuple, dict[str, Any]]:
+    """The pass measured by the default configuration: SQLite, in-process pool."""
+    data_dir = tmp_path_factory.mktemp("in-process")
+    with api(Settings(data_dir=data_dir, workers=1)) as client:
+        pass_id = upload(client, pass_archive)
+        wait_for_pass(client, pass_id, PASS_TIMEOUT_S)
+        results = measurement_results(client, pass_id)
+    assert len(results) == 8, "4 wheels × 2 methods expected in the reference"
+    return results
+
+
+@pytest.fixture
+def postgres_url(tmp_path: Path) -> Iterator[str]:
+    with throwaway_database("postgresql", tmp_path) as url:
+        yield url
+
+
+def _clear_queue(client: redis.Redis) -> None:
+    client.delete(MEASURE_QUEUE, "unacked", "unacked_index", "unacked_mutex")
+
+
+@pytest.fixture
+def shared_redis_url() -> str:
+    """The machine's Redis (started when down), its test database emptied of our keys."""
+    client = redis.Redis.from_url(SHARED_REDIS_URL, socket_connect_timeout=2)
+    try:
+        client.ping()
+    except redis.exceptions.ConnectionError:
+        subprocess.run(REDIS_START, shell=True, check=False, capture_output=True)
+        try:
+            client.ping()
+        except redis.exceptions.ConnectionError as exc:
+            pytest.skip(f"Redis at 127.0.0.1:6379 is down and would not start: {exc}")
+    _clear_queue(client)
+    yield SHARED_REDIS_URL
+    _clear_queue(client)
+
+
+@pytest.fixture
+def private_redis(tmp_path: Path) -> Iterator[RedisServer]:
+    if REDIS_SERVER is None:
+        pytest.skip("redis-server is not installed: the broker-restart test needs its own Redis")
+    server = RedisServer(tmp_path / "redis")
+    server.start()
+    yield server
+    server.stop()
