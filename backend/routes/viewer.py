@@ -26,14 +26,17 @@ class ViewerRead(BaseModel):
 @router.get("/passes/{pass_id}/wheels/{wheel_id}/viewer", responses=ERRORS)
 async def get_wheel_viewer(
     request: Request,
+    _viewer: ViewerDep,
     pass_wheel: PassWheelDep,
     session: SessionDep,
     store: StoreDep,
     settings: SettingsDep,
-    _viewer: ViewerDep,
     method: Annotated[Literal["adaptive", "steger"], Query()] = "adaptive",
 ) -> ViewerRead:
-    """Show the wheel in the 3D viewer; returns the viewer's URL (for an iframe)."""
+    """Show the wheel in the 3D viewer; returns the viewer's URL (for an iframe).
+
+    The token is checked before the wheel is looked up, so no one learns which wheels exist
+    without one."""
     data = await run_in_threadpool(load_wheel_scene_data, session, store, pass_wheel, method)
     viewer: WheelViewer = getattr(request.app.state, "viewer", None) or WheelViewer(settings)
     request.app.state.viewer = viewer
