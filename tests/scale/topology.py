@@ -27,10 +27,8 @@ from fastapi.testclient import TestClient
 from sqlalchemy import select
 
 from backend.auth import create_token
-from backend.celery_runner import CeleryRunner
 from backend.config import Settings
 from backend.main import create_app
-from db.engine import make_engine, make_session_factory
 from db.models import Job, Measurement, PassWheel, Wheel
 from pipeline.simulator import write_synthetic_passes
 
@@ -168,9 +166,10 @@ def workers(
             worker.stop()
 
 
-def worker_env(settings: Settings) -> dict[str, str]:
-    """The environment of a worker process for these settings (plus the short test delays)."""
-    env = {**os.environ, **TEST_SCALE_ENV}
+def worker_env(settings: Settings, *, fast_redelivery: bool = True) -> dict[str, str]:
+    """The environment of a worker process for these settings (with `fast_redelivery`, the
+    short delays of TEST_SCALE_ENV; without, the production defaults)."""
+    env = {**os.environ, **(TEST_SCALE_ENV if fast_redelivery else {})}
     env["WHEELSCAN_BROKER_URL"] = settings.broker_url or ""
     env["WHEELSCAN_DATABASE_URL"] = settings.resolved_database_url
     env["WHEELSCAN_DATA_DIR"] = str(settings.data_dir)
@@ -180,11 +179,7 @@ def worker_env(settings: Settings) -> dict[str, str]:
 @contextmanager
 def api(settings: Settings) -> Iterator[TestClient]:
     """The service (in this process) with the runner its settings select."""
-    runner = None
-    if settings.broker_url:
-        factory = make_session_factory(make_engine(settings.resolved_database_url))
-        runner = CeleryRunner(settings, factory)
-    app = create_app(settings, runner=runner)
+    app = create_app(settings)
     with TestClient(app) as client:
         yield client
     app.state.engine.dispose()
