@@ -21,6 +21,10 @@ KEEP_FRACTION = 0.3
 baseline) are kept as parts of the stripe; shorter elongated ones (another part's stripe,
 reflections) are dropped."""
 
+MAX_FOREGROUND_FRACTION = 0.5
+"""Otsu on a frame without a stripe splits the background itself; a foreground covering more
+than this fraction of the frame is not a stripe."""
+
 CLASSIC_MEDIAN_PX = 5
 """Median filter aperture of the classic baseline [px]."""
 
@@ -126,10 +130,13 @@ def segment_classic(image: np.ndarray) -> np.ndarray:
     Returns
     -------
     ndarray of shape (M, N), bool
-        Components at least KEEP_FRACTION of the largest one's area, small holes closed.
+        Components at least KEEP_FRACTION of the largest one's area, small holes closed;
+        all False when the Otsu foreground covers most of the frame (no stripe).
     """
     smooth = cv2.medianBlur(to_uint8(image), CLASSIC_MEDIAN_PX)
     _, binary = cv2.threshold(smooth, 0, 1, cv2.THRESH_BINARY | cv2.THRESH_OTSU)
+    if binary.mean() > MAX_FOREGROUND_FRACTION:
+        return np.zeros(image.shape, dtype=bool)
     count, labels, stats, _ = cv2.connectedComponentsWithStats(binary, connectivity=8)
     area = stats[:, cv2.CC_STAT_AREA].astype(np.float64)
     area[0] = 0
