@@ -41,13 +41,15 @@ def apply_transform(transform: np.ndarray, points_mm: np.ndarray) -> np.ndarray:
     return points_mm @ transform[:3, :3].T + transform[:3, 3]
 
 
-def undistort_pixels(x_px: np.ndarray, y_px: np.ndarray, sensor: SensorCalibration) -> np.ndarray:
+def undistort_pixels(
+    x_px: np.ndarray, y_px: np.ndarray, camera_matrix: np.ndarray, dist_coeffs: np.ndarray
+) -> np.ndarray:
     """Normalised undistorted image coordinates (x/z, y/z) of distorted pixels, shape (K, 2)."""
     pixels = np.stack([x_px, y_px], axis=-1).astype(GEOMETRY_FLOAT).reshape(-1, 1, 2)
     if pixels.shape[0] == 0:
         return np.zeros((0, 2), GEOMETRY_FLOAT)
     normalised = cv2.undistortPoints(
-        pixels, sensor.camera_matrix, sensor.dist_coeffs, criteria=UNDISTORT_CRITERIA
+        pixels, camera_matrix, dist_coeffs, criteria=UNDISTORT_CRITERIA
     )
     return normalised.reshape(-1, 2).astype(GEOMETRY_FLOAT)
 
@@ -77,7 +79,9 @@ def pixels_to_camera_points(
     -----
     With m = (x', y', 1) the undistorted ray and n·P = d the plane, P = (d / n·m) m.
     """
-    normalised = undistort_pixels(np.asarray(x_px), np.asarray(y_px), sensor)
+    normalised = undistort_pixels(
+        np.asarray(x_px), np.asarray(y_px), sensor.camera_matrix, sensor.dist_coeffs
+    )
     rays = np.column_stack([normalised, np.ones(normalised.shape[0])])
     normal = sensor.laser_plane.normal
     cosines = rays @ normal

@@ -11,7 +11,12 @@ from pathlib import Path
 from tqdm import tqdm
 
 from pipeline.archive import read_pass_archive
-from pipeline.calibration import read_calibration
+from pipeline.calibration import SENSOR_NAMES, read_calibration, write_calibration
+from pipeline.calibration_set import (
+    calibrate_station,
+    read_calibration_set,
+    write_synthetic_calibration_set,
+)
 from pipeline.measurement import PassWheelResult, measure_pass
 from pipeline.simulator import AXLES_PER_VEHICLE, write_synthetic_passes
 from pipeline.version import PIPELINE_VERSION
@@ -102,6 +107,35 @@ def _measure(args: argparse.Namespace) -> int:
     return 0
 
 
+def _calibrate(args: argparse.Namespace) -> int:
+    board, frames = read_calibration_set(args.images, args.target)
+    with tqdm(total=len(frames), desc="calibrate", unit="sensor", file=sys.stderr) as bar:
+        calibration = calibrate_station(
+            board, frames, progress=lambda done, _t: bar.update(done - bar.n)
+        )
+    write_calibration(calibration, args.output)
+    for sensor in calibration.sensors:
+        sys.stdout.write(
+            f"{sensor.name}: reprojection RMS {sensor.reprojection_rms_px:.3f} px, "
+            f"laser plane RMS {sensor.plane_rms_mm:.4f} mm\n"
+        )
+    return 0
+
+
+def _synth_calibration(args: argparse.Namespace) -> int:
+    sensors = args.sensor or list(SENSOR_NAMES)
+    with tqdm(total=len(sensors), desc="synth-calibration", unit="sensor", file=sys.stderr) as bar:
+        out = write_synthetic_calibration_set(
+            args.out,
+            seed=args.seed,
+            bit_depth=args.bit_depth,
+            sensors=sensors,
+            progress=lambda done, _t: bar.update(done - bar.n),
+        )
+    sys.stdout.write(f"{out}\n")
+    return 0
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the measurement verbs."""
     synth = subparsers.add_parser(
@@ -139,3 +173,31 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--calibration", type=Path, help="site calibration, for archives without calibration.json"
     )
     measure.set_defaults(func=_measure)
+
+    calibrate = subparsers.add_parser(
+        "calibrate",
+        help="calibrate sensors from checkerboard, laser and track-target frames",
+    )
+    calibrate.add_argument(
+        "images",
+        nargs="+",
+        type=Path,
+        help="<sensor>/board-NN.png, <sensor>/laser-NN.png, <sensor>/track.png (or folders)",
+    )
+    calibrate.add_argument("--target", type=Path, required=True, help="target.json of the set")
+    calibrate.add_argument("-o", "--output", type=Path, required=True, help="calibration.json")
+    calibrate.set_defaults(func=_calibrate)
+
+    synth_cal = subparsers.add_parser(
+        "synth-calibration", help="render a calibration image set of the simulated station"
+    )
+    synth_cal.add_argument("out", type=Path)
+    synth_cal.add_argument("--seed", type=int, default=0)
+    synth_cal.add_argument("--bit-depth", type=int, choices=(8, 16), default=8)
+    synth_cal.add_argument(
+        "--sensor",
+        action="append",
+        choices=SENSOR_NAMES,
+        help="only this sensor (repeatable; default all four)",
+    )
+    synth_cal.set_defaults(func=_synth_calibration)
