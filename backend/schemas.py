@@ -304,3 +304,13 @@ class AuditRead(ORMModel):
     target_type: str
     target_id: str | None
     detail: dict[str, Any]
+
+
+class PassReport(BaseModel):
+    """The JSON report of a pass: its summary, the fleet limits and every wheel."""
+
+    model_config = ConfigDict(populate_by_name=True)
+
+    pass_: PassSummary = Field(alias="pass")
+    limits: dict[str, dict[str, float]]
+    wheels: list[PassWheelRead]

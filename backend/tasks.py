@@ -14,14 +14,22 @@ import logging
 from functools import lru_cache
 from pathlib import Path
 
-from sqlalchemy import select, update
+import numpy as np
+from sqlalchemy import delete, select, update
 from sqlalchemy.orm import Session, sessionmaker
 
+from backend.artefacts import save_artefacts
+from backend.results import apply_alarms, measurement_row
 from backend.storage import BlobStore
 from backend.wheels import refresh_job
 from db.engine import make_engine, make_session_factory
-from db.models import PassWheel
+from db.models import Frame, Measurement, MeasurementFrame, PassWheel, Wheel
 from db.types import utc_now
+from pipeline import measure_wheel
+from pipeline.archive import decode_frame
+from pipeline.calibration import parse_calibration
+from pipeline.manifest import POSITIONS
+from pipeline.measurement import MEASURE_METHODS, MEASURED
 
 logger = logging.getLogger(__name__)
 
@@ -96,14 +104,95 @@ def measure_pass_wheel(pass_wheel_id: int, database_url: str, data_dir: str) -> 
         return state
 
 
-def store_wheel_results(session: Session, store: BlobStore, pass_wheel_id: int) -> str:
-    """Measure a claimed wheel with every method and write the results (one transaction)."""
-    raise NotImplementedError(
-        f"pass wheel {pass_wheel_id}: the per-wheel measurement function of the pipeline "
-        f"(issue 4) has not landed yet; store {store.root} is untouched"
+def _load_frames(session: Session, pass_wheel: PassWheel, position: str) -> list[Frame]:
+    wheel = pass_wheel.wheel
+    return list(
+        session.scalars(
+            select(Frame)
+            .where(
+                Frame.pass_id == pass_wheel.pass_id,
+                Frame.vehicle_id == wheel.vehicle_id,
+                Frame.axle == wheel.axle,
+                Frame.sensor == f"{wheel.side}_{position}",
+            )
+            .order_by(Frame.seq)
+        )
     )
 
 
+def _decode(store: BlobStore, frame: Frame) -> np.ndarray:
+    data = store.get(frame.sha256, ".png")
+    return decode_frame(data, f"{frame.sensor} frame {frame.seq}")
+
+
+def store_wheel_results(session: Session, store: BlobStore, pass_wheel_id: int) -> str:
+    """Measure a claimed wheel with every method and write the results (one transaction).
+
+    Returns the wheel's final state: "measured" when at least one method measured it,
+    otherwise "not_measured" with the first method's reason.
+    """
+    pass_wheel = session.get(PassWheel, pass_wheel_id)
+    train_pass = pass_wheel.train_pass
+    calibration = parse_calibration(train_pass.calibration.document)
+    frames = {p: _load_frames(session, pass_wheel, p) for p in POSITIONS}
+    images = {p: [_decode(store, f) for f in rows] for p, rows in frames.items()}
+    session.execute(delete(Measurement).where(Measurement.pass_wheel_id == pass_wheel_id))
+    reasons = []
+    for method in MEASURE_METHODS:
+        result = measure_wheel(
+            images["inner"], images["outer"], calibration, side=pass_wheel.wheel.side, method=method
+        )
+        row = measurement_row(result, train_pass.fleet, session)
+        row.pass_wheel_id = pass_wheel_id
+        session.add(row)
+        session.flush()
+        by_index = {(f.sensor, i): f for p in POSITIONS for i, f in enumerate(frames[p])}
+        for frame_centres in result.frames:
+            frame = by_index[(frame_centres.sensor, frame_centres.frame_index)]
+            session.add(
+                MeasurementFrame(
+                    measurement_id=row.id,
+                    sensor=frame.sensor,
+                    seq=frame.seq,
+                    artefact_sha256=save_artefacts(store, frame_centres.centres),
+                    centre_count=len(frame_centres.centres),
+                )
+            )
+        if result.status != MEASURED:
+            reasons.append(f"{method}: {result.reason}")
+    measured = len(reasons) < len(MEASURE_METHODS)
+    pass_wheel.state = "measured" if measured else "not_measured"
+    pass_wheel.reason = "; ".join(reasons) or None
+    pass_wheel.finished_at = utc_now()
+    session.commit()
+    return pass_wheel.state
+
+
 def update_back_to_back(session: Session, pass_wheel_id: int) -> None:
-    """Back-to-back distance of an axle once both its wheels are measured (see issue 4)."""
-    session.get(PassWheel, pass_wheel_id)
+    """Once both wheels of an axle are finished, store the axle's back-to-back distance on
+    both wheels' measurements (per method) and re-evaluate their alarms. Idempotent."""
+    pass_wheel = session.get(PassWheel, pass_wheel_id)
+    wheel = pass_wheel.wheel
+    pair = session.execute(
+        select(PassWheel, Wheel)
+        .join(Wheel, PassWheel.wheel_id == Wheel.id)
+        .where(
+            PassWheel.pass_id == pass_wheel.pass_id,
+            Wheel.vehicle_id == wheel.vehicle_id,
+            Wheel.axle == wheel.axle,
+            PassWheel.state == "measured",
+        )
+    ).all()
+    sides = {w.side: pw for pw, w in pair}
+    if set(sides) != {"left", "right"}:
+        return
+    left = {m.method: m for m in sides["left"].measurements}
+    right = {m.method: m for m in sides["right"].measurements}
+    fleet = pass_wheel.train_pass.fleet
+    for method in set(left) & set(right):
+        x_left, x_right = left[method].back_face_track_x_mm, right[method].back_face_track_x_mm
+        b2b = None if x_left is None or x_right is None else x_right - x_left
+        for row in (left[method], right[method]):
+            row.back_to_back_mm = b2b
+            apply_alarms(row, fleet, session)
+    session.commit()

@@ -188,6 +188,7 @@ class Measurement(Base):
     flange_thickness_en_mm: Mapped[float | None] = mapped_column(Float)
     qr_mm: Mapped[float | None] = mapped_column(Float)
     back_to_back_mm: Mapped[float | None] = mapped_column(Float)
+    back_face_track_x_mm: Mapped[float | None] = mapped_column(Float)
     reference_profile: Mapped[str | None] = mapped_column(String(20))
     sigma_mean_px: Mapped[float | None] = mapped_column(Float)
     sigma_min_px: Mapped[float | None] = mapped_column(Float)

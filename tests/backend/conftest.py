@@ -39,7 +39,7 @@ def service(
         client.app.state.engine.dispose()
 
 
-def _empty_service(client: TestClient) -> None:
+def empty_service(client: TestClient) -> None:
     shutil.rmtree(client.app.state.store.root, ignore_errors=True)
     engine = client.app.state.engine
     with engine.begin() as connection:
@@ -53,13 +53,12 @@ def _empty_service(client: TestClient) -> None:
 
 @pytest.fixture
 def client(service: TestClient) -> Iterator[TestClient]:
-    _empty_service(service)
+    empty_service(service)
     yield service
-    _empty_service(service)
+    empty_service(service)
 
 
-@pytest.fixture
-def tokens(client: TestClient) -> dict[str, str]:
+def make_tokens(client: TestClient) -> dict[str, str]:
     """A live token per role."""
     made = {}
     with client.app.state.session_factory() as session:
@@ -67,6 +66,11 @@ def tokens(client: TestClient) -> dict[str, str]:
             made[role] = create_token(session, role=role, name=f"test {role}")[1]
         session.commit()
     return made
+
+
+@pytest.fixture
+def tokens(client: TestClient) -> dict[str, str]:
+    return make_tokens(client)
 
 
 @pytest.fixture
