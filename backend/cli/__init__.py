@@ -16,6 +16,7 @@ VERB_MODULES: list[str] = [
     "backend.cli.agent",
     "backend.cli.measure",
     "backend.cli.worker",
+    "backend.cli.serve",
 ]
 
 
