@@ -14,6 +14,8 @@ from __future__ import annotations
 import queue
 import threading
 import time
+from collections import Counter
+from collections.abc import Callable
 from datetime import UTC, datetime
 
 import numpy as np
@@ -49,6 +51,7 @@ class SensorWorker:
         self._spool = spool
         self._progress = progress
         self._queue: queue.Queue[tuple[str, AxleLabel] | None] = queue.Queue()
+        self.on_axle_done: Callable[[str, AxleLabel], None] = lambda _key, _label: None
         self._thread = threading.Thread(target=self._run, name=f"camera {config.sensor}")
         self._thread.start()
 
@@ -69,7 +72,10 @@ class SensorWorker:
         while (job := self._queue.get()) is not None:
             try:
                 self._capture(*job)
+            except Exception as exc:  # e.g. the spool's disk failing: say so, keep going
+                self._progress.warn(f"{self.config.sensor}: frames of a wheel lost: {exc!r}")
             finally:
+                self.on_axle_done(*job)
                 self._queue.task_done()
         self._queue.task_done()
 
@@ -149,7 +155,11 @@ class Capture:
         self._key: str | None = None
         self._counter = AxleCounter(station.axles_per_vehicle)
         self._tags_ended = False
+        self._axle_lock = threading.Lock()
+        self._axle_workers: Counter[tuple[str, int]] = Counter()
         self.passes = 0
+        for worker in workers:
+            worker.on_axle_done = self._axle_done
 
     def run(
         self,
@@ -196,8 +206,19 @@ class Capture:
             self._counter = AxleCounter(self._station.axles_per_vehicle)
             self.passes += 1
         label = self._counter.count_axle(lambda: self._take_tag(tags))
+        with self._axle_lock:
+            self._axle_workers[(self._key, label.index)] = len(self._workers)
         for worker in self._workers:
             worker.submit(self._key, label)
+
+    def _axle_done(self, key: str, label: AxleLabel) -> None:
+        with self._axle_lock:
+            self._axle_workers[(key, label.index)] -= 1
+            done = self._axle_workers[(key, label.index)] == 0
+            if done:
+                del self._axle_workers[(key, label.index)]
+        if done:
+            self._spool.release_axle(key, label.vehicle_id, label.axle)
 
     def _take_tag(self, tags: queue.Queue[object] | None) -> VehicleTag | None:
         while tags is not None and not self._tags_ended:

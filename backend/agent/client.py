@@ -86,13 +86,13 @@ class StreamClient:
 
         Used after an open whose answer was lost, so a retry does not open a second pass.
         """
-        params = {"site": request.site, "since": request.started_at, "limit": 50}
+        params = {"site": request.site, "started_from": request.started_at, "limit": 50}
         listing = self._call("GET", "/api/passes", params=params).json()
         items = listing["items"] if isinstance(listing, dict) else listing
         wanted = datetime.fromisoformat(request.started_at)
         for item in items:
             started = datetime.fromisoformat(str(item["started_at"]).replace("Z", "+00:00"))
-            if started == wanted and item.get("status") == "receiving":
+            if started == wanted and item.get("state") == "open":
                 return int(item["id"])
         return None
 

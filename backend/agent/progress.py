@@ -76,14 +76,13 @@ class Progress:
 
     def acknowledged(self, item: SpoolItem, result: PutResult | None) -> None:
         """The server acknowledged an item (`result` for frames)."""
-        del result
         with self._lock:
             if isinstance(item, CloseItem):
                 self.passes_closed += 1
                 return
             wheel = (item.key, item.vehicle_id, item.axle, item.sensor.split("_")[0])
             if isinstance(item, FrameItem):
-                self.frames_sent += 1
+                self.frames_sent += result is not None
                 self._frames_acked[(*wheel[:3], item.sensor)] += 1
                 if self._frames_acked[(*wheel[:3], item.sensor)] < self._frames_per_wheel:
                     return

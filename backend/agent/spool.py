@@ -19,7 +19,7 @@ import json
 import os
 import shutil
 import threading
-from collections import deque
+from collections import Counter, deque
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -105,6 +105,8 @@ class Spool:
         self._used_bytes = 0
         self._missing_count = 0
         self._declared: set[tuple[str, str, int, str]] = set()
+        self._released: set[tuple[str, str, int]] = set()
+        self._wheel_frames: Counter[tuple[str, str, int, str]] = Counter()
         for pass_dir in sorted(p for p in self.folder.iterdir() if (p / "pass.json").is_file()):
             self._load_pass(pass_dir)
 
@@ -161,6 +163,13 @@ class Spool:
         _write_json(path, {**body, "reason": reason})
         self._enqueue(item)
 
+    def release_axle(self, key: str, vehicle_id: str, axle: int) -> None:
+        """Every sensor is done with this axle: its missing declarations may go out (each
+        after the frames of its wheel, so no frame arrives at a wheel already settled)."""
+        with self._lock:
+            self._released.add((key, vehicle_id, axle))
+            self._lock.notify_all()
+
     def end_pass(self, key: str) -> None:
         """Capture of the pass is over: it is closed once everything else is acknowledged."""
         with self._lock:
@@ -213,6 +222,7 @@ class Spool:
             else:
                 self._passes[item.key].outstanding -= 1
                 if isinstance(item, FrameItem):
+                    self._wheel_frames[_wheel(item)] -= 1
                     self._used_bytes -= item.nbytes
                     item.path.unlink(missing_ok=True)
                 item.path.with_suffix(".json").unlink(missing_ok=True)
@@ -234,8 +244,11 @@ class Spool:
             return self._lock.wait_for(lambda: not self._passes, timeout_s)
 
     def _next_item(self, *, pop: bool) -> SpoolItem | None:
-        if self._queue:
-            return self._queue.popleft() if pop else self._queue[0]
+        for item in self._queue:
+            if isinstance(item, FrameItem) or self._may_declare(item):
+                if pop:
+                    self._queue.remove(item)
+                return item
         for key, state in self._passes.items():
             if state.ended and state.outstanding == 0 and not state.closing:
                 if pop:
@@ -245,14 +258,20 @@ class Spool:
 
     def is_declared(self, item: FrameItem) -> bool:
         """True when the frame's wheel has a missing-frame declaration (it is not measured)."""
-        wheel = (item.key, item.vehicle_id, item.axle, item.sensor.split("_")[0])
         with self._lock:
-            return wheel in self._declared
+            return _wheel(item) in self._declared
+
+    def _may_declare(self, item: MissingItem) -> bool:
+        ended = self._passes[item.key].ended
+        released = ended or (item.key, item.vehicle_id, item.axle) in self._released
+        return released and self._wheel_frames[_wheel(item)] == 0
 
     def _enqueue(self, item: SpoolItem) -> None:
         with self._lock:
             if isinstance(item, MissingItem):
-                self._declared.add((item.key, item.vehicle_id, item.axle, item.side))
+                self._declared.add(_wheel(item))
+            elif isinstance(item, FrameItem):
+                self._wheel_frames[_wheel(item)] += 1
             self._passes[item.key].outstanding += 1
             self._queue.append(item)
             self._lock.notify_all()
@@ -282,6 +301,11 @@ class Spool:
             self._missing_count = max(self._missing_count, int(path.stem[2:]))
             self._enqueue(MissingItem(key, path=path, **body))
         self._passes[key].ended = True
+
+
+def _wheel(item: FrameItem | MissingItem) -> tuple[str, str, int, str]:
+    side = item.side if isinstance(item, MissingItem) else item.sensor.split("_")[0]
+    return (item.key, item.vehicle_id, item.axle, side)
 
 
 def _write_json(path: Path, data: object) -> None:

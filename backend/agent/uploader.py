@@ -84,12 +84,18 @@ class Uploader:
         try:
             while not self._stop.is_set():
                 item = self._spool.take(timeout_s=0.2)
-                if item is not None:
+                if item is None:
+                    continue
+                try:
                     self._handle(client, item)
+                except Exception as exc:  # a bug or a disk error: stop loudly, never hang
+                    self._spool.release(item)
+                    self._fail(RuntimeError(f"uploader failed on {_describe(item)}: {exc!r}"))
         finally:
             client.close()
 
     def _handle(self, client: StreamClient, item: SpoolItem) -> None:
+        result: PutResult | None = None
         try:
             result = self._send(client, item)
         except ServerUnavailable as exc:

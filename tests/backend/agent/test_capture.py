@@ -49,11 +49,12 @@ def capture_into_spool(station_path: Path, *, allow_missing: bool = False) -> tu
     return spool, warnings
 
 
-def drain(spool: Spool) -> list[FrameItem | MissingItem]:
-    """Everything spooled (the pass's close waits for acknowledgements, so it stays)."""
+def drain(spool: Spool) -> list[tuple[FrameItem | MissingItem, bytes]]:
+    """Everything spooled, acknowledged as a server would (frames with their PNG bytes)."""
     items = []
     while isinstance(item := spool.take(0), FrameItem | MissingItem):
-        items.append(item)
+        items.append((item, item.path.read_bytes() if isinstance(item, FrameItem) else b""))
+        spool.ack(item)
     return items
 
 
@@ -65,7 +66,7 @@ def test_replayed_pass_is_spooled_with_the_manifests_labels_and_pixels(
     station_path = write_replay_station(archive_dir, tmp_path / "station")
     spool, warnings = capture_into_spool(station_path)
     items = drain(spool)
-    assert all(isinstance(i, FrameItem) for i in items), warnings
+    assert all(isinstance(i, FrameItem) for i, _ in items), warnings
     manifest = read_pass_archive(archive_dir, decode_frames=False).manifest
     expected = {}
     for wheel in manifest.wheels:
@@ -73,8 +74,8 @@ def test_replayed_pass_is_spooled_with_the_manifests_labels_and_pixels(
             for path in wheel.frames(position):
                 expected[(wheel.vehicle_id, wheel.axle, wheel.sensor_name(position), path)] = None
     got = {}
-    for item in items:
-        image = cv2.imdecode(np.frombuffer(item.path.read_bytes(), np.uint8), cv2.IMREAD_UNCHANGED)
+    for item, png in items:
+        image = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)
         got[(item.vehicle_id, item.axle, item.sensor)] = got.get(
             (item.vehicle_id, item.axle, item.sensor), []
         ) + [(item.seq, image)]
@@ -96,7 +97,7 @@ def test_a_camera_not_attached_has_its_frames_declared_missing(
     archive_dir, _ = make_archive(tmp_path / "pass", vehicles=("v",), axles=2)
     station_path = write_replay_station(archive_dir, tmp_path / "station")
     spool, _ = capture_into_spool(station_path, allow_missing=True)
-    items = drain(spool)
+    items = [item for item, _ in drain(spool)]
     missing = [i for i in items if isinstance(i, MissingItem)]
     assert [(m.vehicle_id, m.axle, m.side, m.sensor) for m in missing] == [
         ("v", 1, "right", "right_outer"),
@@ -118,7 +119,7 @@ def test_a_camera_that_never_fires_times_out_per_wheel_and_the_pass_goes_on(
     data["sensors"]["left_outer"]["timeout_s"] = 0.05
     station_path.write_text(json.dumps(data))
     spool, _ = capture_into_spool(station_path)
-    items = drain(spool)
+    items = [item for item, _ in drain(spool)]
     missing = [i for i in items if isinstance(i, MissingItem)]
     assert [(m.axle, m.sensor) for m in missing] == [(1, "left_outer"), (2, "left_outer")]
     assert "left_outer (0815-0001) delivered no frame within 0.05 s" in missing[0].reason

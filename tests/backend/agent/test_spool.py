@@ -9,20 +9,28 @@ from backend.agent.spool import CloseItem, FrameItem, MissingItem, PassOpen, Spo
 REQUEST = PassOpen("s", "2026-11-23T22:00:00+00:00", "up", 20.0, 1, None)
 
 
-def test_items_come_out_in_capture_order_and_close_comes_last(tmp_path: Path) -> None:
+def test_declarations_follow_their_wheels_frames_and_close_comes_last(tmp_path: Path) -> None:
     spool = Spool(tmp_path, limit_bytes=1000)
     key = spool.begin_pass(REQUEST)
     assert spool.add_frame(key, "left_inner", 0, "v", 1, b"a" * 10)
     spool.add_missing(key, "v", 1, "left", "left_outer", "camera gone")
-    spool.end_pass(key)
-    first, second = spool.take(0), spool.take(0)
+    assert spool.add_frame(key, "right_inner", 0, "v", 1, b"b" * 10)
+    first = spool.take(0)
     assert isinstance(first, FrameItem) and (first.sensor, first.seq) == ("left_inner", 0)
-    assert isinstance(second, MissingItem) and second.reason == "camera gone"
-    assert spool.take(0) is None  # close waits for the acknowledgements
+    second = spool.take(0)
+    assert isinstance(second, FrameItem) and second.sensor == "right_inner"
+    assert spool.take(0) is None  # the axle is still being captured
+    spool.release_axle(key, "v", 1)
+    assert spool.take(0) is None  # the wheel's frame is still on its way
     spool.ack(first)
-    spool.release(second)
-    assert spool.take(0) == second
     spool.ack(second)
+    declaration = spool.take(0)
+    assert isinstance(declaration, MissingItem) and declaration.reason == "camera gone"
+    spool.release(declaration)
+    spool.end_pass(key)
+    assert spool.take(0) == declaration
+    assert spool.take(0) is None  # close waits for the acknowledgement
+    spool.ack(declaration)
     close = spool.take(0)
     assert close == CloseItem(key)
     spool.ack(close)

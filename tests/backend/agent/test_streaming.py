@@ -1,0 +1,225 @@
+"""The agent against the real server (uvicorn subprocess): emulated cameras replay a simulated
+pass; the server ends up with exactly the archive's frames, through a SIGKILL and restart of
+the server mid-pass, with a camera missing, and refuses bad tokens in one line."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import queue
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import pytest
+
+from backend.agent.replay import write_replay_station
+from tests.backend.agent.live_server import LiveServer
+
+FRAMES_PER_SENSOR = 2
+DEADLINE_S = 240.0
+
+
+@pytest.fixture(scope="module")
+def sim_pass(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One simulated vehicle, 2 axles, 2 frames per sensor and wheel (16 frames)."""
+    out = tmp_path_factory.mktemp("sim") / "pass"
+    command = [sys.executable, "-m", "backend.cli", "synth-pass", str(out)]
+    command += ["--vehicles", "1", "--axles", "2", "--frames-per-sensor", str(FRAMES_PER_SENSOR)]
+    subprocess.run(command, check=True, capture_output=True)
+    return out
+
+
+@pytest.fixture
+def server(tmp_path: Path) -> Iterator[LiveServer]:
+    live = LiveServer(tmp_path / "data")
+    live.start()
+    yield live
+    live.stop()
+
+
+def agent_command(station: Path, server: LiveServer, token: str, *extra: str) -> list[str]:
+    command = [sys.executable, "-m", "backend.cli", "agent", "--server", server.url]
+    return [*command, "--token", token, "--station", str(station), *extra]
+
+
+def agent_env(cameras: int = 4) -> dict[str, str]:
+    return {**os.environ, "PYLON_CAMEMU": str(cameras)}
+
+
+def run_agent(station: Path, server: LiveServer, *extra: str, cameras: int = 4, token=None):
+    token = server.tokens["operator"] if token is None else token
+    return subprocess.run(
+        agent_command(station, server, token, *extra),
+        env=agent_env(cameras),
+        capture_output=True,
+        text=True,
+        timeout=DEADLINE_S,
+        check=False,
+    )
+
+
+def expected_frames(station_dir: Path) -> set[tuple[str, int, str]]:
+    """(sensor, seq, sha256) of the replayed files: seq n is the n-th file a camera replays."""
+    return {
+        (folder.name, int(png.stem), hashlib.sha256(png.read_bytes()).hexdigest())
+        for folder in (station_dir / "replay").iterdir()
+        for png in folder.glob("*.png")
+    }
+
+
+def only_pass(server: LiveServer) -> dict:
+    page = httpx.get(f"{server.url}/api/passes", headers=server.headers("viewer")).json()
+    assert page["total"] == 1, page
+    return page["items"][0]
+
+
+def stored_frames(server: LiveServer, pass_id: int) -> list[tuple[str, int, str]]:
+    rows = httpx.get(f"{server.url}/api/passes/{pass_id}/frames", headers=server.headers()).json()
+    return [(r["sensor"], r["seq"], r["sha256"]) for r in rows]
+
+
+def wheels(server: LiveServer, pass_id: int) -> list[dict]:
+    url = f"{server.url}/api/passes/{pass_id}/wheels"
+    return httpx.get(url, headers=server.headers("viewer")).json()
+
+
+def test_streamed_pass_holds_exactly_the_archives_frames(
+    tmp_path: Path, sim_pass: Path, server: LiveServer
+) -> None:
+    station = write_replay_station(sim_pass, tmp_path / "station")
+    result = run_agent(station, server)
+    assert result.returncode == 0, result.stderr
+    assert "1 passes, 16 frames captured, 0 declared missing, 16 sent" in result.stdout
+    train_pass = only_pass(server)
+    assert (train_pass["source"], train_pass["state"], train_pass["vehicles"]) == (
+        "stream",
+        "closed",
+        ["V001"],
+    )
+    frames = stored_frames(server, train_pass["id"])
+    assert len(frames) == len(set(frames))
+    assert set(frames) == expected_frames(tmp_path / "station")
+    labels = {(w["vehicle_id"], w["axle"], w["side"]): w["frames"] for w in wheels(server, 1)}
+    two = {"inner": FRAMES_PER_SENSOR, "outer": FRAMES_PER_SENSOR}
+    assert labels == {
+        ("V001", axle, side): {f"{side}_{p}": n for p, n in two.items()}
+        for axle in (1, 2)
+        for side in ("left", "right")
+    }
+
+
+class AgentProcess:
+    """The agent CLI in the background, its stderr lines collected as they come."""
+
+    def __init__(self, command: list[str], env: dict[str, str]) -> None:
+        self.process = subprocess.Popen(
+            command, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        )
+        self.lines: queue.Queue[str] = queue.Queue()
+        self.seen: list[str] = []
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        assert self.process.stderr is not None
+        for line in self.process.stderr:
+            self.lines.put(line)
+
+    def wait_for_line(self, text: str) -> None:
+        deadline = time.monotonic() + DEADLINE_S
+        while not any(text in line for line in self.seen):
+            assert time.monotonic() < deadline, f"agent never said {text!r}: {self.seen[-5:]}"
+            self.seen.append(self.lines.get(timeout=DEADLINE_S))
+
+
+def open_fifo_writer(fifo: Path, agent: AgentProcess) -> int:
+    """Open the wheel-sensor FIFO for writing once the agent reads it."""
+    deadline = time.monotonic() + DEADLINE_S
+    while True:
+        try:
+            return os.open(fifo, os.O_WRONLY | os.O_NONBLOCK)
+        except OSError:
+            assert agent.process.poll() is None, "agent exited before reading its events"
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+
+
+def test_server_killed_and_restarted_mid_pass_loses_and_duplicates_nothing(
+    tmp_path: Path, sim_pass: Path, server: LiveServer
+) -> None:
+    station_dir = tmp_path / "station"
+    station = write_replay_station(sim_pass, station_dir)
+    fifo = station_dir / "axles.fifo"
+    os.mkfifo(fifo)
+    data = json.loads(station.read_text())
+    data["wheel_sensor"]["source"] = f"file:{fifo}"
+    station.write_text(json.dumps(data))
+    agent = AgentProcess(agent_command(station, server, server.tokens["operator"]), agent_env())
+    writer = open_fifo_writer(fifo, agent)
+    os.write(writer, b'{"event": "axle"}\n')
+    agent.wait_for_line("is server pass 1")
+    deadline = time.monotonic() + DEADLINE_S
+    while len(stored_frames(server, 1)) < 4 * FRAMES_PER_SENSOR:
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    server.kill()
+    os.write(writer, b'{"event": "axle"}\n{"event": "end"}\n')
+    os.close(writer)
+    agent.wait_for_line("server unavailable, buffering frames on disk")
+    server.start()
+    assert agent.process.wait(timeout=DEADLINE_S) == 0, agent.seen
+    frames = stored_frames(server, 1)
+    assert len(frames) == len(set(frames)) == 16
+    assert set(frames) == expected_frames(station_dir)
+    assert only_pass(server)["state"] == "closed"
+    assert list((station_dir / "spool").iterdir()) == []
+
+
+def test_a_removed_camera_makes_its_wheels_not_measured_and_the_pass_goes_on(
+    tmp_path: Path, sim_pass: Path, server: LiveServer
+) -> None:
+    station = write_replay_station(sim_pass, tmp_path / "station")
+    refused = run_agent(station, server, cameras=3)
+    assert refused.returncode == 2
+    assert refused.stderr.strip().splitlines()[-1] == (
+        "wheelscan agent: error: camera '0815-0003' for right_outer is not attached "
+        "(cameras seen: 0815-0000, 0815-0001, 0815-0002)"
+    )
+    result = run_agent(station, server, "--allow-missing-cameras", cameras=3)
+    assert result.returncode == 0, result.stderr
+    assert "12 frames captured, 2 declared missing" in result.stdout
+    assert only_pass(server)["state"] == "closed"
+    by_side = {}
+    for wheel in wheels(server, 1):
+        by_side.setdefault(wheel["side"], []).append(wheel)
+    for wheel in by_side["right"]:
+        assert wheel["state"] == "not_measured"
+        assert "right_outer" in wheel["reason"] and "is not attached" in wheel["reason"]
+        assert wheel["missing_sensors"] == ["right_outer"]
+    for wheel in by_side["left"]:
+        assert wheel["frames"] == {"left_inner": 2, "left_outer": 2}
+        assert wheel["state"] != "not_measured"
+
+
+@pytest.mark.parametrize(
+    ("role", "message"),
+    [
+        (None, "server refused the token (401: "),
+        ("viewer", "token has role 'viewer'; streaming needs role operator"),
+    ],
+)
+def test_a_refused_token_is_one_line(
+    tmp_path: Path, sim_pass: Path, server: LiveServer, role: str | None, message: str
+) -> None:
+    station = write_replay_station(sim_pass, tmp_path / "station")
+    token = "wrong-token" if role is None else server.tokens[role]
+    result = run_agent(station, server, token=token)
+    assert result.returncode == 2
+    assert "Traceback" not in result.stderr
+    last = result.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"wheelscan agent: error: {message}")
