@@ -29,8 +29,8 @@ SEARCH_U_MM = (560.0, 820.0)
 BACK_FACE_Z_MM = (-35.0, 2.0)
 """Part of the back face used for its fit: below the flange root, above the rim edge."""
 BACK_FACE_BAND_MM = 1.5
-REFERENCE_HALF_WINDOW_MM = 3.0
-"""Tread points within ±3 mm of x = 70 give the reference height (quadratic fit, so a worn
+REFERENCE_HALF_WINDOW_MM = 5.0
+"""Tread points within ±5 mm of x = 70 give the reference height (quadratic fit, so a worn
 tread's curvature does not bias it)."""
 OVERLAP_NEIGHBOURS = 8
 MIN_BACK_FACE_POINTS = 20

@@ -301,3 +301,23 @@ def write_synthetic_passes(
         if progress is not None:
             progress(index + 1, repeat)
     return folders
+
+
+def read_truth(folder: str | Path) -> list[dict]:
+    """The per-wheel truth rows of a simulated pass folder (`truth.json` "wheels").
+
+    Raises
+    ------
+    OSError
+        When the folder has no readable truth.json.
+    ValueError
+        When truth.json is not a {"wheels": [...]} document.
+    """
+    path = Path(folder) / TRUTH_NAME
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path} is not valid JSON: {exc}") from None
+    if not isinstance(document, dict) or not isinstance(document.get("wheels"), list):
+        raise ValueError(f"{path} must be {{'wheels': [...]}}")
+    return document["wheels"]

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from dataclasses import asdict
 from pathlib import Path
 
 from tqdm import tqdm
@@ -18,7 +19,12 @@ from pipeline.calibration_set import (
     write_synthetic_calibration_set,
 )
 from pipeline.measurement import PassWheelResult, measure_pass
-from pipeline.simulator import AXLES_PER_VEHICLE, write_synthetic_passes
+from pipeline.repeatability import (
+    pass_observations,
+    repeatability_markdown,
+    summarise_repeatability,
+)
+from pipeline.simulator import AXLES_PER_VEHICLE, read_truth, write_synthetic_passes
 from pipeline.version import PIPELINE_VERSION
 
 PARAMETER_KEYS = ("flange_height_mm", "flange_thickness_mm", "flange_thickness_10_mm", "qr_mm")
@@ -136,6 +142,42 @@ def _synth_calibration(args: argparse.Namespace) -> int:
     return 0
 
 
+def _finite(row: dict[str, object]) -> dict[str, object]:
+    """NaN (e.g. the Std of a single pass) becomes JSON null."""
+    return {k: None if isinstance(v, float) and v != v else v for k, v in row.items()}
+
+
+def _rr(args: argparse.Namespace) -> int:
+    methods = _methods(args.method)
+    archives = [read_pass_archive(p) for p in args.passes]
+    truths = [read_truth(p) for p in args.passes]
+    observations = []
+    total = sum(len(a.manifest.wheels) for a in archives) * len(methods)
+    with tqdm(total=total, desc="rr", unit="wheel", file=sys.stderr) as bar:
+        for archive, truth in zip(archives, truths, strict=True):
+            results = measure_pass(
+                archive,
+                methods=methods,
+                progress=lambda done, _t, start=bar.n: bar.update(start + done - bar.n),
+            )
+            observations += pass_observations(results, truth)
+    per_wheel, pooled = summarise_repeatability(observations)
+    document = {
+        "pipeline_version": PIPELINE_VERSION,
+        "passes": [str(p) for p in args.passes],
+        "methods": list(methods),
+        "pooled": [_finite(asdict(s)) for s in pooled],
+        "per_wheel": [_finite(asdict(s)) for s in per_wheel],
+    }
+    text = json.dumps(document, indent=2, allow_nan=False) + "\n"
+    if str(args.json) == "-":
+        sys.stdout.write(text)
+    else:
+        Path(args.json).write_text(text, encoding="utf-8")
+        sys.stdout.write(repeatability_markdown(per_wheel, pooled))
+    return 0
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the measurement verbs."""
     synth = subparsers.add_parser(
@@ -201,3 +243,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="only this sensor (repeatable; default all four)",
     )
     synth_cal.set_defaults(func=_synth_calibration)
+
+    rr = subparsers.add_parser(
+        "rr", help="repeatability report over repeated simulated passes (needs truth.json)"
+    )
+    rr.add_argument("passes", nargs="+", type=Path, metavar="PASS")
+    rr.add_argument("--method", choices=("adaptive", "steger", "both"), default="both")
+    rr.add_argument("--json", required=True, metavar="OUT", help="output JSON file, - for stdout")
+    rr.set_defaults(func=_rr)

@@ -57,3 +57,29 @@ def test_broken_manifest_is_one_line(tmp_path: Path, capsys) -> None:
     (tmp_path / "manifest.json").write_text("[]")
     assert main(["measure", str(tmp_path), "--json", "-"]) == 2
     assert "manifest must be a JSON object" in capsys.readouterr().err
+
+
+def test_rr_reports_both_methods_against_truth(tmp_path: Path) -> None:
+    out = tmp_path / "rr"
+    assert main(["synth-pass", str(out), "--axles", "1", "--repeat", "2", "--seed", "9"]) == 0
+    report = tmp_path / "rr.json"
+    passes = [str(out / "pass-001"), str(out / "pass-002")]
+    assert main(["rr", *passes, "--json", str(report)]) == 0
+    document = json.loads(report.read_text())
+    pooled = {(r["method"], r["parameter"]): r for r in document["pooled"]}
+    assert set(pooled) >= {("adaptive", "flange_height_mm"), ("steger", "flange_thickness_mm")}
+    sh = pooled[("adaptive", "flange_height_mm")]
+    assert sh["passes"] == 4 and sh["mae_mm"] < 0.1
+    assert pooled[("adaptive", "back_to_back_mm")]["max_error_mm"] < 0.2
+
+
+def test_rr_without_truth_is_one_line(sim_pass: Path, tmp_path: Path, capsys) -> None:
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    for path in sim_pass.rglob("*"):
+        if path.is_file() and path.name != "truth.json":
+            target = bare / path.relative_to(sim_pass)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(path.read_bytes())
+    assert main(["rr", str(bare), "--json", "-"]) == 2
+    assert "truth.json" in capsys.readouterr().err
