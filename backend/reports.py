@@ -52,6 +52,7 @@ CSV_COLUMNS = (
     "pipeline_version",
 )  # fmt: skip
 THUMBNAIL_WIDTH_PX = 360
+PROFILE_WIDTH_MM = 118
 METHOD_COLOURS = {"adaptive": "#d62728", "steger": "#1f77b4"}
 
 
@@ -108,7 +109,7 @@ def report_csv(summary: PassSummary, wheels: list[PassWheelRead]) -> bytes:
 
 
 def _profile_png(figures: WheelFigures, width_mm: float) -> Image:
-    fig, ax = plt.subplots(figsize=(width_mm / 25.4, width_mm / 25.4 * 0.55), dpi=130)
+    fig, ax = plt.subplots(figsize=(width_mm / 25.4, width_mm / 25.4 * 0.55), dpi=110)
     name = figures.reference_profile
     if name in REFERENCE_PROFILES:
         reference = load_reference_profile(name)
@@ -304,17 +305,18 @@ def _wheel_block(figures: WheelFigures) -> KeepTogether:
     title = f"Vehicle {wheel.vehicle_id} · axle {wheel.axle} · {wheel.side} — {state}"
     if wheel.reason:
         title += f" ({wheel.reason})"
-    parts: list[Any] = [Paragraph(title, styles["Heading4"])]
-    if figures.profiles:
-        parts.append(_profile_png(figures, 170))
-    if figures.thumbnails:
-        cells = [
-            Image(io.BytesIO(png), width=40 * mm, height=40 * mm, kind="proportional")
-            for _, png in figures.thumbnails
+    plot = _profile_png(figures, PROFILE_WIDTH_MM) if figures.profiles else ""
+    thumbnails = Table(
+        [
+            [Image(io.BytesIO(png), width=52 * mm, height=30 * mm, kind="proportional")]
+            + [Paragraph(label, _small_style())]
+            for label, png in figures.thumbnails
         ]
-        labels = [Paragraph(label, _small_style()) for label, _ in figures.thumbnails]
-        parts.append(Table([cells, labels]))
-    return KeepTogether([*parts, Spacer(1, 4 * mm)])
+        or [[""]]
+    )
+    layout = Table([[plot, thumbnails]], colWidths=[(PROFILE_WIDTH_MM + 2) * mm, None])
+    layout.setStyle(TableStyle([("VALIGN", (0, 0), (-1, -1), "TOP")]))
+    return KeepTogether([Paragraph(title, styles["Heading4"]), layout, Spacer(1, 3 * mm)])
 
 
 def report_pdf(
