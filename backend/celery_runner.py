@@ -30,6 +30,7 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from backend.config import Settings
 from backend.leases import hold_wheel_lease, requeue_orphaned_wheel
+from backend.lost_wheels import LostWheelSweeper, find_lost_wheels
 from backend.runner import ProcessPoolRunner, TaskRunner
 from backend.tasks import measure_pass_wheel
 from backend.wheels import refresh_job
@@ -69,6 +70,9 @@ class ScaleSettings(BaseSettings):
     )
     lease_retry_s: float = Field(
         default=5.0, gt=0, description="delay before re-checking a wheel a live worker holds"
+    )
+    sweep_interval_s: float = Field(
+        default=30.0, gt=0, description="how often the service looks for lost messages"
     )
     retry_backoff_max_s: int = Field(default=60, ge=1, description="longest retry delay")
     max_retries: int = Field(default=10, ge=0, description="retries of a transient fault")
@@ -158,14 +162,11 @@ def measure_wheel(task: Task, pass_wheel_id: int) -> str:
 class CeleryRunner:
     """Per-wheel tasks sent to Celery workers through the broker (`TaskRunner`)."""
 
-    def __init__(
-        self,
-        settings: Settings,
-        session_factory: sessionmaker[Session],
-        app: WheelscanCelery | None = None,
-    ) -> None:
+    def __init__(self, settings: Settings, session_factory: sessionmaker[Session]) -> None:
+        self._settings = settings
         self._session_factory = session_factory
-        self._app = app or make_celery_app(settings)
+        self._app = make_celery_app(settings)
+        self._sweeper = LostWheelSweeper(self.send_lost, self._app.scale_settings.sweep_interval_s)
 
     def submit(self, pass_wheel_ids: Sequence[int]) -> None:
         """Send one message per wheel; a wheel the broker refuses stays "queued" and is
@@ -200,10 +201,37 @@ class CeleryRunner:
             for pass_id in unfinished:
                 refresh_job(session, pass_id)
         self.submit(pending)
+        self._sweeper.start()
         return len(pending)
 
+    def send_lost(self) -> int:
+        """Send again the wheels whose message was lost (`backend.lost_wheels`)."""
+        with self._session_factory() as session:
+            lost = find_lost_wheels(
+                session,
+                _lease_engine(self._settings.resolved_database_url),
+                self._settings.data_dir / "leases",
+                broker_queue_empty=self._broker_queue_empty(),
+            )
+        self.submit(lost)
+        return len(lost)
+
+    def _broker_queue_empty(self) -> bool:
+        """Whether no measurement message waits in the broker (False when unreachable)."""
+        try:
+            with self._app.connection_for_write() as connection:
+                channel = connection.default_channel
+                declared = channel.queue_declare(queue=MEASURE_QUEUE, passive=True)
+                return declared.message_count == 0
+        except kombu.exceptions.ChannelError:
+            return True  # Redis drops an empty list: the queue does not exist.
+        except TRANSIENT_ERRORS:
+            return False
+
     def shutdown(self) -> None:
-        """Close broker connections; queued messages stay with the broker for the workers."""
+        """Stop sweeping and close broker connections; queued messages stay with the
+        broker for the workers."""
+        self._sweeper.stop()
         self._app.close()
 
 

@@ -16,6 +16,7 @@ from backend.config import Settings
 from tests.databases import throwaway_database
 from tests.scale.topology import (
     REDIS_SERVER,
+    TEST_SCALE_ENV,
     RedisServer,
     api,
     measurement_results,
@@ -80,11 +81,20 @@ def shared_redis_url() -> str:
     _clear_queue(client)
 
 
+@pytest.fixture(autouse=True)
+def fast_redelivery(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The service in this process sweeps for lost messages every second, like the
+    workers' short delays (TEST_SCALE_ENV)."""
+    for name, value in TEST_SCALE_ENV.items():
+        monkeypatch.setenv(name, value)
+
+
 @pytest.fixture
 def private_redis(tmp_path: Path) -> Iterator[RedisServer]:
+    """A Redis of this test's own that keeps nothing across a restart."""
     if REDIS_SERVER is None:
         pytest.skip("redis-server is not installed: the broker-restart test needs its own Redis")
-    server = RedisServer(tmp_path / "redis")
+    server = RedisServer(tmp_path / "redis", persistent=False)
     server.start()
     yield server
     server.stop()

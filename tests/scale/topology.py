@@ -40,8 +40,9 @@ TEST_SCALE_ENV = {
     "WHEELSCAN_BROKER_RESTORE_INTERVAL_S": "1",
     "WHEELSCAN_LEASE_RETRY_S": "1",
     "WHEELSCAN_RETRY_BACKOFF_MAX_S": "2",
+    "WHEELSCAN_SWEEP_INTERVAL_S": "1",
 }
-"""Short redelivery and retry delays, so a lost worker's wheel comes back within seconds."""
+"""Short redelivery, retry and sweep delays, so a lost wheel comes back within seconds."""
 
 TASK_OUTCOME = re.compile(r"Task wheelscan\.measure_wheel\[[^\]]+\] succeeded in [^:]+: '(\w+)'")
 
@@ -76,21 +77,23 @@ def synthetic_pass_zip(folder: Path, vehicles: int, axles_per_vehicle: int, seed
 
 
 class RedisServer:
-    """A private, persistent (append-only file) Redis on a free port."""
+    """A private Redis on a free port; `persistent`: with an append-only file (as in
+    docker-compose.yml), else keeping nothing across a restart (as this machine's Redis)."""
 
-    def __init__(self, folder: Path) -> None:
+    def __init__(self, folder: Path, *, persistent: bool = True) -> None:
         if REDIS_SERVER is None:
             raise FileNotFoundError("redis-server is not installed")
         self.folder = folder
         self.port = free_port()
         self.url = f"redis://127.0.0.1:{self.port}/0"
+        self.persistent = persistent
         self._process: subprocess.Popen[bytes] | None = None
 
     def start(self) -> None:
         self.folder.mkdir(parents=True, exist_ok=True)
         command = [REDIS_SERVER, "--port", str(self.port), "--bind", "127.0.0.1"]
-        command += ["--dir", str(self.folder), "--save", "", "--appendonly", "yes"]
-        command += ["--appendfsync", "always"]
+        command += ["--dir", str(self.folder), "--save", ""]
+        command += ["--appendonly", "yes", "--appendfsync", "always"] if self.persistent else []
         log = (self.folder / "redis.log").open("ab")
         self._process = subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT)
         client = redis.Redis(port=self.port, socket_connect_timeout=1)

@@ -1,0 +1,107 @@
+"""Celery workers on Redis and PostgreSQL measure exactly what the in-process pool does,
+lose no wheel when a worker is killed or the broker restarts, and measure none twice."""
+
+from __future__ import annotations
+
+from collections import Counter
+from pathlib import Path
+
+import pytest
+
+from backend.config import Settings
+from tests.scale.conftest import PASS_TIMEOUT_S
+from tests.scale.topology import (
+    RedisServer,
+    WorkerProcess,
+    api,
+    measurement_results,
+    upload,
+    wait_for_pass,
+    wait_until,
+    wheel_states,
+    worker_env,
+    workers,
+)
+
+pytestmark = [pytest.mark.postgres, pytest.mark.slow]
+
+TERMINAL = ("measured", "not_measured", "failed")
+
+
+def finished_tasks(*started: WorkerProcess) -> int:
+    """Tasks that ended with a wheel measured (or not measured, or failed), over all logs."""
+    total: Counter[str] = Counter()
+    for worker in started:
+        total += worker.outcomes()
+    return sum(total[state] for state in TERMINAL)
+
+
+def test_two_celery_workers_store_exactly_the_in_process_results(
+    pass_archive, in_process_results, postgres_url, shared_redis_url, tmp_path: Path
+) -> None:
+    settings = Settings(data_dir=tmp_path, database_url=postgres_url, broker_url=shared_redis_url)
+    with workers(2, worker_env(settings), tmp_path) as started, api(settings) as client:
+        pass_id = upload(client, pass_archive)
+        wait_for_pass(client, pass_id, PASS_TIMEOUT_S)
+        results = measurement_results(client, pass_id)
+        states = wheel_states(client, pass_id)
+    assert results == in_process_results
+    assert all(attempts == 1 for _state, attempts in states.values()), states
+    assert finished_tasks(*started) == len(states)
+    assert all(worker.outcomes() for worker in started), "both workers should have measured"
+
+
+def test_a_worker_killed_mid_wheel_loses_no_wheel_and_measures_none_twice(
+    pass_archive, in_process_results, postgres_url, shared_redis_url, tmp_path: Path
+) -> None:
+    settings = Settings(data_dir=tmp_path, database_url=postgres_url, broker_url=shared_redis_url)
+    env = worker_env(settings)
+    with api(settings) as client:
+        with workers(1, env, tmp_path) as (victim,):
+            pass_id = upload(client, pass_archive)
+            wait_until(
+                lambda: (
+                    any(s == "measured" for s, _ in wheel_states(client, pass_id).values())
+                    and any(s == "running" for s, _ in wheel_states(client, pass_id).values())
+                ),
+                PASS_TIMEOUT_S,
+                "the first worker to be measuring its second or a later wheel",
+            )
+            victim.kill()
+            orphans = [i for i, (s, _) in wheel_states(client, pass_id).items() if s == "running"]
+            with workers(1, env, tmp_path, prefix="rescuer") as (rescuer,):
+                wait_for_pass(client, pass_id, PASS_TIMEOUT_S)
+        results = measurement_results(client, pass_id)
+        states = wheel_states(client, pass_id)
+    assert results == in_process_results
+    assert len(orphans) == 1
+    assert states[orphans[0]][1] == 2, "the orphaned wheel is claimed once more, by the rescuer"
+    assert all(attempts == 1 for i, (_s, attempts) in states.items() if i != orphans[0])
+    assert finished_tasks(victim, rescuer) == len(states)
+
+
+def test_a_broker_restart_that_drops_every_message_during_a_pass_loses_no_wheel(
+    pass_archive,
+    in_process_results,
+    postgres_url,
+    private_redis: RedisServer,
+    tmp_path: Path,
+) -> None:
+    settings = Settings(data_dir=tmp_path, database_url=postgres_url, broker_url=private_redis.url)
+    with workers(2, worker_env(settings), tmp_path) as started, api(settings) as client:
+        pass_id = upload(client, pass_archive)
+
+        def some_measured_some_waiting() -> bool:
+            states = [state for state, _ in wheel_states(client, pass_id).values()]
+            return any(s in TERMINAL for s in states) and "queued" in states
+
+        wait_until(some_measured_some_waiting, PASS_TIMEOUT_S, "a wheel done, one waiting")
+        private_redis.stop()
+        waiting = [s for s, _ in wheel_states(client, pass_id).values()].count("queued")
+        private_redis.start()
+        wait_for_pass(client, pass_id, PASS_TIMEOUT_S)
+        results = measurement_results(client, pass_id)
+        states = wheel_states(client, pass_id)
+    assert waiting >= 1, "the restart should have dropped the message of a waiting wheel"
+    assert results == in_process_results
+    assert finished_tasks(*started) == len(states)
