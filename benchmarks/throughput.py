@@ -1,0 +1,161 @@
+"""Throughput of the measurement service: in-process pool vs 1 and 2 Celery worker processes.
+
+One simulated 16-axle pass (4 vehicles × 4 axles, 32 wheels, one 1600×1200 frame per
+sensor, 64 frames) is uploaded to the service on PostgreSQL; the clock runs from the upload
+request to the job's "done". Workers are started, and warmed up by a one-axle pass, before
+the clock starts.
+The end-to-end time is set against the time the same train takes to pass the station at
+5 km/h: the station can keep up with traffic when measuring is faster than passing.
+
+Run alone with `python -m benchmarks.throughput` (prints the Markdown section).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager, nullcontext
+from dataclasses import dataclass
+from pathlib import Path
+
+from backend.config import Settings
+from tests.databases import throwaway_database
+from tests.scale.topology import (
+    RedisServer,
+    api,
+    synthetic_pass_zip,
+    upload,
+    wait_for_pass,
+    worker_env,
+    workers,
+)
+
+VEHICLES = 4
+AXLES_PER_VEHICLE = 4
+FRAMES_PER_WHEEL = 2
+"""One frame per sensor (inner, outer) per wheel, as `wheelscan synth-pass` writes."""
+VEHICLE_LENGTH_M = 19.5
+"""Assumed length over couplers of one vehicle (a metro car; 4 of them: a 78 m train)."""
+TRAIN_SPEED_KMH = 5.0
+PASS_TIMEOUT_S = 1800.0
+
+
+@dataclass(frozen=True, slots=True)
+class ThroughputRun:
+    """One configuration measuring the whole pass."""
+
+    mode: str
+    processes: int
+    upload_s: float
+    end_to_end_s: float
+    wheels: int
+
+    @property
+    def frames_per_s(self) -> float:
+        return self.wheels * FRAMES_PER_WHEEL / self.end_to_end_s
+
+    @property
+    def wheels_per_min(self) -> float:
+        return self.wheels * 60.0 / self.end_to_end_s
+
+
+def train_passing_time_s() -> float:
+    """Time the assumed train takes to pass one point at TRAIN_SPEED_KMH."""
+    return VEHICLES * VEHICLE_LENGTH_M / (TRAIN_SPEED_KMH / 3.6)
+
+
+@contextmanager
+def _celery_workers(count: int, settings: Settings, folder: Path) -> Iterator[None]:
+    with workers(count, worker_env(settings, fast_redelivery=False), folder):
+        yield
+
+
+def measure_once(
+    archive: bytes, warm_up: bytes, folder: Path, processes: int, redis: RedisServer | None
+) -> ThroughputRun:
+    """Measure the pass once: in-process pool when `redis` is None, else Celery workers.
+
+    A one-axle `warm_up` pass goes first, so pool processes are started and every process
+    has its database connections, as in a service that has been running a while.
+    """
+    folder.mkdir(parents=True)
+    with throwaway_database("postgresql", folder) as url:
+        settings = Settings(
+            data_dir=folder,
+            database_url=url,
+            broker_url=redis.url if redis else None,
+            workers=processes,
+        )
+        started = _celery_workers(processes, settings, folder) if redis else nullcontext()
+        with started, api(settings) as client:
+            wait_for_pass(client, upload(client, warm_up), PASS_TIMEOUT_S)
+            begin = time.perf_counter()
+            pass_id = upload(client, archive)
+            uploaded = time.perf_counter()
+            wait_for_pass(client, pass_id, PASS_TIMEOUT_S)
+            end = time.perf_counter()
+    return ThroughputRun(
+        mode="Celery workers" if redis else "in-process pool",
+        processes=processes,
+        upload_s=uploaded - begin,
+        end_to_end_s=end - begin,
+        wheels=VEHICLES * AXLES_PER_VEHICLE * 2,
+    )
+
+
+def run_all(folder: Path) -> list[ThroughputRun]:
+    """The three configurations on the same archive."""
+    archive = synthetic_pass_zip(folder / "pass", VEHICLES, axles_per_vehicle=AXLES_PER_VEHICLE)
+    warm_up = synthetic_pass_zip(folder / "warm-up", 1, axles_per_vehicle=1, seed=1)
+    redis = RedisServer(folder / "redis")
+    redis.start()
+    try:
+        return [
+            measure_once(archive, warm_up, folder / "pool-2", 2, None),
+            measure_once(archive, warm_up, folder / "celery-1", 1, redis),
+            measure_once(archive, warm_up, folder / "celery-2", 2, redis),
+        ]
+    finally:
+        redis.stop()
+
+
+def format_section(runs: list[ThroughputRun]) -> str:
+    """The BENCHMARKS.md section of these runs."""
+    passing_s = train_passing_time_s()
+    lines = [
+        "## Service throughput (benchmarks/throughput.py)",
+        "",
+        f"One simulated pass of {VEHICLES} vehicles × {AXLES_PER_VEHICLE} axles "
+        f"({VEHICLES * AXLES_PER_VEHICLE} axles, {runs[0].wheels} wheels, "
+        f"{runs[0].wheels * FRAMES_PER_WHEEL} frames of 1600×1200 px), both methods per "
+        "wheel, PostgreSQL; time from the upload request to the job's done, after a "
+        "one-axle warm-up pass (processes started, connections open). "
+        f"Train assumed {VEHICLES} × {VEHICLE_LENGTH_M} m = {VEHICLES * VEHICLE_LENGTH_M:.0f} m "
+        f"long: at {TRAIN_SPEED_KMH:g} km/h it passes in {passing_s:.0f} s. "
+        f"Machine load average at start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores.",
+        "",
+        "| runner | processes | upload s | end-to-end s | frames/s | wheels/min "
+        "| vs train passing |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for run in runs:
+        lines.append(
+            f"| {run.mode} | {run.processes} | {run.upload_s:.1f} | {run.end_to_end_s:.1f} "
+            f"| {run.frames_per_s:.2f} | {run.wheels_per_min:.1f} "
+            f"| {run.end_to_end_s / passing_s:.2f}× |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def run() -> str:
+    """Run the benchmark and return its Markdown section."""
+    with tempfile.TemporaryDirectory(prefix="wheelscan-throughput-") as folder:
+        return format_section(run_all(Path(folder)))
+
+
+if __name__ == "__main__":
+    import sys
+
+    sys.stdout.write(run())
