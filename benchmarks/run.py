@@ -17,7 +17,11 @@ import sys
 from datetime import UTC, datetime
 from pathlib import Path
 
-BENCH_MODULES: list[str] = ["benchmarks.extraction", "benchmarks.repeatability"]
+BENCH_MODULES: list[str] = [
+    "benchmarks.extraction",
+    "benchmarks.repeatability",
+    "benchmarks.throughput",
+]
 
 OUTPUT = Path(__file__).resolve().parent.parent / "BENCHMARKS.md"
 _SECTION = re.compile(r"<!-- bench:(?P<name>[\w.]+) -->\n.*?<!-- /bench:(?P=name) -->\n", re.S)
