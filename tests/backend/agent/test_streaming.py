@@ -12,6 +12,7 @@ import subprocess
 import sys
 import threading
 import time
+import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -23,6 +24,7 @@ from tests.backend.agent.live_server import LiveServer
 
 FRAMES_PER_SENSOR = 2
 DEADLINE_S = 240.0
+TERMINAL = ("measured", "not_measured", "failed")
 
 
 @pytest.fixture(scope="module")
@@ -89,7 +91,38 @@ def wheels(server: LiveServer, pass_id: int) -> list[dict]:
     return httpx.get(url, headers=server.headers("viewer")).json()
 
 
-def test_streamed_pass_holds_exactly_the_archives_frames(
+def measured_wheels(server: LiveServer, pass_id: int) -> dict[tuple, dict]:
+    """Wheels of a pass once all are measured (or not), keyed by identity, ids left out."""
+    deadline = time.monotonic() + DEADLINE_S
+    rows = wheels(server, pass_id)
+    while not all(w["state"] in TERMINAL for w in rows):
+        assert time.monotonic() < deadline, rows
+        time.sleep(0.2)
+        rows = wheels(server, pass_id)
+    return {
+        (w["vehicle_id"], w["axle"], w["side"]): {k: w[k] for k in w if k != "wheel_id"}
+        for w in rows
+    }
+
+
+def upload_archive(server: LiveServer, folder: Path, zip_path: Path) -> int:
+    with zipfile.ZipFile(zip_path, "w") as archive:
+        for path in sorted(folder.rglob("*")):
+            if path.is_file():
+                archive.write(path, path.relative_to(folder).as_posix())
+    with zip_path.open("rb") as stream:
+        response = httpx.post(
+            f"{server.url}/api/passes",
+            headers=server.headers(),
+            files={"file": (zip_path.name, stream, "application/zip")},
+            timeout=DEADLINE_S,
+        )
+    assert response.status_code == 202, response.text
+    return int(response.json()["pass_id"])
+
+
+@pytest.mark.slow
+def test_streamed_pass_holds_the_archives_frames_and_measures_like_its_upload(
     tmp_path: Path, sim_pass: Path, server: LiveServer
 ) -> None:
     station = write_replay_station(sim_pass, tmp_path / "station")
@@ -105,13 +138,17 @@ def test_streamed_pass_holds_exactly_the_archives_frames(
     frames = stored_frames(server, train_pass["id"])
     assert len(frames) == len(set(frames))
     assert set(frames) == expected_frames(tmp_path / "station")
-    labels = {(w["vehicle_id"], w["axle"], w["side"]): w["frames"] for w in wheels(server, 1)}
+    streamed = measured_wheels(server, train_pass["id"])
     two = {"inner": FRAMES_PER_SENSOR, "outer": FRAMES_PER_SENSOR}
-    assert labels == {
+    assert {key: w["frames"] for key, w in streamed.items()} == {
         ("V001", axle, side): {f"{side}_{p}": n for p, n in two.items()}
         for axle in (1, 2)
         for side in ("left", "right")
     }
+    uploaded = measured_wheels(server, upload_archive(server, sim_pass, tmp_path / "pass.zip"))
+    assert streamed == uploaded
+    assert {w["state"] for w in streamed.values()} == {"measured"}
+    assert all(len(w["results"]) == 2 for w in streamed.values())
 
 
 class AgentProcess:
