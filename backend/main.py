@@ -11,7 +11,7 @@ from fastapi.staticfiles import StaticFiles
 
 from backend.celery_runner import make_task_runner
 from backend.config import Settings, get_settings
-from backend.errors import install_error_handlers
+from backend.errors import MULTIPART_OVERHEAD_BYTES, BodySizeLimit, install_error_handlers
 from backend.limits import ensure_default_limits
 from backend.routes import ROUTERS
 from backend.runner import TaskRunner
@@ -63,6 +63,9 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     app.state.store = BlobStore(settings.frames_dir)
     app.state.runner = task_runner
     install_error_handlers(app)
+    app.add_middleware(
+        BodySizeLimit, max_body_bytes=settings.max_upload_bytes + MULTIPART_OVERHEAD_BYTES
+    )
     for router in ROUTERS:
         app.include_router(router)
     if settings.frontend_dir.is_dir():

@@ -5,7 +5,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated
 
-from fastapi import APIRouter, Query, Request, UploadFile, status
+from fastapi import APIRouter, Query, UploadFile, status
 
 from backend.deps import (
     OperatorDep,
@@ -16,7 +16,7 @@ from backend.deps import (
     StoreDep,
     ViewerDep,
 )
-from backend.errors import InvalidInputError, PayloadTooLargeError
+from backend.errors import InvalidInputError
 from backend.ingest import discard, existing_upload, receive_upload, store_archive, validate_archive
 from backend.queries import PassFilter, list_passes, pass_summary, pass_wheels
 from backend.schemas import ErrorRead, Page, PassAccepted, PassSummary, PassWheelRead
@@ -28,7 +28,6 @@ ERRORS = {code: {"model": ErrorRead} for code in (401, 403, 404, 409, 413, 422)}
 
 @router.post("", status_code=status.HTTP_202_ACCEPTED, responses=ERRORS)
 def upload_pass(
-    request: Request,
     file: UploadFile,
     session: SessionDep,
     settings: SettingsDep,
@@ -40,11 +39,6 @@ def upload_pass(
 
     The same archive uploaded again returns the pass made from it the first time.
     """
-    declared = int(request.headers.get("content-length") or 0)
-    if declared > settings.max_upload_bytes + 64 * 1024:
-        raise PayloadTooLargeError(
-            f"upload of {declared} bytes is larger than {settings.max_upload_bytes} bytes"
-        )
     if file.filename is not None and not file.filename:
         raise InvalidInputError("file: send the pass archive as multipart field 'file'")
     path, archive_sha256 = receive_upload(file.file, settings)

@@ -64,7 +64,12 @@ def test_a_zip_bomb_is_refused(client, auth) -> None:
 
 def test_an_oversize_upload_is_413(client, auth) -> None:
     too_big = b"\0" * (client.app.state.settings.max_upload_bytes + 1)
-    assert_refused(client, upload(client, auth, too_big), 413, "larger than")
+    assert_refused(client, upload(client, auth, too_big), 413, "upload is larger than")
+
+
+def test_an_oversize_body_is_413_before_it_is_read(client, auth) -> None:
+    far_too_big = b"\0" * (client.app.state.settings.max_upload_bytes + 100_000)
+    assert_refused(client, upload(client, auth, far_too_big), 413, "request body of")
 
 
 @pytest.mark.parametrize("name", ["../evil.png", "/etc/evil.png", "frames/../../evil.png"])
