@@ -4,13 +4,15 @@ A worker on a machine that does not mount the service's frame store sets
 `WHEELSCAN_STORE_URL` (the API's base URL) and `WHEELSCAN_STORE_TOKEN` (an operator token
 made for it: `wheelscan token create --role operator --name worker-3`). `HttpBlobStore`
 then reads and writes blobs through `/api/blobs/…` with the same methods as
-`backend.storage.BlobStore`, keeps what it read in a local cache, and checks every blob's
+`backend.storage.BlobStore` (it is one, over a local cache), and checks every blob's
 sha256 both ways, so a truncated or altered transfer is an error, never a wrong frame.
 """
 
 from __future__ import annotations
 
 import hashlib
+from pathlib import Path
+from typing import Any
 
 import httpx
 from pydantic_settings import BaseSettings, SettingsConfigDict
@@ -35,8 +37,9 @@ class BlobIntegrityError(OSError):
     """A blob's bytes do not hash to its name."""
 
 
-class HttpBlobStore:
-    """A `BlobStore` read and written through the service's `/api/blobs` route.
+class HttpBlobStore(BlobStore):
+    """A `BlobStore` read and written through the service's `/api/blobs` route, with a
+    local cache under `cache_root` (where `path_for` points).
 
     Parameters
     ----------
@@ -44,17 +47,24 @@ class HttpBlobStore:
         The service, e.g. "http://api:8000".
     token : str
         An operator token.
-    cache : BlobStore
-        Local store of the blobs read or written (its `root` is this store's root).
+    cache_root : Path
+        Local store of the blobs read or written.
+    timeout_s : float
+        Per request.
     client : httpx.Client, optional
         For tests (e.g. a FastAPI TestClient); default: a new client for `base_url`.
+
+    Notes
+    -----
+    A network fault (the service unreachable, a reset connection) is raised as
+    `ConnectionError`, which the Celery task retries with backoff.
     """
 
     def __init__(
         self,
         base_url: str,
         token: str,
-        cache: BlobStore,
+        cache_root: Path,
         *,
         timeout_s: float = 60.0,
         client: httpx.Client | None = None,
@@ -63,33 +73,29 @@ class HttpBlobStore:
             raise ValueError(f"base_url must start with http:// or https://, got {base_url!r}")
         if not token:
             raise ValueError("token must be an operator token, got an empty one")
+        super().__init__(cache_root)
         self._client = client or httpx.Client(base_url=base_url, timeout=timeout_s)
         self._headers = {"Authorization": f"Bearer {token}"}
-        self._cache = cache
-        self.root = cache.root
-
-    def path_for(self, sha256: str, suffix: str) -> str:
-        """The blob's URL path on the service."""
-        _check_name(sha256, suffix)
-        return f"/api/blobs/{sha256}{suffix}"
 
     def put(self, data: bytes, suffix: str) -> str:
-        """Send `data` to the service (a no-op there when it has it) and return its sha256."""
-        sha256 = self._cache.put(data, suffix)
-        response = self._client.put(
-            self.path_for(sha256, suffix),
+        """Store `data` in the cache and on the service (a no-op there when it has it)."""
+        sha256 = super().put(data, suffix)
+        response = self._request(
+            "PUT",
+            sha256,
+            suffix,
             content=data,
-            headers={**self._headers, "Content-Type": "application/octet-stream"},
+            headers={"Content-Type": "application/octet-stream"},
         )
         response.raise_for_status()
         return sha256
 
     def get(self, sha256: str, suffix: str) -> bytes:
-        """The blob's bytes, from the local cache or the service (FileNotFoundError when the
+        """The blob's bytes, from the cache or the service (FileNotFoundError when the
         service has no such blob, BlobIntegrityError when the bytes do not match)."""
-        if self._cache.has(sha256, suffix):
-            return self._cache.get(sha256, suffix)
-        response = self._client.get(self.path_for(sha256, suffix), headers=self._headers)
+        if super().has(sha256, suffix):
+            return super().get(sha256, suffix)
+        response = self._request("GET", sha256, suffix)
         if response.status_code == 404:
             raise FileNotFoundError(f"blob {sha256}{suffix} is not in the service's store")
         response.raise_for_status()
@@ -99,18 +105,28 @@ class HttpBlobStore:
             raise BlobIntegrityError(
                 f"blob {sha256}{suffix}: received {len(data)} bytes hashing to {actual}"
             )
-        self._cache.put(data, suffix)
+        super().put(data, suffix)
         return data
 
     def has(self, sha256: str, suffix: str) -> bool:
-        """Whether the service (or the local cache) has the blob."""
-        if self._cache.has(sha256, suffix):
+        """Whether the cache or the service has the blob."""
+        if super().has(sha256, suffix):
             return True
-        response = self._client.head(self.path_for(sha256, suffix), headers=self._headers)
+        response = self._request("HEAD", sha256, suffix)
         if response.status_code == 404:
             return False
         response.raise_for_status()
         return True
+
+    def _request(self, method: str, sha256: str, suffix: str, **options: Any) -> httpx.Response:
+        _check_name(sha256, suffix)
+        headers = {**self._headers, **options.pop("headers", {})}
+        try:
+            return self._client.request(
+                method, f"/api/blobs/{sha256}{suffix}", headers=headers, **options
+            )
+        except httpx.TransportError as exc:
+            raise ConnectionError(f"frame store {self._client.base_url}: {exc}") from exc
 
 
 def _check_name(sha256: str, suffix: str) -> None:
@@ -120,14 +136,14 @@ def _check_name(sha256: str, suffix: str) -> None:
         raise ValueError(f"suffix must be one of {', '.join(BLOB_SUFFIXES)}, got {suffix!r}")
 
 
-def make_worker_store(frames_dir_cache: BlobStore) -> BlobStore | HttpBlobStore:
-    """The store a worker measures from: over HTTP when `WHEELSCAN_STORE_URL` is set, else
-    the (shared) local folder."""
+def make_worker_store(frames_dir: Path) -> BlobStore:
+    """The store a worker measures from: over HTTP, cached in `frames_dir`, when
+    `WHEELSCAN_STORE_URL` is set; else `frames_dir` itself (the shared volume)."""
     remote = RemoteStoreSettings()
     if not remote.store_url:
-        return frames_dir_cache
+        return BlobStore(frames_dir)
     if not remote.store_token:
         raise ValueError("WHEELSCAN_STORE_URL is set: WHEELSCAN_STORE_TOKEN must be too")
     return HttpBlobStore(
-        remote.store_url, remote.store_token, frames_dir_cache, timeout_s=remote.store_timeout_s
+        remote.store_url, remote.store_token, frames_dir, timeout_s=remote.store_timeout_s
     )

@@ -16,9 +16,11 @@ from pathlib import Path
 
 import numpy as np
 from sqlalchemy import delete, select, update
+from sqlalchemy.exc import InterfaceError, OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.artefacts import save_artefacts
+from backend.remote_store import make_worker_store
 from backend.results import apply_alarms, measurement_row
 from backend.storage import BlobStore
 from backend.wheels import refresh_job
@@ -40,7 +42,7 @@ def _worker_context(database_url: str, data_dir: str) -> tuple[sessionmaker[Sess
     from backend.config import Settings
 
     settings = Settings(data_dir=Path(data_dir), database_url=database_url)
-    return make_session_factory(make_engine(database_url)), BlobStore(settings.frames_dir)
+    return make_session_factory(make_engine(database_url)), make_worker_store(settings.frames_dir)
 
 
 def claim_pass_wheel(session: Session, pass_wheel_id: int) -> bool:
@@ -94,6 +96,8 @@ def measure_pass_wheel(pass_wheel_id: int, database_url: str, data_dir: str) -> 
         refresh_job(session, pass_id)
         try:
             state = store_wheel_results(session, store, pass_wheel_id)
+        except (OperationalError, InterfaceError, ConnectionError):
+            raise  # transient (database or frame store unreachable): the runner retries
         except Exception as exc:
             session.rollback()
             logger.exception("pass wheel %d: measurement crashed", pass_wheel_id)

@@ -15,6 +15,7 @@ from backend.config import Settings
 from backend.main import create_app
 from backend.remote_store import BlobIntegrityError, HttpBlobStore
 from backend.storage import BlobStore
+from tests.scale.topology import free_port
 
 FRAME = b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 8
 
@@ -35,7 +36,7 @@ def token(client: TestClient, role: str) -> str:
 
 @pytest.fixture
 def remote(service: TestClient, tmp_path: Path) -> HttpBlobStore:
-    cache = BlobStore(tmp_path / "worker-cache")
+    cache = tmp_path / "worker-cache"
     return HttpBlobStore("http://testserver", token(service, "operator"), cache, client=service)
 
 
@@ -84,6 +85,12 @@ def test_a_viewer_token_cannot_read_raw_blobs(service) -> None:
         f"/api/blobs/{sha256}.png", headers={"Authorization": f"Bearer {token(service, 'viewer')}"}
     )
     assert response.status_code == 403
+
+
+def test_an_unreachable_service_is_a_connection_error_the_task_retries(tmp_path) -> None:
+    unreachable = HttpBlobStore(f"http://127.0.0.1:{free_port()}", "wst_x", tmp_path / "cache")
+    with pytest.raises(ConnectionError, match="frame store http://127.0.0.1"):
+        unreachable.get("0" * 64, ".png")
 
 
 def test_only_frames_and_artefacts_are_served(service) -> None:
