@@ -25,6 +25,8 @@ QR_DROP_MM = 2.0
 TOP_HALF_WINDOW_MM = 2.5
 """Half-width in x of the flange-top fit: a quadratic departs from the R12 top arc of LMA
 by 2.5⁴/(8·12³) = 0.003 mm at its ends, well below the measurement's resolution."""
+TOP_CIRCLE_HALF_WINDOW_MM = 4.0
+"""Half-width in x of the circle fitted to the flange top for its height."""
 FLANK_HALF_WINDOW_MM = 1.0
 """Half-height in z of the flank fits (quadratic x(z) about the height)."""
 MIN_FIT_POINTS = 5
@@ -132,17 +134,46 @@ def _robust_polyfit(t: np.ndarray, v: np.ndarray, degree: int, what: str) -> np.
     return np.polyfit(t[inlier], v[inlier], degree)
 
 
+def _circle(x: np.ndarray, z: np.ndarray) -> tuple[float, float, float]:
+    """Algebraic least-squares circle (Kåsa): centre (x, z) and radius [mm]."""
+    design = np.column_stack([x, z, np.ones_like(x)])
+    a, b, c = np.linalg.lstsq(design, -(x * x + z * z), rcond=None)[0]
+    cx, cz = -a / 2, -b / 2
+    return float(cx), float(cz), float(np.sqrt(max(cx * cx + cz * cz - c, 0.0)))
+
+
+def _fit_top_circle(x: np.ndarray, z: np.ndarray, x_top: float) -> tuple[float, float]:
+    """Flange top as the crest of a circle fitted within ±4 mm of the first estimate."""
+    near = np.flatnonzero(np.abs(x - x_top) <= TOP_CIRCLE_HALF_WINDOW_MM)
+    if near.size < MIN_FIT_POINTS:
+        raise FlangeNotFoundError("too few profile points on the flange top")
+    inlier = np.ones(near.size, bool)
+    for _ in range(OUTLIER_PASSES):
+        cx, cz, radius = _circle(x[near[inlier]], z[near[inlier]])
+        residual = np.abs(np.hypot(x[near] - cx, z[near] - cz) - radius)
+        limit = max(OUTLIER_MADS * 1.4826 * float(np.median(residual[inlier])), OUTLIER_FLOOR_MM)
+        if np.array_equal(residual <= limit, inlier):
+            break
+        inlier = residual <= limit
+        if np.count_nonzero(inlier) < MIN_FIT_POINTS:
+            raise FlangeNotFoundError("too few consistent profile points on the flange top")
+    if cz >= z[near].max() or abs(cx - x_top) > TOP_CIRCLE_HALF_WINDOW_MM:
+        raise FlangeNotFoundError("the flange top is not a crest")
+    return cx, cz + radius
+
+
 def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
-    """(x, z) of the flange top: vertex of a quadratic fitted about the highest points."""
+    """(x, z) of the flange top: a quadratic about the highest points locates the crest,
+    then a circle through ±4 mm of it gives its height (the top is an arc, R12 on LMA)."""
     order = np.argsort(z)[::-1][: max(MIN_FIT_POINTS, z.size // 200)]
     x_top = float(np.median(x[order]))
     for _ in range(3):
         near = np.abs(x - x_top) <= TOP_HALF_WINDOW_MM
-        c2, c1, c0 = _robust_polyfit(x[near] - x_top, z[near], 2, "flange top")
+        c2, c1, _ = _robust_polyfit(x[near] - x_top, z[near], 2, "flange top")
         if c2 >= 0:
             raise FlangeNotFoundError("the flange top is not a crest (fit curvature ≥ 0)")
         x_top += float(np.clip(-c1 / (2 * c2), -TOP_HALF_WINDOW_MM, TOP_HALF_WINDOW_MM))
-    return x_top, float(c0 - c1 * c1 / (4 * c2))
+    return _fit_top_circle(x, z, x_top)
 
 
 def _fit_flank(x: np.ndarray, z: np.ndarray, x_top: float, height_mm: float) -> float:

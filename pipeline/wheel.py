@@ -105,7 +105,13 @@ def _apply_wear(x: np.ndarray, z: np.ndarray, wear: Wear) -> tuple[np.ndarray, n
     flange = x < x_top + 30.0
     z[flange] += wear.flange_height_change_mm * _smoothstep((z[flange] - 2.0) / 20.0)
     flank = (np.arange(x.size) > top) & flange
-    weight = _smoothstep((x[flank] - x_top) / 4.0) * _smoothstep((z[flank] - 1.0) / 6.0)
+    # Flank wear: full from z = 7 to 14 mm (both Sd heights), fading out towards the crest
+    # over 12 mm so the flank stays monotonic and the crest keeps its arc.
+    weight = (
+        _smoothstep((x[flank] - x_top) / 4.0)
+        * _smoothstep((z[flank] - 1.0) / 6.0)
+        * (1.0 - _smoothstep((z[flank] - 14.0) / 12.0))
+    )
     x[flank] -= wear.flange_thinning_mm * weight
     tread = (x > x_top + 20.0) & (z > -FACE_DEPTH_MM + 1.0)
     z[tread] -= wear.hollow_depth_mm * np.exp(-(((x[tread] - 75.0) / 12.0) ** 2))
