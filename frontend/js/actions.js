@@ -117,39 +117,73 @@ function jobUpdate(store, msg) {
 async function loadWheel(api, store, passId, wheelId, sensor, index) {
   const started = performance.now();
   const previous = store.get().wheel;
+  previous?.sideLayers?.abort();
   const sameWheel = previous && previous.passId === passId && previous.wheelId === wheelId;
   store.set({ wheel: { ...(sameWheel ? previous : {}), passId, wheelId, loading: true, viewerUrl: null } });
-  const [wheels, limits, profiles, trend] = await Promise.all([
-    api.listWheels(passId),
-    store.get().limits ?? api.getLimits(),
-    Promise.all(METHODS.map((m) => api.profile(passId, wheelId, m).catch((err) => ({ error: err.message })))),
-    api.trend(wheelId).catch((err) => ({ error: err.message })),
-  ]);
-  const record = wheels.find((/** @type {any} */ w) => String(w.wheel_id) === String(wheelId));
+  const byId = (/** @type {any[]} */ list) => list.find((w) => String(w.wheel_id) === String(wheelId));
+  const wheelsLoad = api.listWheels(passId);
+  // coming from the pass page the record is known: start on the frame at once
+  const known = store.get().pass?.id === passId ? byId(store.get().pass.wheels ?? []) : null;
+  const record = known ?? byId(await wheelsLoad);
   if (!record) throw new ApiError(`pass ${passId} has no wheel ${wheelId}`, 404, 'not_found');
   const frames = framesOf(record);
   const frame = frames.find((f) => f.sensor === sensor && f.index === index)
     ?? frames.find((f) => f.sensor === sensor) ?? frames[0];
   if (!frame) throw new ApiError(`no frames are stored for wheel ${wheelId} of pass ${passId}`, 404, 'no_frames');
   const { sensor: s, index: i } = frame;
-  const [image, mask, sigma, adaptive, steger] = await Promise.all([
+  const [wheels, limits, profiles, trend, image, adaptive, steger] = await Promise.all([
+    wheelsLoad,
+    store.get().limits ?? api.getLimits(),
+    Promise.all(METHODS.map((m) => api.profile(passId, wheelId, m).catch((err) => ({ error: err.message })))),
+    api.trend(wheelId).catch((err) => ({ error: err.message })),
     api.frameImage(passId, wheelId, s, i),
-    api.maskImage(passId, wheelId, s, i, 'adaptive').then(maskLayer).catch(() => null),
-    api.sigmaImage(passId, wheelId, s, i, 'adaptive').catch(() => null),
     ...METHODS.map((m) => api.centres(passId, wheelId, s, i, m).catch((err) => ({ error: err.message }))),
   ]);
+  const sideLayers = new AbortController();
   store.set({
     limits,
     pass: { ...(store.get().pass?.id === passId ? store.get().pass : { id: passId, data: null }), wheels },
     wheel: {
       ...store.get().wheel,
-      passId, wheelId, frames, sensor: s, index: i, loading: false, record,
-      layers: { image, mask, sigma: sigma?.bitmap ?? null },
-      sigmaScale: sigma ? { sigma_min_px: sigma.sigma_min_px, sigma_max_px: sigma.sigma_max_px } : null,
+      passId, wheelId, frames, sensor: s, index: i, loading: false, record: byId(wheels) ?? record, sideLayers,
+      layers: { image, mask: null, sigma: null },
+      sigmaScale: null,
       centres: { adaptive, steger },
       profiles: { adaptive: profiles[0], steger: profiles[1] },
       trend,
       loadMs: performance.now() - started,
+    },
+  });
+  await loadSideLayers(api, store, passId, wheelId, s, i, sideLayers.signal);
+}
+
+/**
+ * Fetch the stripe mask and σ map after the frame and centres are on screen (they are
+ * layers the user switches on; the page must not wait for them), then add them.
+ * @param {import('./api.js').Api} api
+ * @param {import('./state.js').Store<any>} store
+ * @param {string} passId
+ * @param {string} wheelId
+ * @param {string} sensor
+ * @param {number} index
+ * @param {AbortSignal} signal aborted when another wheel or frame is opened
+ */
+async function loadSideLayers(api, store, passId, wheelId, sensor, index, signal) {
+  const [mask, sigma] = /** @type {any[]} */ (await Promise.all([
+    api.maskImage(passId, wheelId, sensor, index, 'adaptive', signal).then(maskLayer)
+      .catch((/** @type {Error} */ err) => ({ error: err.message })),
+    api.sigmaImage(passId, wheelId, sensor, index, 'adaptive', signal)
+      .catch((/** @type {Error} */ err) => ({ error: err.message })),
+  ]));
+  const w = store.get().wheel;
+  if (!w || w.passId !== passId || w.wheelId !== wheelId || w.sensor !== sensor || w.index !== index) return;
+  const sigmaOk = sigma && !('error' in sigma);
+  store.set({
+    wheel: {
+      ...w,
+      layers: { ...w.layers, mask: 'error' in mask ? null : mask, sigma: sigmaOk ? sigma.bitmap : null },
+      sigmaScale: sigmaOk ? { sigma_min_px: sigma.sigma_min_px, sigma_max_px: sigma.sigma_max_px } : null,
+      layerErrors: { mask: 'error' in mask ? mask.error : null, sigma: sigmaOk ? null : sigma.error },
     },
   });
 }

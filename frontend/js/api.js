@@ -39,8 +39,8 @@ const layerPath = (p, w, layer, sensor, index, suffix, method) =>
  * @property {(passId: number|string) => Promise<any[]>} listWheels
  * @property {() => Promise<any>} getLimits
  * @property {(p: number|string, w: number|string, sensor: string, index: number) => Promise<ImageBitmap>} frameImage
- * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string) => Promise<ImageBitmap>} maskImage
- * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string) => Promise<{bitmap: ImageBitmap, sigma_min_px: number, sigma_max_px: number, colormap: string}>} sigmaImage
+ * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<ImageBitmap>} maskImage
+ * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<{bitmap: ImageBitmap, sigma_min_px: number, sigma_max_px: number, colormap: string}>} sigmaImage
  * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string) => Promise<any>} centres
  * @property {(passId: number|string, wheelId: number|string, method: string) => Promise<any>} profile
  * @property {(wheelId: number|string) => Promise<any[]>} trend
@@ -82,8 +82,8 @@ export function createApi(getToken, base = '') {
       throw new ApiError(`the service sent an image the browser cannot decode (${path})`, 200, 'decode');
     }
   };
-  /** @param {string} path */
-  const bitmap = async (path) => decode(await request(path), path);
+  /** @param {string} path @param {AbortSignal} [signal] */
+  const bitmap = async (path, signal) => decode(await request(path, { signal }), path);
   return {
     me: () => json('/api/me'),
     listPasses: (filter) => json(`/api/passes?${new URLSearchParams(filter)}`),
@@ -91,10 +91,11 @@ export function createApi(getToken, base = '') {
     listWheels: (passId) => json(`/api/passes/${passId}/wheels`),
     getLimits: () => json('/api/limits'),
     frameImage: (p, w, sensor, index) => bitmap(layerPath(p, w, 'frames', sensor, index, '.png')),
-    maskImage: (p, w, sensor, index, method) => bitmap(layerPath(p, w, 'mask', sensor, index, '.png', method)),
-    sigmaImage: async (p, w, sensor, index, method) => {
+    maskImage: (p, w, sensor, index, method, signal) =>
+      bitmap(layerPath(p, w, 'mask', sensor, index, '.png', method), signal),
+    sigmaImage: async (p, w, sensor, index, method, signal) => {
       const path = layerPath(p, w, 'sigma', sensor, index, '.png', method);
-      const response = await request(path);
+      const response = await request(path, { signal });
       return {
         sigma_min_px: Number(response.headers.get('X-Sigma-Min-Px')),
         sigma_max_px: Number(response.headers.get('X-Sigma-Max-Px')),

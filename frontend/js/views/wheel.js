@@ -28,6 +28,7 @@ export class WheelView {
     this.handlers = handlers;
     this.title = h('div', { class: 'titlebar' });
     this.toolbar = h('div', { class: 'toolbar' });
+    this.layerNote = h('span', { class: 'note layer-note' });
     const frameRoot = h('div', { class: 'frame-root' });
     this.table = h('div', { class: 'param-table' });
     this.profileCanvas = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'plot profile-plot', 'aria-label': 'profile plot' }));
@@ -36,7 +37,7 @@ export class WheelView {
     this.diffNote = h('p', { class: 'note mono' });
     this.trendRoot = h('div', { class: 'trend' });
     this.viewerRoot = h('div', { class: 'viewer' });
-    root.replaceChildren(h('section', { class: 'wheel' }, this.title,
+    this.section = h('section', { class: 'wheel' }, this.title,
       h('div', { class: 'wheel-grid' },
         h('div', { class: 'frame-panel' }, this.toolbar, frameRoot),
         h('div', { class: 'side-panel' },
@@ -44,7 +45,8 @@ export class WheelView {
           h('h2', {}, 'Profile vs reference'), this.profileCanvas, this.profileNote,
           h('h2', {}, 'Adaptive − Steger along the stripe'), this.diffCanvas, this.diffNote,
           h('h2', {}, 'Trend across passes'), this.trendRoot,
-          h('h2', {}, '3D'), this.viewerRoot))));
+          h('h2', {}, '3D'), this.viewerRoot)));
+    root.replaceChildren(this.section);
     this.frame = new FrameView(frameRoot);
     /** @type {any} */
     this.shown = {};
@@ -76,6 +78,9 @@ export class WheelView {
       this.diffNote.textContent = renderDifference(this.diffCanvas, pairDifference(w.centres));
     }
     this.frame.setShow(show);
+    // which wheel is fully on screen (the browser tests wait for it)
+    this.section.dataset.loadedWheel = w.loading ? '' : `${w.passId}/${w.wheelId}`;
+    this.layerNote.textContent = layerNote(show, w);
     if (changed('table', `${method}|${w.record?.wheel_id}|${w.loadMs}`)) this.renderTable(w.record, state.limits, method);
     if (changed('profile', `${method}|${w.loadMs}`)) {
       const order = method === 'steger' ? ['steger', 'adaptive'] : ['adaptive', 'steger'];
@@ -131,6 +136,7 @@ export class WheelView {
           onchange: (/** @type {Event} */ e) => this.handlers.setQuery({ [key]: /** @type {HTMLInputElement} */ (e.target).checked ? '1' : '0' }) }),
         ` ${label} `, h('kbd', {}, shortcut))),
       h('button', { onclick: () => this.frame.fit(), title: 'fit the frame (f)' }, 'Fit ', h('kbd', {}, 'f')),
+      this.layerNote,
     );
   }
 
@@ -166,6 +172,22 @@ export class WheelView {
       ? h('iframe', { src: url, title: '3D view of the wheel', class: 'viewer-frame' })
       : h('button', { onclick: this.handlers.openViewer, 'data-action': 'open-3d' }, 'Open 3D view'));
   }
+}
+
+/**
+ * Why a layer that is switched on is not drawn yet: still loading, or the service's words.
+ * @param {Record<string, boolean>} show
+ * @param {any} w the wheel state
+ * @returns {string}
+ */
+function layerNote(show, w) {
+  const notes = [];
+  for (const [key, label] of [['mask', 'stripe mask'], ['sigma', 'σ map']]) {
+    if (!show[key] || w.layers?.[key]) continue;
+    const error = w.layerErrors?.[key];
+    notes.push(error ? `${label} unavailable: ${error}` : `${label} loading…`);
+  }
+  return notes.join(' · ');
 }
 
 /**
