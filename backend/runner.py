@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
+import threading
+import time
 from collections.abc import Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -24,6 +27,25 @@ from backend.wheels import refresh_job
 from db.models import Job, PassWheel
 
 logger = logging.getLogger(__name__)
+
+
+PARENT_CHECK_INTERVAL_S = 2.0
+"""How often a pool worker checks that the server that started it is still alive."""
+
+
+def exit_with_parent(parent_pid: int) -> None:
+    """Pool-worker initializer: end the worker when its server is gone.
+
+    A killed server leaves its spawned workers behind otherwise (they wait on a queue whose
+    other end nobody closes); their unfinished wheels are resumed by the next start.
+    """
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(PARENT_CHECK_INTERVAL_S)
+        os._exit(0)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
 
 
 class TaskRunner(Protocol):
@@ -59,6 +81,8 @@ class ProcessPoolRunner:
                 self._executor = ProcessPoolExecutor(
                     max_workers=self._settings.workers,
                     mp_context=multiprocessing.get_context("spawn"),
+                    initializer=exit_with_parent,
+                    initargs=(os.getpid(),),
                 )
             return self._executor
 
