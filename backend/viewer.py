@@ -266,6 +266,14 @@ class WheelViewer:
             if self._server is None:
                 self._server = viser.ViserServer(host=self._host, port=self._port, verbose=False)
                 self._server.scene.set_up_direction("+z")
+                # embedded in a narrow panel: controls folded away, the review app's dark look
+                self._server.gui.configure_theme(
+                    control_layout="collapsible",
+                    control_width="small",
+                    dark_mode=True,
+                    show_logo=False,
+                    show_share_button=False,
+                )
             server = self._server
             if data.wheel_id not in self._roots:
                 self._roots[data.wheel_id] = build_wheel_scene(server.scene, data)

@@ -166,5 +166,7 @@ test('formatters show missing values as a dash and times in UTC', () => {
   assert.equal(fmtNumber(null), '–');
   assert.equal(fmtNumber(28.456), '28.46');
   assert.equal(fmtSigned(0.1), '+0.10');
+  assert.equal(fmtSigned(-0.001), '0.00', 'no negative zero');
+  assert.equal(fmtSigned(-0.5), '−0.50');
   assert.equal(fmtTime('2026-11-23T10:00:00+01:00'), '2026-11-23 09:00:00 UTC');
 });

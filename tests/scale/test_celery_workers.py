@@ -7,14 +7,19 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+from sqlalchemy import select
 
 from backend.config import Settings
+from backend.storage import BlobStore
+from db.models import MeasurementFrame
 from tests.scale.conftest import PASS_TIMEOUT_S
 from tests.scale.topology import (
     RedisServer,
     WorkerProcess,
     api,
+    http_server,
     measurement_results,
+    operator_token,
     upload,
     wait_for_pass,
     wait_until,
@@ -49,6 +54,32 @@ def test_two_celery_workers_store_exactly_the_in_process_results(
     assert all(attempts == 1 for _state, attempts in states.values()), states
     assert finished_tasks(*started) == len(states)
     assert all(worker.outcomes() for worker in started), "both workers should have measured"
+
+
+def test_a_worker_without_the_shared_volume_measures_from_frames_fetched_over_the_api(
+    pass_archive, in_process_results, postgres_url, shared_redis_url, tmp_path: Path
+) -> None:
+    settings = Settings(
+        data_dir=tmp_path / "api", database_url=postgres_url, broker_url=shared_redis_url
+    )
+    elsewhere = Settings(
+        data_dir=tmp_path / "elsewhere", database_url=postgres_url, broker_url=shared_redis_url
+    )
+    with api(settings) as client, http_server(client) as base_url:
+        env = worker_env(elsewhere)
+        env["WHEELSCAN_STORE_URL"] = base_url
+        env["WHEELSCAN_STORE_TOKEN"] = operator_token(client, "remote worker")
+        with workers(1, env, tmp_path, prefix="remote"):
+            pass_id = upload(client, pass_archive)
+            wait_for_pass(client, pass_id, PASS_TIMEOUT_S)
+        results = measurement_results(client, pass_id)
+        with client.app.state.session_factory() as session:
+            artefacts = set(session.scalars(select(MeasurementFrame.artefact_sha256)))
+    assert results == in_process_results
+    api_store, worker_cache = BlobStore(settings.frames_dir), BlobStore(elsewhere.frames_dir)
+    assert artefacts and all(api_store.has(sha256, ".npz") for sha256 in artefacts)
+    assert len(list(elsewhere.frames_dir.rglob("*.png"))) == 8, "the 8 frames, fetched once"
+    assert all(worker_cache.has(sha256, ".npz") for sha256 in artefacts)
 
 
 def test_a_worker_killed_mid_wheel_loses_no_wheel_and_measures_none_twice(

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import redis
+import uvicorn
 from fastapi.testclient import TestClient
 from sqlalchemy import select
 
@@ -188,11 +189,33 @@ def api(settings: Settings) -> Iterator[TestClient]:
     app.state.engine.dispose()
 
 
+@contextmanager
+def http_server(client: TestClient) -> Iterator[str]:
+    """Serve the app behind `client` over real HTTP on a free port (its lifespan stays with
+    the TestClient); yields the base URL."""
+    port = free_port()
+    config = uvicorn.Config(client.app, host="127.0.0.1", port=port, lifespan="off")
+    server = uvicorn.Server(config)
+    thread = threading.Thread(target=server.run, name="http-server", daemon=True)
+    thread.start()
+    wait_until(lambda: server.started, 30, f"the HTTP server on port {port}")
+    try:
+        yield f"http://127.0.0.1:{port}"
+    finally:
+        server.should_exit = True
+        thread.join(timeout=30)
+
+
+def operator_token(client: TestClient, name: str) -> str:
+    with client.app.state.session_factory() as session:
+        token = create_token(session, role="operator", name=name)[1]
+        session.commit()
+    return token
+
+
 def upload(client: TestClient, archive: bytes) -> int:
     """Upload a pass archive with a fresh operator token; returns the pass id."""
-    with client.app.state.session_factory() as session:
-        token = create_token(session, role="operator", name="scale test")[1]
-        session.commit()
+    token = operator_token(client, "scale test")
     response = client.post(
         "/api/passes",
         files={"file": ("pass.zip", archive, "application/zip")},

@@ -25,8 +25,8 @@ export function drawAxes(ctx, scale, options) {
   ctx.lineWidth = 1;
   ctx.strokeStyle = PLOT_COLOURS.grid;
   ctx.fillStyle = PLOT_COLOURS.text;
-  const xTicks = niceTicks(scale.xRange[0], scale.xRange[1], Math.round((scale.right - scale.left) / 70));
-  const yTicks = niceTicks(scale.yRange[0], scale.yRange[1], Math.round((scale.bottom - scale.top) / 40));
+  const xTicks = niceTicks(scale.xRange[0], scale.xRange[1], Math.max(4, Math.round((scale.right - scale.left) / 70)));
+  const yTicks = niceTicks(scale.yRange[0], scale.yRange[1], Math.max(4, Math.round((scale.bottom - scale.top) / 40)));
   ctx.beginPath();
   for (const t of xTicks) {
     const x = Math.round(scale.toX(t)) + 0.5;

@@ -5,7 +5,8 @@
  */
 import { visibleImageRect } from '../lib/viewport.js';
 
-/** Point colours: adaptive orange, Steger cyan (distinct for common colour blindness). */
+/** Point colours: adaptive orange, Steger cyan (distinct for common colour blindness);
+ * Steger's dots are drawn smaller on top of the adaptive ones. */
 export const METHOD_COLOURS = { adaptive: '#ff7a1a', steger: '#22c3ee' };
 
 /**
@@ -47,17 +48,20 @@ export function drawFrame(ctx, layers, options) {
   );
   ctx.imageSmoothingEnabled = vp.scale < 2;
   if (show.image && layers.image) ctx.drawImage(layers.image, 0, 0);
+  if (show.mask && layers.mask) ctx.drawImage(layers.mask, 0, 0);
+  // σ is defined inside the mask only: on top, so its colours read true against the legend
   if (show.sigma && layers.sigma) {
-    ctx.globalAlpha = options.sigmaAlpha ?? 0.75;
+    ctx.globalAlpha = options.sigmaAlpha ?? 0.85;
     ctx.drawImage(layers.sigma, 0, 0);
     ctx.globalAlpha = 1;
   }
-  if (show.mask && layers.mask) ctx.drawImage(layers.mask, 0, 0);
   ctx.restore();
   let drawn = 0;
   for (const set of layers.centres) {
     if (!show[/** @type {'adaptive'|'steger'} */ (set.method)]) continue;
-    drawn += drawPoints(ctx, set.x, set.y, METHOD_COLOURS[set.method] ?? '#fff', options);
+    // Steger's dots are smaller, so where both methods agree both stay visible
+    const dotScale = set.method === 'steger' ? 0.55 : 1;
+    drawn += drawPoints(ctx, set.x, set.y, METHOD_COLOURS[set.method] ?? '#fff', dotScale, options);
   }
   if (layers.highlight) drawHighlight(ctx, layers.highlight, vp);
   return drawn;
@@ -68,14 +72,15 @@ export function drawFrame(ctx, layers, options) {
  * @param {ArrayLike<number>} x
  * @param {ArrayLike<number>} y
  * @param {string} colour
+ * @param {number} dotScale size relative to the default dot
  * @param {FrameOptions} options
  * @returns {number} points drawn
  */
-function drawPoints(ctx, x, y, colour, options) {
+function drawPoints(ctx, x, y, colour, dotScale, options) {
   const { viewport: vp, widthPx, heightPx } = options;
   const [x0, y0, x1, y1] = visibleImageRect(vp, widthPx, heightPx);
   // a dot grows with zoom up to a third of an image pixel, never below 1.5 CSS px
-  const size = Math.max(1.5, Math.min(vp.scale / 3, 8));
+  const size = dotScale * Math.max(2, Math.min(vp.scale / 3, 8));
   const half = size / 2;
   ctx.fillStyle = colour;
   ctx.beginPath();

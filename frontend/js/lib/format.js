@@ -33,8 +33,9 @@ export function fmtNumber(value, digits = 2) {
  */
 export function fmtSigned(value, digits = 2) {
   if (value === null || value === undefined || !Number.isFinite(value)) return '–';
-  const text = value.toFixed(digits);
-  return value > 0 ? `+${text}` : text;
+  const text = Math.abs(value).toFixed(digits);
+  if (Number(text) === 0) return text;
+  return `${value > 0 ? '+' : '−'}${text}`;
 }
 
 /**

@@ -70,8 +70,10 @@ export function renderTrend(root, trend, previous) {
   previous?.destroy();
   root.replaceChildren();
   const { x, columns } = trendColumns(trend, METHODS, TREND_SERIES.map((s) => s.key));
-  if (x.length === 0) {
-    root.append(h('p', { class: 'empty' }, 'No measured passes of this wheel yet.'));
+  if (x.length < 2) {
+    root.append(h('p', { class: 'empty' },
+      x.length ? 'This is the only pass of this wheel so far: the trend starts with the next one.'
+        : 'No measured passes of this wheel yet.'));
     return null;
   }
   const series = [{}];

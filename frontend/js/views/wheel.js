@@ -168,9 +168,13 @@ export class WheelView {
 
   /** @param {string|null} url */
   renderViewer(url) {
-    this.viewerRoot.replaceChildren(url
-      ? h('iframe', { src: url, title: '3D view of the wheel', class: 'viewer-frame' })
-      : h('button', { onclick: this.handlers.openViewer, 'data-action': 'open-3d' }, 'Open 3D view'));
+    this.viewerRoot.replaceChildren(...(url
+      ? [h('iframe', { src: url, title: '3D view of the wheel', class: 'viewer-frame' }),
+        h('p', { class: 'note' }, 'Drag to orbit, scroll to zoom. ',
+          h('a', { href: url, target: '_blank', rel: 'noopener' }, 'Open the 3D view full size'),
+          '. Wheel reconstructed from its profile at a nominal 460 mm rolling radius (the diameter is not measured).')]
+      : [h('button', { onclick: this.handlers.openViewer, 'data-action': 'open-3d' }, 'Open 3D view'),
+        h('span', { class: 'note' }, ' the wheel, the four sensors\' points, cameras and laser planes')]));
   }
 }
 

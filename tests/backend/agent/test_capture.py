@@ -11,10 +11,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from backend.agent.axles import parse_tag, parse_wheel_event, start_reader
 from backend.agent.cameras import open_cameras
-from backend.agent.capture import Capture, SensorWorker
+from backend.agent.capture import Capture, SensorWorker, encode_png
 from backend.agent.progress import Progress
 from backend.agent.replay import write_replay_station
 from backend.agent.spool import FrameItem, MissingItem, Spool
@@ -124,3 +126,22 @@ def test_a_camera_that_never_fires_times_out_per_wheel_and_the_pass_goes_on(
     assert [(m.axle, m.sensor) for m in missing] == [(1, "left_outer"), (2, "left_outer")]
     assert "left_outer (0815-0001) delivered no frame within 0.05 s" in missing[0].reason
     assert sum(isinstance(i, FrameItem) for i in items) == 3 * 2 * 2
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    st.sampled_from([np.uint8, np.uint16]),
+    st.integers(1, 40),
+    st.integers(1, 40),
+    st.integers(0, 2**32 - 1),
+)
+def test_frame_encoding_is_lossless_and_deterministic(
+    dtype: type, rows: int, cols: int, seed: int
+) -> None:
+    image = np.random.default_rng(seed).integers(0, np.iinfo(dtype).max + 1, (rows, cols))
+    image = image.astype(dtype)
+    png = encode_png(image)
+    decoded = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_UNCHANGED)
+    assert decoded.dtype == dtype
+    np.testing.assert_array_equal(decoded, image)
+    assert encode_png(image.copy()) == png

@@ -16,9 +16,12 @@ import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 
+import cv2
 import httpx
+import numpy as np
 import pytest
 
+from backend.agent.capture import encode_png
 from backend.agent.replay import write_replay_station
 from tests.backend.agent.live_server import LiveServer
 
@@ -67,12 +70,18 @@ def run_agent(station: Path, server: LiveServer, *extra: str, cameras: int = 4, 
 
 
 def expected_frames(station_dir: Path) -> set[tuple[str, int, str]]:
-    """(sensor, seq, sha256) of the replayed files: seq n is the n-th file a camera replays."""
+    """(sensor, seq, sha256) of the replayed files' pixels as the agent encodes them: seq n is
+    the n-th file a camera replays (PNG encoding is deterministic and lossless, so equal
+    hashes mean equal pixels)."""
     return {
-        (folder.name, int(png.stem), hashlib.sha256(png.read_bytes()).hexdigest())
+        (folder.name, int(png.stem), hashlib.sha256(encode_png(read_png(png))).hexdigest())
         for folder in (station_dir / "replay").iterdir()
         for png in folder.glob("*.png")
     }
+
+
+def read_png(path: Path) -> np.ndarray:
+    return cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
 
 
 def only_pass(server: LiveServer) -> dict:
