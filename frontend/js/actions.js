@@ -51,13 +51,25 @@ export function createActions(api, store) {
     loadPass: (/** @type {string} */ passId) =>
       guard(`could not load pass ${passId}`, async () => {
         store.set({ pass: { id: passId, loading: true, data: null, wheels: [] } });
-        const [data, wheels, limits] = await Promise.all([
-          api.getPass(passId), api.listWheels(passId), store.get().limits ?? api.getLimits(),
-        ]);
-        store.set({ pass: { id: passId, loading: false, data, wheels }, limits });
+        try {
+          const [data, wheels, limits] = await Promise.all([
+            api.getPass(passId), api.listWheels(passId), store.get().limits ?? api.getLimits(),
+          ]);
+          store.set({ pass: { id: passId, loading: false, data, wheels }, limits });
+        } catch (err) {
+          store.set({ pass: { id: passId, loading: false, data: null, wheels: [], failed: true } });
+          throw err;
+        }
       }),
     loadWheel: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {string|undefined} */ sensor, /** @type {number} */ index) =>
-      guard(`could not load wheel ${wheelId} of pass ${passId}`, () => loadWheel(api, store, passId, wheelId, sensor, index)),
+      guard(`could not load wheel ${wheelId} of pass ${passId}`, async () => {
+        try {
+          await loadWheel(api, store, passId, wheelId, sensor, index);
+        } catch (err) {
+          store.set({ wheel: { passId, wheelId, loading: false, failed: true } });
+          throw err;
+        }
+      }),
     patchWheel: (/** @type {object} */ patch) => store.set({ wheel: { ...store.get().wheel, ...patch } }),
     openViewer: (/** @type {string} */ passId, /** @type {string} */ wheelId) =>
       guard('could not open the 3D view', async () => {

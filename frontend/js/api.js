@@ -137,7 +137,7 @@ async function errorFrom(response, path) {
     detail = response.statusText;
   }
   const what = response.status === 401
-    ? 'sign-in needed'
+    ? 'the token was refused'
     : response.status === 403 ? 'not allowed' : `${response.status} ${response.statusText}`;
   return new ApiError(`${what}: ${detail || 'no detail'} (${path.split('?')[0]})`, response.status, code);
 }

@@ -49,6 +49,7 @@ async function onHashChange() {
     window.history.replaceState(null, '', `${window.location.pathname}#/passes`);
     await actions.signIn(route.token);
     if (store.get().me) startWatching();
+    else stopWatching?.();
   }
   const layers = /** @type {typeof DEFAULT_LAYERS} */ (Object.fromEntries(LAYERS.map(([key]) => [key,
     route.query[key] === undefined ? DEFAULT_LAYERS[/** @type {keyof DEFAULT_LAYERS} */ (key)] : route.query[key] === '1'])));

@@ -1,7 +1,8 @@
 // @ts-check
 /**
  * Adaptive − Steger along the stripe: a scatter of the signed offset (px) against the
- * position along the stripe, with the zero line and the ±RMS band. Pure drawing.
+ * position along the stripe, with the zero line and the ±RMS band. The Δ axis spans the bulk
+ * of the offsets; larger ones are drawn on its edge. Pure drawing.
  */
 import { boundsOf } from '../lib/ticks.js';
 import { makePlotScale } from '../lib/plot-scale.js';
@@ -17,7 +18,10 @@ import { drawAxes } from './axes.js';
 export function drawDifference(ctx, diff, options) {
   const xRange = boundsOf([diff.alongPx]);
   if (!xRange) return false;
-  const limit = Math.max(0.25, Math.min(3, diff.maxAbsPx));
+  // scale to the bulk (98th percentile of |Δ|), not to a few outliers; those sit on the edge
+  const sortedAbs = Float64Array.from(diff.diffPx, Math.abs).sort();
+  const p98 = sortedAbs[Math.floor(0.98 * (sortedAbs.length - 1))];
+  const limit = Math.max(0.25, Math.min(3, 1.25 * p98));
   const scale = makePlotScale(xRange, [-limit, limit], {
     ...options,
     margin: { left: 44, right: 12, top: 8, bottom: 32 },

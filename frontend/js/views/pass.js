@@ -20,7 +20,10 @@ const SHOWN = PARAMETERS.filter((p) => p.key !== 'flange_thickness_en_mm' && p.k
 export function renderPass(root, state, handlers) {
   const pass = state.pass;
   if (!pass || pass.loading || !pass.data) {
-    root.replaceChildren(h('p', { class: 'loading' }, pass?.loading ? `Loading pass ${pass.id}…` : 'No pass loaded.'));
+    const text = pass?.failed
+      ? `Pass ${pass.id} could not be shown (the reason is above). `
+      : pass?.loading ? `Loading pass ${pass.id}…` : 'No pass loaded.';
+    root.replaceChildren(h('p', { class: 'loading' }, text, pass?.failed ? h('a', { href: '#/passes' }, 'Back to the passes') : ''));
     return;
   }
   const mode = state.route.query.mode ?? 'adaptive';

@@ -61,8 +61,10 @@ export class WheelView {
   update(state) {
     const w = state.wheel;
     const method = state.route.query.method === 'steger' ? 'steger' : 'adaptive';
-    if (!w || w.loading && !w.layers) {
-      this.title.replaceChildren(h('p', { class: 'loading' }, 'Loading wheel…'));
+    if (!w || !w.layers) {
+      this.title.replaceChildren(h('p', { class: 'loading' }, w?.failed
+        ? `Wheel ${w.wheelId} of pass ${w.passId} could not be shown (the reason is above). `
+        : 'Loading wheel…', w?.failed ? h('a', { href: buildHash(['passes', w.passId]) }, 'Back to the pass') : ''));
       return;
     }
     const show = LAYERS.reduce((acc, [key]) => ({ ...acc, [key]: state.layers[key] }), {});
