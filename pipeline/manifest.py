@@ -189,12 +189,13 @@ def parse_manifest(document: object) -> PassManifest:
     seen_wheels: set[tuple[str, int, str]] = set()
     seen_frames: set[str] = set()
     for wheel in wheels:
-        key = (wheel.vehicle_id, wheel.axle, wheel.side)
-        if key in seen_wheels:
+        identity = (wheel.vehicle_id, wheel.axle, wheel.side)
+        if identity in seen_wheels:
             raise ArchiveError(
-                f"manifest lists wheel vehicle {key[0]!r} axle {key[1]} {key[2]} twice"
+                f"manifest lists wheel vehicle {identity[0]!r} axle {identity[1]} "
+                f"{identity[2]} twice"
             )
-        seen_wheels.add(key)
+        seen_wheels.add(identity)
         for path in wheel.frames_inner + wheel.frames_outer:
             if path in seen_frames:
                 raise ArchiveError(f"manifest lists frame {path!r} twice")

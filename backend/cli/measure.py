@@ -155,11 +155,12 @@ def _rr(args: argparse.Namespace) -> int:
     total = sum(len(a.manifest.wheels) for a in archives) * len(methods)
     with tqdm(total=total, desc="rr", unit="wheel", file=sys.stderr) as bar:
         for archive, truth in zip(archives, truths, strict=True):
-            results = measure_pass(
-                archive,
-                methods=methods,
-                progress=lambda done, _t, start=bar.n: bar.update(start + done - bar.n),
-            )
+            start = bar.n
+
+            def advance(done: int, _total: int, start: int = start) -> None:
+                bar.update(start + done - bar.n)
+
+            results = measure_pass(archive, methods=methods, progress=advance)
             observations += pass_observations(results, truth)
     per_wheel, pooled = summarise_repeatability(observations)
     document = {
