@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from functools import lru_cache
+
 import cv2
 import numpy as np
 from matplotlib import colormaps
+
+from backend.artefacts import FrameArtefacts, load_artefacts
+from backend.storage import BlobStore
 
 SIGMA_COLORMAP = "viridis"
 
@@ -59,3 +65,28 @@ def sigma_scale(sigma_map: np.ndarray) -> tuple[float, float]:
     if chosen.size == 0:
         return 0.0, 0.0
     return float(chosen.min()), float(chosen.max())
+
+
+@lru_cache(maxsize=4)
+def cached_artefacts(store: BlobStore, sha256: str) -> FrameArtefacts:
+    """Artefacts of a frame, kept decompressed for the next layer requests (immutable)."""
+    return load_artefacts(store, sha256)
+
+
+@dataclass(frozen=True, slots=True)
+class LayerPng:
+    """A rendered layer and, for σ maps, its colour scale [px]."""
+
+    png: bytes
+    sigma_min_px: float
+    sigma_max_px: float
+
+
+@lru_cache(maxsize=64)
+def layer_png(store: BlobStore, sha256: str, layer: str, max_width_px: int | None) -> LayerPng:
+    """The "mask" or "sigma" layer of a frame's artefacts as PNG (rendered once, cached)."""
+    artefacts = cached_artefacts(store, sha256)
+    if layer == "mask":
+        return LayerPng(mask_png(artefacts.mask, max_width_px), 0.0, 0.0)
+    low, high = sigma_scale(artefacts.sigma_map)
+    return LayerPng(sigma_png(artefacts.sigma_map, low, high, max_width_px), low, high)

@@ -9,13 +9,13 @@ from __future__ import annotations
 from typing import Annotated, Literal
 
 import numpy as np
-from fastapi import APIRouter, Query, Response
+from fastapi import APIRouter, Query, Request, Response
 from sqlalchemy import select
 
-from backend.artefacts import FrameArtefacts, load_artefacts
+from backend.artefacts import FrameArtefacts
 from backend.deps import PassWheelDep, SessionDep, StoreDep, ViewerDep, WheelDep
 from backend.errors import NotFoundError
-from backend.images import SIGMA_COLORMAP, frame_png, mask_png, sigma_png, sigma_scale
+from backend.images import SIGMA_COLORMAP, cached_artefacts, frame_png, layer_png
 from backend.queries import METHODS, method_result, pass_wheels
 from backend.routes.passes import ERRORS
 from backend.schemas import CentresRead, PassWheelRead, ProfileRead, TrendPoint, WheelTrend
@@ -29,6 +29,8 @@ Method = Literal["adaptive", "steger"]
 WHEEL = "/passes/{pass_id}/wheels/{wheel_id}"
 PNG = {200: {"content": {"image/png": {}}, "description": "PNG image"}, **ERRORS}
 MaxWidth = Annotated[int | None, Query(ge=16, le=8192, description="downscale to this width [px]")]
+REVALIDATE = {"Cache-Control": "private, no-cache"}
+"""Browsers keep the layers and ask again with If-None-Match (a 304 costs one lookup)."""
 FrameIndex = Annotated[int, Query(ge=0, description="frame of this sensor for the wheel, 0-based")]
 
 
@@ -62,14 +64,9 @@ def _measurement(pass_wheel: PassWheel, method: str) -> Measurement:
     )
 
 
-def _artefacts(
-    session: SessionDep,
-    store: StoreDep,
-    pass_wheel: PassWheel,
-    method: str,
-    position: str,
-    index: int,
-) -> tuple[Frame, FrameArtefacts]:
+def _artefact_sha(
+    session: SessionDep, pass_wheel: PassWheel, method: str, position: str, index: int
+) -> tuple[Frame, str]:
     frame = _frame(session, pass_wheel, position, index)
     measurement = _measurement(pass_wheel, method)
     row = session.scalar(
@@ -83,7 +80,26 @@ def _artefacts(
         raise NotFoundError(
             f"no {method} extraction is stored for {frame.sensor} frame {frame.seq}"
         )
-    return frame, load_artefacts(store, row.artefact_sha256)
+    return frame, row.artefact_sha256
+
+
+def _artefacts(
+    session: SessionDep,
+    store: StoreDep,
+    pass_wheel: PassWheel,
+    method: str,
+    position: str,
+    index: int,
+) -> tuple[Frame, FrameArtefacts]:
+    frame, sha256 = _artefact_sha(session, pass_wheel, method, position, index)
+    return frame, cached_artefacts(store, sha256)
+
+
+def _revalidated(request: Request, etag: str) -> Response | None:
+    """304 when the browser already holds this version (all layers are content-addressed)."""
+    if request.headers.get("if-none-match") == etag:
+        return Response(status_code=304, headers={"ETag": etag, **REVALIDATE})
+    return None
 
 
 @router.get(WHEEL, responses=ERRORS)
@@ -97,6 +113,7 @@ def get_pass_wheel(
 
 @router.get(WHEEL + "/frames/{position}.png", response_class=Response, responses=PNG)
 def get_frame_png(
+    request: Request,
     position: Position,
     pass_wheel: PassWheelDep,
     session: SessionDep,
@@ -107,12 +124,17 @@ def get_frame_png(
 ) -> Response:
     """A frame of the wheel's inner or outer sensor as PNG (8/16-bit grey as recorded)."""
     frame = _frame(session, pass_wheel, position, index)
+    etag = f'"{frame.sha256[:24]}-{max_width}"'
+    if (cached := _revalidated(request, etag)) is not None:
+        return cached
     data = frame_png(store.get(frame.sha256, ".png"), max_width)
-    return Response(data, media_type="image/png", headers={"X-Frame-Sha256": frame.sha256})
+    headers = {"X-Frame-Sha256": frame.sha256, "ETag": etag, **REVALIDATE}
+    return Response(data, media_type="image/png", headers=headers)
 
 
 @router.get(WHEEL + "/mask/{position}.png", response_class=Response, responses=PNG)
 def get_mask_png(
+    request: Request,
     position: Position,
     pass_wheel: PassWheelDep,
     session: SessionDep,
@@ -123,8 +145,12 @@ def get_mask_png(
     max_width: MaxWidth = None,
 ) -> Response:
     """The stripe mask the method searched centres in (255 = stripe)."""
-    _frame_row, artefacts = _artefacts(session, store, pass_wheel, method, position, index)
-    return Response(mask_png(artefacts.mask, max_width), media_type="image/png")
+    _frame_row, sha256 = _artefact_sha(session, pass_wheel, method, position, index)
+    etag = f'"{sha256[:24]}-mask-{max_width}"'
+    if (cached := _revalidated(request, etag)) is not None:
+        return cached
+    data = layer_png(store, sha256, "mask", max_width).png
+    return Response(data, media_type="image/png", headers={"ETag": etag, **REVALIDATE})
 
 
 def _sigma_map(artefacts: FrameArtefacts, method: str) -> np.ndarray:
@@ -135,6 +161,7 @@ def _sigma_map(artefacts: FrameArtefacts, method: str) -> np.ndarray:
 
 @router.get(WHEEL + "/sigma/{position}.png", response_class=Response, responses=PNG)
 def get_sigma_png(
+    request: Request,
     position: Position,
     pass_wheel: PassWheelDep,
     session: SessionDep,
@@ -146,18 +173,21 @@ def get_sigma_png(
 ) -> Response:
     """The σ map coloured (transparent where no scale was chosen). Its colour scale is in
     the headers X-Colormap, X-Sigma-Min-Px and X-Sigma-Max-Px."""
-    _frame_row, artefacts = _artefacts(session, store, pass_wheel, method, position, index)
-    sigma_map = _sigma_map(artefacts, method)
-    low, high = sigma_scale(sigma_map)
-    return Response(
-        sigma_png(sigma_map, low, high, max_width),
-        media_type="image/png",
-        headers={
-            "X-Colormap": SIGMA_COLORMAP,
-            "X-Sigma-Min-Px": f"{low}",
-            "X-Sigma-Max-Px": f"{high}",
-        },
-    )
+    _frame_row, sha256 = _artefact_sha(session, pass_wheel, method, position, index)
+    _sigma_map(cached_artefacts(store, sha256), method)
+    etag = f'"{sha256[:24]}-sigma-{max_width}"'
+    layer = layer_png(store, sha256, "sigma", max_width)
+    headers = {
+        "X-Colormap": SIGMA_COLORMAP,
+        "X-Sigma-Min-Px": f"{layer.sigma_min_px}",
+        "X-Sigma-Max-Px": f"{layer.sigma_max_px}",
+        "ETag": etag,
+        **REVALIDATE,
+    }
+    if (cached := _revalidated(request, etag)) is not None:
+        cached.headers.update(headers)
+        return cached
+    return Response(layer.png, media_type="image/png", headers=headers)
 
 
 @router.get(

@@ -118,6 +118,10 @@ def test_the_wheel_views_serve_frames_masks_sigma_centres_and_profile(client, au
     assert frame.status_code == 200 and frame.content.startswith(b"\x89PNG")
     mask = client.get(f"{base}/mask/outer.png", headers=viewer)
     assert mask.status_code == 200 and mask.headers["content-type"] == "image/png"
+    again = client.get(
+        f"{base}/mask/outer.png", headers={**viewer, "If-None-Match": mask.headers["ETag"]}
+    )
+    assert again.status_code == 304
     sigma = client.get(f"{base}/sigma/inner.png", headers=viewer)
     low, high = float(sigma.headers["X-Sigma-Min-Px"]), float(sigma.headers["X-Sigma-Max-Px"])
     assert 0 < low <= high and sigma.headers["X-Colormap"] == "viridis"
