@@ -194,7 +194,9 @@ def http_server(client: TestClient) -> Iterator[str]:
     """Serve the app behind `client` over real HTTP on a free port (its lifespan stays with
     the TestClient); yields the base URL."""
     port = free_port()
-    config = uvicorn.Config(client.app, host="127.0.0.1", port=port, lifespan="off")
+    config = uvicorn.Config(
+        client.app, host="127.0.0.1", port=port, lifespan="off", log_level="warning"
+    )
     server = uvicorn.Server(config)
     thread = threading.Thread(target=server.run, name="http-server", daemon=True)
     thread.start()
