@@ -171,6 +171,7 @@ def put_frame(
     vehicle_id: str,
     axle: int,
     data: bytes,
+    token: ApiToken,
 ) -> FrameStored:
     """Store one streamed frame (idempotent) and queue its wheel when that is complete."""
     if sensor not in SENSORS:
@@ -222,6 +223,10 @@ def put_frame(
         return FrameStored(sha256, False, pass_wheel.state != "receiving", None)
     complete = _wheel_complete(session, train_pass, pass_wheel)
     queued = complete and _claim_for_measurement(session, pass_wheel)
+    record_audit(
+        session, token, "pass.stream.frame", "pass", train_pass.id,
+        {"sensor": sensor, "seq": seq, "sha256": sha256},
+    )  # fmt: skip
     session.commit()
     refresh_job(session, train_pass.id)
     return FrameStored(sha256, True, complete, pass_wheel.id if queued else None)

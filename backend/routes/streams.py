@@ -45,7 +45,7 @@ async def put_pass_frame(
     settings: SettingsDep,
     store: StoreDep,
     runner: RunnerDep,
-    _operator: OperatorDep,
+    operator: OperatorDep,
     vehicle_id: Annotated[str, Query(min_length=1, max_length=100)],
     axle: Annotated[int, Query(ge=1)],
 ) -> FramePut:
@@ -67,6 +67,7 @@ async def put_pass_frame(
         vehicle_id=vehicle_id,
         axle=axle,
         data=bytes(data),
+        token=operator,
     )
     if stored.queued_pass_wheel_id is not None:
         runner.submit([stored.queued_pass_wheel_id])

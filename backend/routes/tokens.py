@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, status
+from typing import Annotated
+
+from fastapi import APIRouter, Query, status
 from sqlalchemy import select
 
 from backend.auth import create_token, record_audit
 from backend.deps import AdminDep, SessionDep, ViewerDep
 from backend.errors import NotFoundError
-from backend.schemas import Me, TokenCreate, TokenCreated, TokenRead
-from db.models import ApiToken
+from backend.schemas import AuditRead, Me, TokenCreate, TokenCreated, TokenRead
+from db.models import ApiToken, AuditEvent
 from db.types import utc_now
 
 router = APIRouter(prefix="/api", tags=["tokens"])
@@ -52,3 +54,17 @@ def revoke_token(token_id: int, session: SessionDep, admin: AdminDep) -> TokenRe
         record_audit(session, admin, "token.revoke", "token", row.id)
         session.commit()
     return TokenRead.model_validate(row)
+
+
+@router.get("/audit")
+def list_audit(
+    session: SessionDep,
+    _admin: AdminDep,
+    offset: Annotated[int, Query(ge=0)] = 0,
+    limit: Annotated[int, Query(ge=1, le=1000)] = 100,
+) -> list[AuditRead]:
+    """The audit trail, newest first: who wrote what, when."""
+    rows = session.scalars(
+        select(AuditEvent).order_by(AuditEvent.id.desc()).offset(offset).limit(limit)
+    )
+    return [AuditRead.model_validate(row) for row in rows]

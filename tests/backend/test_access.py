@@ -102,6 +102,10 @@ def test_every_write_leaves_an_audit_event(client, auth) -> None:
     with client.app.state.session_factory() as session:
         actions = list(session.scalars(select(AuditEvent.action).order_by(AuditEvent.id)))
     assert actions == ["token.create", "limits.update"]
+    trail = client.get("/api/audit", headers=auth("admin")).json()
+    assert [event["action"] for event in trail] == ["limits.update", "token.create"]
+    assert trail[0]["actor"].endswith("(test admin)")
+    assert client.get("/api/audit", headers=auth("operator")).status_code == 403
 
 
 def test_limits_default_to_the_issue_values_and_are_editable(client, auth) -> None:
