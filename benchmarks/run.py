@@ -21,6 +21,7 @@ BENCH_MODULES: list[str] = [
     "benchmarks.extraction",
     "benchmarks.repeatability",
     "benchmarks.throughput",
+    "benchmarks.agent",
 ]
 
 OUTPUT = Path(__file__).resolve().parent.parent / "BENCHMARKS.md"
