@@ -25,10 +25,12 @@ from pipeline.archive import read_pass_archive
 from tests.backend.agent.conftest import make_archive
 
 
-def capture_into_spool(station_path: Path, *, allow_missing: bool = False) -> tuple[Spool, list]:
+def capture_into_spool(
+    station_path: Path, *, allow_missing: bool = False, limit_bytes: int = 64 * 2**20
+) -> tuple[Spool, list[str]]:
     """Run the capture loop over the station's event files; return the spool and warnings."""
     station = load_station(station_path)
-    spool = Spool(station.spool_dir, 64 * 2**20)
+    spool = Spool(station.spool_dir, limit_bytes)
     warnings: list[str] = []
     progress = Progress(tuple(s.sensor for s in station.sensors), 2, spool, warnings.append)
     cameras, missing = open_cameras(station, allow_missing=allow_missing)
@@ -145,3 +147,22 @@ def test_frame_encoding_is_lossless_and_deterministic(
     assert decoded.dtype == dtype
     np.testing.assert_array_equal(decoded, image)
     assert encode_png(image.copy()) == png
+
+
+def test_a_full_buffer_warns_first_then_declares_frames_missing(
+    tmp_path: Path, emulated_cameras: int
+) -> None:
+    archive_dir, _ = make_archive(tmp_path / "pass", vehicles=("v",), axles=2)
+    station_path = write_replay_station(archive_dir, tmp_path / "station")
+    first = tmp_path / "station" / "replay" / "left_inner" / "000000.png"
+    frame_bytes = len(encode_png(cv2.imread(str(first), cv2.IMREAD_UNCHANGED)))
+    spool, warnings = capture_into_spool(station_path, limit_bytes=12 * frame_bytes)
+    items = [item for item, _ in drain(spool)]
+    frames = [i for i in items if isinstance(i, FrameItem)]
+    missing = [i for i in items if isinstance(i, MissingItem)]
+    assert 0 < len(frames) < 16
+    assert missing and all(m.reason.startswith("agent's local buffer full") for m in missing)
+    nearly = [w for w in warnings if "local buffer nearly full" in w]
+    full = [w for w in warnings if "local buffer full: new frames are declared missing" in w]
+    assert len(nearly) == 1 and len(full) == 1
+    assert warnings.index(nearly[0]) < warnings.index(full[0])

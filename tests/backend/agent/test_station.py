@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -132,3 +134,26 @@ def test_unreadable_or_malformed_files_are_one_line(tmp_path: Path) -> None:
     other.write_text("site: s")
     with pytest.raises(StationError, match=r"must end in \.json or \.toml"):
         load_station(other)
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
+    command = [sys.executable, "-m", "backend.cli", "agent", *args]
+    return subprocess.run(command, capture_output=True, text=True, check=False)
+
+
+@pytest.mark.parametrize(
+    ("data", "args", "message"),
+    [
+        ({**minimal(), "frames_per_wheel": "two"}, ["--token", "t"], "frames_per_wheel must be"),
+        (minimal(), ["--token", "t"], "no server: give --server URL or 'server' in the station"),
+        (minimal(), ["--server", "http://127.0.0.1:9", "--token", ""], "no token: give --token"),
+    ],
+)
+def test_agent_cli_errors_are_one_line(
+    tmp_path: Path, data: dict[str, object], args: list[str], message: str
+) -> None:
+    result = run_cli("--station", str(write_json(tmp_path, data)), *args)
+    assert result.returncode == 2
+    assert result.stderr.count("\n") == 1
+    assert result.stderr.startswith("wheelscan agent: error: ")
+    assert message in result.stderr
