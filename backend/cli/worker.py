@@ -87,7 +87,7 @@ def run_worker(args: argparse.Namespace) -> int:
 
 
 def _ping(app: Celery, hostname: str) -> int:
-    replies = app.control.ping(destination=[hostname], timeout=WORKER_PING_TIMEOUT_S)
+    replies = app.control.ping(destination=[hostname], timeout=WORKER_PING_TIMEOUT_S, limit=1)
     if not replies:
         raise OSError(f"worker {hostname} did not answer within {WORKER_PING_TIMEOUT_S} s")
     sys.stdout.write(f"{hostname}: ok\n")

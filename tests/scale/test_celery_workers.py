@@ -3,6 +3,7 @@ lose no wheel when a worker is killed or the broker restarts, and measure none t
 
 from __future__ import annotations
 
+import subprocess
 from collections import Counter
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from backend.storage import BlobStore
 from db.models import MeasurementFrame
 from tests.scale.conftest import PASS_TIMEOUT_S
 from tests.scale.topology import (
+    WHEELSCAN,
     RedisServer,
     WorkerProcess,
     api,
@@ -45,11 +47,16 @@ def test_two_celery_workers_store_exactly_the_in_process_results(
     pass_archive, in_process_results, postgres_url, shared_redis_url, tmp_path: Path
 ) -> None:
     settings = Settings(data_dir=tmp_path, database_url=postgres_url, broker_url=shared_redis_url)
-    with workers(2, worker_env(settings), tmp_path) as started, api(settings) as client:
+    env = worker_env(settings)
+    with workers(2, env, tmp_path) as started, api(settings) as client:
         pass_id = upload(client, pass_archive)
         wait_for_pass(client, pass_id, PASS_TIMEOUT_S)
         results = measurement_results(client, pass_id)
         states = wheel_states(client, pass_id)
+        ping = subprocess.run(
+            [WHEELSCAN, "worker", "--ping", "--hostname", "w2@scale"], env=env, check=False
+        )
+    assert ping.returncode == 0, "the health check of a live worker"
     assert results == in_process_results
     assert all(attempts == 1 for _state, attempts in states.values()), states
     assert finished_tasks(*started) == len(states)
