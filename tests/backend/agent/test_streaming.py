@@ -8,6 +8,7 @@ import hashlib
 import json
 import os
 import queue
+import signal
 import subprocess
 import sys
 import threading
@@ -269,3 +270,29 @@ def test_a_refused_token_is_one_line(
     assert "Traceback" not in result.stderr
     last = result.stderr.strip().splitlines()[-1]
     assert last.startswith(f"wheelscan agent: error: {message}")
+
+
+def test_frames_buffered_while_the_server_is_down_are_sent_by_the_next_run(
+    tmp_path: Path, sim_pass: Path, server: LiveServer
+) -> None:
+    station_dir = tmp_path / "station"
+    station = write_replay_station(sim_pass, station_dir)
+    server.kill()
+    agent = AgentProcess(agent_command(station, server, server.tokens["operator"]), agent_env())
+    agent.wait_for_line("buffering frames until it answers")
+    deadline = time.monotonic() + DEADLINE_S
+    while len(list((station_dir / "spool").glob("*/f-*.json"))) < 16:
+        assert time.monotonic() < deadline and agent.process.poll() is None
+        time.sleep(0.05)
+    agent.process.send_signal(signal.SIGINT)
+    assert agent.process.wait(timeout=DEADLINE_S) == 130
+    server.start()
+    (station_dir / "axles.jsonl").write_text("")
+    result = run_agent(station, server)
+    assert result.returncode == 0, result.stderr
+    assert "resuming 16 buffered items" in result.stderr
+    assert "0 passes, 0 frames captured, 0 declared missing, 16 sent" in result.stdout
+    frames = stored_frames(server, 1)
+    assert len(frames) == len(set(frames)) == 16
+    assert set(frames) == expected_frames(station_dir)
+    assert only_pass(server)["state"] == "closed"
