@@ -73,7 +73,10 @@ def test_the_service_refuses_bytes_that_do_not_hash_to_the_name(service) -> None
     response = service.put(
         f"/api/blobs/{wrong}.png",
         content=FRAME,
-        headers={"Authorization": f"Bearer {token(service, 'operator')}"},
+        headers={
+            "Authorization": f"Bearer {token(service, 'operator')}",
+            "Content-Type": "application/octet-stream",
+        },
     )
     assert response.status_code == 422
     assert "hashes to" in response.json()["detail"]
