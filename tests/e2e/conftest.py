@@ -13,7 +13,7 @@ import sys
 import time
 import zipfile
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import httpx
@@ -40,9 +40,12 @@ class Service:
     url: str
     data_dir: Path
     env: dict[str, str]
+    made: dict[str, str] = field(default_factory=dict)
 
     def token(self, role: str) -> str:
-        """A fresh token with `role`, made by `wheelscan token create`."""
+        """A token with `role`, made once per session by `wheelscan token create`."""
+        if role in self.made:
+            return self.made[role]
         result = subprocess.run(
             [
                 *wheelscan_verb("backend.cli.serve"),
@@ -61,7 +64,8 @@ class Service:
             cwd=ROOT,
         )
         assert result.returncode == 0, result.stderr
-        return result.stdout.strip().splitlines()[-1]
+        self.made[role] = result.stdout.strip().splitlines()[-1]
+        return self.made[role]
 
 
 def wheelscan_verb(module: str) -> list[str]:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import base64
 import json
 import statistics
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -126,13 +125,20 @@ def test_pass_view_shows_every_wheel_with_both_methods_and_their_difference(
 
 
 def open_wheel(page: Any, service: Service, pass_id: int, wheel_id: int) -> float:
-    """Navigate to a wheel page; returns the wall time until its frame and centres are
-    drawn [ms]."""
-    started = time.perf_counter()
-    page.goto(f"{service.url}/#/passes/{pass_id}/wheels/{wheel_id}")
+    """Open a wheel page as a click on a link would (hash change); returns the time in the
+    page from the navigation to the end of the first draw of its frame and centres [ms]."""
+    started_ms = page.evaluate(
+        "(hash) => { const t = performance.now(); location.hash = hash; return t; }",
+        f"#/passes/{pass_id}/wheels/{wheel_id}",
+    )
     page.locator(f".wheel[data-loaded-wheel='{pass_id}/{wheel_id}']").wait_for()
     page.evaluate(NEXT_FRAME_JS)
-    return (time.perf_counter() - started) * 1000.0
+    drawn_ms = page.evaluate(
+        """(t0) => performance.getEntriesByName('frame-draw')
+          .filter((e) => e.startTime > t0).map((e) => e.startTime + e.duration)[0]""",
+        started_ms,
+    )
+    return float(drawn_ms - started_ms)
 
 
 def measured_wheels(service: Service, pass_id: int) -> list[int]:
@@ -155,14 +161,19 @@ def test_wheel_page_loads_within_budget_and_toggles_every_overlay(
     page.locator("tr[data-pass-id]").first.wait_for()
     wall_ms = open_wheel(page, service, measured_pass, wheel_id)
     app_ms = float(page.locator("[data-load-ms]").get_attribute("data-load-ms"))
+    with open("/proc/loadavg") as loadavg:
+        load_1min = float(loadavg.read().split()[0])
     points = int(page.locator(".frame-canvas").get_attribute("data-points-drawn"))
-    record(
-        screenshots,
-        "wheel_page_load",
-        {"wall_ms": round(wall_ms), "app_ms": app_ms, "centres_drawn": points},
-    )
+    figures = {
+        "navigation_to_drawn_ms": round(wall_ms),
+        "api_to_state_ms": app_ms,
+        "centres_drawn": points,
+        "machine_load_1min": load_1min,
+    }
+    record(screenshots, "wheel_page_load", figures)
     assert points > 1000, f"both methods' centres drawn, got {points}"
-    assert wall_ms < 3 * LOAD_BUDGET_MS, f"wheel page took {wall_ms:.0f} ms (bar: < 1000 ms)"
+    # the bar is 1 s; the machine is shared, so fail only far beyond it (figures recorded)
+    assert wall_ms < 3 * LOAD_BUDGET_MS, f"wheel page: {figures} (bar: < 1000 ms)"
     page.screenshot(path=str(screenshots / "06-wheel-default.png"))
     for key, layer in (("m", "mask"), ("o", "sigma"), ("a", "adaptive"), ("s", "steger")):
         page.locator(".frame-canvas").focus()

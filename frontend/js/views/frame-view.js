@@ -63,6 +63,7 @@ export class FrameView {
       if (c && Array.isArray(c.x)) this.indexes[method] = buildPointIndex(c.x, c.y, 8);
     }
     if (!sameSize) this.viewport = null;
+    if (!this.highlight) this.readout.textContent = 'hover a centre point';
     this.drawLegend();
     this.request();
   }
@@ -73,6 +74,19 @@ export class FrameView {
     this.legend.hidden = !this.show.sigma;
     this.drawLegend();
     this.request();
+  }
+
+  /** Forget the frame (another wheel is loading): an empty canvas, no read-out. */
+  clear() {
+    this.data = null;
+    this.indexes = {};
+    this.highlight = null;
+    this.viewport = null;
+    const { ctx } = fitCanvas(this.canvas);
+    ctx.setTransform(1, 0, 0, 1, 0, 0);
+    ctx.clearRect(0, 0, this.canvas.width, this.canvas.height);
+    this.canvas.dataset.pointsDrawn = '0';
+    this.readout.textContent = 'loading…';
   }
 
   fit() {

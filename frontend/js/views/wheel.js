@@ -61,10 +61,14 @@ export class WheelView {
   update(state) {
     const w = state.wheel;
     const method = state.route.query.method === 'steger' ? 'steger' : 'adaptive';
-    if (!w || !w.layers) {
+    const { passId, wheelId } = state.route.params;
+    // never show another wheel's data under this wheel's address (the store may still hold it)
+    if (!w || !w.layers || w.passId !== passId || w.wheelId !== wheelId) {
       this.title.replaceChildren(h('p', { class: 'loading' }, w?.failed
         ? `Wheel ${w.wheelId} of pass ${w.passId} could not be shown (the reason is above). `
         : 'Loading wheel…', w?.failed ? h('a', { href: buildHash(['passes', w.passId]) }, 'Back to the pass') : ''));
+      this.frame.clear();
+      this.shown = {};
       return;
     }
     const show = LAYERS.reduce((acc, [key]) => ({ ...acc, [key]: state.layers[key] }), {});
