@@ -93,9 +93,9 @@ def write_replay_station(
     if archive.has_own_calibration:
         (out / "calibration.json").write_bytes(archive.frame_bytes("calibration.json"))
         station["calibration"] = "calibration.json"
-    path = out / "station.json"
-    path.write_text(json.dumps(station, indent=2), encoding="utf-8")
-    return path
+    station_path = out / "station.json"
+    station_path.write_text(json.dumps(station, indent=2), encoding="utf-8")
+    return station_path
 
 
 def _frames_per_wheel(wheels: tuple[WheelEntry, ...]) -> int:

@@ -245,7 +245,9 @@ class Spool:
 
     def _next_item(self, *, pop: bool) -> SpoolItem | None:
         for item in self._queue:
-            if isinstance(item, FrameItem) or self._may_declare(item):
+            if isinstance(item, FrameItem) or (
+                isinstance(item, MissingItem) and self._may_declare(item)
+            ):
                 if pop:
                     self._queue.remove(item)
                 return item

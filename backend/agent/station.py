@@ -148,7 +148,7 @@ def _station(data: object, path: Path) -> Station:
         raise StationError("the top level must be a table/object")
     _no_unknown(data, _TOP_KEYS, "")
     base = path.resolve().parent
-    sensors_table = _table(data, "sensors", required=True)
+    sensors_table = _required_table(data, "sensors")
     _no_unknown(sensors_table, set(SENSORS), "sensors.")
     if not sensors_table:
         raise StationError(f"sensors must list at least one of {', '.join(SENSORS)}")
@@ -159,26 +159,26 @@ def _station(data: object, path: Path) -> Station:
     duplicate = next((c for c in cameras if cameras.count(c) > 1), None)
     if duplicate is not None:
         raise StationError(f"camera {duplicate!r} is given for more than one sensor")
-    server = _text(data, "server", required=False)
+    server = _text(data, "server")
     if server is not None:
         server = check_server_url(server)
-    calibration = _text(data, "calibration", required=False)
-    tag_reader = _table(data, "tag_reader", required=False)
+    calibration = _text(data, "calibration")
+    tag_reader = _table(data, "tag_reader")
     return Station(
         path=path,
-        site=_text(data, "site", required=True),
+        site=_required_text(data, "site"),
         server=server,
         frames_per_wheel=_int(data, "frames_per_wheel", 1, 1, 64),
         axles_per_vehicle=_int(data, "axles_per_vehicle", 4, 1, 64),
         image_width_px=_int(data, "image_width_px", 1600, 16, 16384),
         image_height_px=_int(data, "image_height_px", 1200, 16, 16384),
-        direction=_text(data, "direction", required=False),
+        direction=_text(data, "direction"),
         pass_end_gap_s=_number(data, "pass_end_gap_s", 10.0, 0.01, 3600.0),
-        spool_dir=base / _text(data, "spool_dir", required=False, default="wheelscan-spool"),
+        spool_dir=base / (_text(data, "spool_dir") or "wheelscan-spool"),
         spool_limit_mb=_number(data, "spool_limit_mb", 2048.0, 1.0, 1e7),
         calibration=None if calibration is None else base / calibration,
         upload_workers=_int(data, "upload_workers", 2, 1, 16),
-        wheel_sensor_source=_source(_table(data, "wheel_sensor", required=True), "wheel_sensor"),
+        wheel_sensor_source=_source(_required_table(data, "wheel_sensor"), "wheel_sensor"),
         tag_reader_source=None if tag_reader is None else _source(tag_reader, "tag_reader"),
         sensors=sensors,
     )
@@ -199,10 +199,10 @@ def _sensor(name: str, table: object, base: Path) -> SensorConfig:
     where = f"sensors.{name}."
     pixel_format = _choice(table, "pixel_format", PIXEL_FORMATS, "Mono8", where)
     trigger_source = _choice(table, "trigger_source", TRIGGER_SOURCES, "Line1", where)
-    replay_dir = _text(table, "replay_dir", required=False, where=where)
+    replay_dir = _text(table, "replay_dir", where)
     return SensorConfig(
         sensor=name,
-        camera=_text(table, "camera", required=True, where=where),
+        camera=_required_text(table, "camera", where),
         exposure_us=_number(table, "exposure_us", 1000.0, 1.0, 1e7, where),
         pixel_format=pixel_format,
         trigger_source=trigger_source,
@@ -213,7 +213,7 @@ def _sensor(name: str, table: object, base: Path) -> SensorConfig:
 
 def _source(table: dict[str, object], where: str) -> str:
     _no_unknown(table, {"source"}, f"{where}.")
-    source = _text(table, "source", required=True, where=f"{where}.")
+    source = _required_text(table, "source", f"{where}.")
     if source.startswith("file:") and len(source) > len("file:"):
         return source
     if source.startswith("tcp://"):
@@ -231,32 +231,31 @@ def _no_unknown(table: dict[str, object], known: set[str], where: str) -> None:
         )
 
 
-def _table(data: dict[str, object], key: str, *, required: bool) -> dict[str, object] | None:
+def _table(data: dict[str, object], key: str) -> dict[str, object] | None:
     value = data.get(key)
-    if value is None:
-        if required:
-            raise StationError(f"missing [{key}] table")
-        return None
-    if not isinstance(value, dict):
+    if value is not None and not isinstance(value, dict):
         raise StationError(f"{key} must be a table/object, got {type(value).__name__}")
     return value
 
 
-def _text(
-    data: dict[str, object],
-    key: str,
-    *,
-    required: bool,
-    default: str | None = None,
-    where: str = "",
-) -> str | None:
-    value = data.get(key)
+def _required_table(data: dict[str, object], key: str) -> dict[str, object]:
+    value = _table(data, key)
     if value is None:
-        if required:
-            raise StationError(f"missing {where}{key}")
-        return default
-    if not isinstance(value, str) or not value.strip():
+        raise StationError(f"missing [{key}] table")
+    return value
+
+
+def _text(data: dict[str, object], key: str, where: str = "") -> str | None:
+    value = data.get(key)
+    if value is not None and (not isinstance(value, str) or not value.strip()):
         raise StationError(f"{where}{key} must be a non-empty string, got {value!r}")
+    return value
+
+
+def _required_text(data: dict[str, object], key: str, where: str = "") -> str:
+    value = _text(data, key, where)
+    if value is None:
+        raise StationError(f"missing {where}{key}")
     return value
 
 
