@@ -63,6 +63,24 @@ def test_two_celery_workers_store_exactly_the_in_process_results(
     assert all(worker.outcomes() for worker in started), "both workers should have measured"
 
 
+def test_messages_redelivered_to_live_workers_measure_no_wheel_twice(
+    pass_archive, in_process_results, postgres_url, shared_redis_url, tmp_path: Path
+) -> None:
+    settings = Settings(data_dir=tmp_path, database_url=postgres_url, broker_url=shared_redis_url)
+    env = worker_env(settings)
+    env["WHEELSCAN_BROKER_VISIBILITY_TIMEOUT_S"] = "1"  # far shorter than a wheel takes
+    with workers(2, env, tmp_path) as started, api(settings) as client:
+        pass_id = upload(client, pass_archive)
+        wait_for_pass(client, pass_id, PASS_TIMEOUT_S)
+        results = measurement_results(client, pass_id)
+        states = wheel_states(client, pass_id)
+    outcomes = started[0].outcomes() + started[1].outcomes()
+    assert outcomes["busy"] + outcomes["skipped"] >= 1, "no message was delivered twice"
+    assert results == in_process_results
+    assert all(attempts == 1 for _state, attempts in states.values()), states
+    assert finished_tasks(*started) == len(states)
+
+
 def test_a_worker_without_the_shared_volume_measures_from_frames_fetched_over_the_api(
     pass_archive, in_process_results, postgres_url, shared_redis_url, tmp_path: Path
 ) -> None:
