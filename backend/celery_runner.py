@@ -170,7 +170,7 @@ class CeleryRunner:
 
     def submit(self, pass_wheel_ids: Sequence[int]) -> None:
         """Send one message per wheel; a wheel the broker refuses stays "queued" and is
-        sent again by `resume()`."""
+        sent again by the lost-wheel sweeper once the broker answers."""
         try:
             with self._app.producer_or_acquire() as producer:
                 for pass_wheel_id in pass_wheel_ids:
@@ -182,7 +182,7 @@ class CeleryRunner:
                     )
         except kombu.exceptions.OperationalError:
             logger.exception(
-                "broker unreachable: %d wheel(s) stay queued until the next resume",
+                "broker unreachable: %d wheel(s) stay queued until the next sweep",
                 len(pass_wheel_ids),
             )
 
