@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import queue
 import threading
+import time
 from pathlib import Path
 
 import cv2
@@ -14,7 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from backend.agent.axles import parse_tag, parse_wheel_event, start_reader
+from backend.agent.axles import AxleEvent, parse_tag, parse_wheel_event, start_reader
 from backend.agent.cameras import open_cameras
 from backend.agent.capture import Capture, SensorWorker, encode_png
 from backend.agent.progress import Progress
@@ -166,3 +167,42 @@ def test_a_full_buffer_warns_first_then_declares_frames_missing(
     full = [w for w in warnings if "local buffer full: new frames are declared missing" in w]
     assert len(nearly) == 1 and len(full) == 1
     assert warnings.index(nearly[0]) < warnings.index(full[0])
+
+
+def test_a_camera_lost_mid_pass_is_declared_missing_at_once_for_later_wheels(
+    tmp_path: Path, emulated_cameras: int
+) -> None:
+    archive_dir, _ = make_archive(tmp_path / "pass", vehicles=("v",), axles=3)
+    station = load_station(write_replay_station(archive_dir, tmp_path / "station"))
+    spool = Spool(station.spool_dir, 64 * 2**20)
+    progress = Progress(tuple(s.sensor for s in station.sensors), 2, spool, lambda _line: None)
+    cameras, _ = open_cameras(station, allow_missing=False)
+    workers = [
+        SensorWorker(c, cameras[c.sensor], None, station, spool, progress) for c in station.sensors
+    ]
+    events: queue.Queue[object] = queue.Queue()
+    capture = Capture(station, workers, spool, progress, None)
+    thread = threading.Thread(target=capture.run, args=(events, None, threading.Event()))
+    thread.start()
+    try:
+        events.put(AxleEvent())
+        deadline = time.monotonic() + 60
+        while progress.captured["right_outer"] < 2:
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        cameras["right_outer"].close()  # the device goes away between two wheels
+        events.put(AxleEvent())
+        events.put(AxleEvent())
+        events.put(None)
+        thread.join()
+    finally:
+        for worker in workers:
+            worker.stop()
+        for camera in cameras.values():
+            camera.close()
+    items = [item for item, _ in drain(spool)]
+    missing = [i for i in items if isinstance(i, MissingItem)]
+    assert [(m.axle, m.sensor) for m in missing] == [(2, "right_outer"), (3, "right_outer")]
+    assert "right_outer (0815-0003) failed" in missing[0].reason
+    assert missing[1].reason.endswith("(camera lost)")
+    assert sum(isinstance(i, FrameItem) for i in items) == 3 * 2 * 3 + 2

@@ -23,7 +23,11 @@ import numpy as np
 import pytest
 
 from backend.agent.capture import encode_png
+from backend.agent.client import StreamClient
 from backend.agent.replay import write_replay_station
+from backend.agent.spool import PassOpen
+from pipeline.calibration import calibration_to_document
+from pipeline.station import build_station
 from tests.backend.agent.live_server import LiveServer
 
 FRAMES_PER_SENSOR = 2
@@ -296,3 +300,21 @@ def test_frames_buffered_while_the_server_is_down_are_sent_by_the_next_run(
     assert len(frames) == len(set(frames)) == 16
     assert set(frames) == expected_frames(station_dir)
     assert only_pass(server)["state"] == "closed"
+
+
+def test_an_open_whose_answer_was_lost_finds_its_pass_instead_of_opening_another(
+    server: LiveServer,
+) -> None:
+    calibration = calibration_to_document(build_station().calibration)
+    request = PassOpen("site-a", "2026-11-23T22:00:00.123456+00:00", "up", None, 1, calibration)
+    client = StreamClient(server.url, server.tokens["operator"])
+    try:
+        assert client.find_pass(request) is None
+        pass_id = client.open_pass(request)
+        assert client.find_pass(request) == pass_id
+        later = PassOpen("site-a", "2026-11-23T22:00:01+00:00", "up", None, 1, calibration)
+        assert client.find_pass(later) is None
+        client.close_pass(pass_id)
+        assert client.find_pass(request) is None  # closed: a retry opens a new one
+    finally:
+        client.close()
