@@ -55,10 +55,10 @@ class StreamClient:
     token : str
         Bearer token with role operator.
     timeout_s : float
-        Connect/read timeout of one request.
+        Read timeout of one request (above the server's 30 s SQLite busy timeout); connect: 5 s.
     """
 
-    def __init__(self, server: str, token: str, *, timeout_s: float = 30.0) -> None:
+    def __init__(self, server: str, token: str, *, timeout_s: float = 60.0) -> None:
         self._http = httpx.Client(
             base_url=server,
             headers={"Authorization": f"Bearer {token}"},
