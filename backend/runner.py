@@ -13,7 +13,7 @@ import os
 import threading
 import time
 from collections.abc import Sequence
-from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from threading import Lock
 from typing import Protocol
@@ -74,6 +74,7 @@ class ProcessPoolRunner:
         self._session_factory = session_factory
         self._lock = Lock()
         self._executor: ProcessPoolExecutor | None = None
+        self._pending: set[Future[str]] = set()
 
     def _pool(self) -> ProcessPoolExecutor:
         with self._lock:
@@ -97,9 +98,19 @@ class ProcessPoolRunner:
             self._settings.resolved_database_url,
             str(self._settings.data_dir),
         )
+        with self._lock:
+            self._pending.add(future)
         future.add_done_callback(lambda done: self._finished(pass_wheel_id, done))
 
+    def drain(self) -> None:
+        """Wait until every task submitted so far has finished (graceful stop, tests)."""
+        with self._lock:
+            pending = list(self._pending)
+        wait(pending)
+
     def _finished(self, pass_wheel_id: int, future: Future[str]) -> None:
+        with self._lock:
+            self._pending.discard(future)
         if future.cancelled():
             return
         error = future.exception()

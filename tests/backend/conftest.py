@@ -40,6 +40,7 @@ def service(
 
 
 def empty_service(client: TestClient) -> None:
+    client.app.state.runner.drain()
     shutil.rmtree(client.app.state.store.root, ignore_errors=True)
     engine = client.app.state.engine
     with engine.begin() as connection:

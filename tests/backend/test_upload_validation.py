@@ -149,7 +149,11 @@ def test_an_archive_without_calibration_needs_a_registered_one(client, auth, tmp
 
 
 def test_a_multipart_body_without_file_is_refused(client, auth) -> None:
-    response = client.post("/api/passes", headers=auth("operator"), data={"x": "1"})
+    response = client.post(
+        "/api/passes",
+        headers=auth("operator"),
+        files={"archive": ("p.zip", b"PK", "application/zip")},
+    )
     assert response.status_code == 422
     assert "file" in response.json()["detail"]
 
