@@ -157,6 +157,7 @@ function render() {
       setQuery,
       exportReport: (format) => actions.exportReport(route.params.passId, route.params.wheelId, format),
       openViewer: () => actions.openViewer(store.get().route.params.passId, store.get().route.params.wheelId),
+      closeViewer: () => actions.patchWheel({ viewerUrl: null }),
     });
     wheelView.update(state);
   } else if (route.name === 'upload') {
@@ -186,6 +187,7 @@ let pendingG = false;
 /** @param {any} state */
 function escape(state) {
   if (state.helpOpen) store.set({ helpOpen: false });
+  else if (state.route.name === 'wheel' && state.wheel?.viewerUrl) actions.patchWheel({ viewerUrl: null });
   else if (state.route.name === 'wheel') window.location.hash = buildHash(['passes', state.route.params.passId]);
   else if (state.route.name === 'pass') window.location.hash = '#/passes';
 }

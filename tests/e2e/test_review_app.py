@@ -298,8 +298,10 @@ def test_3d_view_embeds_the_viser_scene(
     if notice.count():
         notice.first.click()
     page.wait_for_timeout(3000)  # viser streams the scene, then fades it in
-    page.locator(".viewer").scroll_into_view_if_needed()
-    page.locator(".viewer-frame").screenshot(path=str(screenshots / "12-wheel-3d.png"))
+    page.screenshot(path=str(screenshots / "12-wheel-3d.png"))
+    page.locator(".viewer-bar button[data-action='close-3d']").click()
+    page.locator(".viewer-overlay").wait_for(state="hidden")
+    assert int(page.locator(".frame-canvas").get_attribute("data-points-drawn")) > 0
 
 
 def test_api_errors_are_shown_in_words(

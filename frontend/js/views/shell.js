@@ -10,7 +10,7 @@ export const SHORTCUTS = [
   ['g p', 'passes'], ['g u', 'upload'], ['j / k', 'next / previous row'], ['Enter', 'open row'],
   ['a / s', 'adaptive / Steger centres'], ['m / o', 'stripe mask / σ map'], ['f', 'fit frame'],
   ['+ / −', 'zoom'], ['← ↑ → ↓', 'pan'], ['[ / ]', 'previous / next wheel'], ['i', 'next sensor'],
-  ['Esc', 'up one level'], ['?', 'this help'],
+  ['Esc', 'close 3D or help, else up one level'], ['?', 'this help'],
 ];
 
 /**

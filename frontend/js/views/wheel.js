@@ -22,7 +22,7 @@ export const LAYERS = [
 export class WheelView {
   /**
    * @param {HTMLElement} root
-   * @param {{setQuery: (q: Record<string, string>) => void, exportReport: (format: string) => void, openViewer: () => void}} handlers
+   * @param {{setQuery: (q: Record<string, string>) => void, exportReport: (format: string) => void, openViewer: () => void, closeViewer: () => void}} handlers
    */
   constructor(root, handlers) {
     this.handlers = handlers;
@@ -30,6 +30,7 @@ export class WheelView {
     this.toolbar = h('div', { class: 'toolbar' });
     this.layerNote = h('span', { class: 'note layer-note' });
     const frameRoot = h('div', { class: 'frame-root' });
+    this.viewerOverlay = h('div', { class: 'viewer-overlay', hidden: true });
     this.table = h('div', { class: 'param-table' });
     this.profileCanvas = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'plot profile-plot', 'aria-label': 'profile plot' }));
     this.profileNote = h('p', { class: 'note' });
@@ -39,7 +40,7 @@ export class WheelView {
     this.viewerRoot = h('div', { class: 'viewer' });
     this.section = h('section', { class: 'wheel' }, this.title,
       h('div', { class: 'wheel-grid' },
-        h('div', { class: 'frame-panel' }, this.toolbar, frameRoot),
+        h('div', { class: 'frame-panel' }, this.toolbar, frameRoot, this.viewerOverlay),
         h('div', { class: 'side-panel' },
           h('h2', {}, 'Parameters'), this.table,
           h('h2', {}, 'Profile vs reference'), this.profileCanvas, this.profileNote,
@@ -174,13 +175,20 @@ export class WheelView {
 
   /** @param {string|null} url */
   renderViewer(url) {
-    this.viewerRoot.replaceChildren(...(url
-      ? [h('iframe', { src: url, title: '3D view of the wheel', class: 'viewer-frame' }),
-        h('p', { class: 'note' }, 'Drag to orbit, scroll to zoom. ',
-          h('a', { href: url, target: '_blank', rel: 'noopener' }, 'Open the 3D view full size'),
-          '. Wheel reconstructed from its profile at a nominal 460 mm rolling radius (the diameter is not measured).')]
-      : [h('button', { onclick: this.handlers.openViewer, 'data-action': 'open-3d' }, 'Open 3D view'),
-        h('span', { class: 'note' }, ' the wheel, the four sensors\' points, cameras and laser planes')]));
+    // the 3D view takes the frame's place (it needs the room); the side panel keeps the switch
+    this.viewerOverlay.hidden = !url;
+    this.viewerOverlay.replaceChildren(...(url
+      ? [h('div', { class: 'viewer-bar' },
+          h('strong', {}, '3D'), ' drag to orbit, scroll to zoom · wheel from its profile at a nominal 460 mm rolling radius (the diameter is not measured) ',
+          h('a', { href: url, target: '_blank', rel: 'noopener' }, 'open full size'),
+          h('span', { class: 'spacer' }),
+          h('button', { onclick: this.handlers.closeViewer, 'data-action': 'close-3d' }, 'Back to the frame ', h('kbd', {}, 'Esc'))),
+        h('iframe', { src: url, title: '3D view of the wheel', class: 'viewer-frame' })]
+      : []));
+    this.viewerRoot.replaceChildren(
+      h('button', { onclick: url ? this.handlers.closeViewer : this.handlers.openViewer, 'data-action': url ? 'close-3d' : 'open-3d' },
+        url ? 'Back to the frame' : 'Open 3D view'),
+      h('span', { class: 'note' }, ' the wheel, the four sensors\' points, cameras and laser planes'));
   }
 }
 
