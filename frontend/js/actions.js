@@ -50,7 +50,11 @@ export function createActions(api, store) {
       }),
     loadPass: (/** @type {string} */ passId) =>
       guard(`could not load pass ${passId}`, async () => {
-        store.set({ pass: { id: passId, loading: true, data: null, wheels: [] } });
+        const current = store.get().pass;
+        // a refresh of the pass on screen keeps showing it until the new data is there
+        if (!(current?.id === passId && current.data)) {
+          store.set({ pass: { id: passId, loading: true, data: null, wheels: [] } });
+        }
         try {
           const [data, wheels, limits] = await Promise.all([
             api.getPass(passId), api.listWheels(passId), store.get().limits ?? api.getLimits(),

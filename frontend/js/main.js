@@ -59,7 +59,10 @@ async function onHashChange() {
   if (loadKey === lastLoadKey) return;
   lastLoadKey = loadKey;
   if (route.name === 'passes') await actions.loadPasses(route.query);
-  else if (route.name === 'pass') await actions.loadPass(route.params.passId);
+  else if (route.name === 'pass') {
+    await actions.loadPass(route.params.passId);
+    followPassJob();
+  }
   else if (route.name === 'wheel') {
     await actions.loadWheel(route.params.passId, route.params.wheelId, route.query.sensor, Number(route.query.frame ?? 0));
   }
@@ -89,14 +92,35 @@ function startWatching() {
   }, (open) => store.set({ socketOpen: open }));
 }
 
+/** @type {(() => void)|null} */
+let stopFollowing = null;
+
+/**
+ * While the pass on screen is still measured, follow its job's own socket (which reports
+ * every step to the end) so the train fills in wheel by wheel.
+ */
+function followPassJob() {
+  stopFollowing?.();
+  stopFollowing = null;
+  const job = store.get().pass?.data?.job;
+  if (!job || job.state === 'done' || job.state === 'failed') return;
+  const stop = api.watch(`jobs/${job.job_id}`, (msg) => {
+    actions.jobUpdate(msg);
+    refreshOnProgress(msg);
+    if (msg.state === 'done' || msg.state === 'failed') stop();
+  }, () => {});
+  stopFollowing = stop;
+}
+
 let refreshTimer = 0;
 /**
  * Reload the list or the pass on screen when a job made progress (at most twice a second).
  * @param {any} msg
  */
 function refreshOnProgress(msg) {
-  window.clearTimeout(refreshTimer);
+  if (refreshTimer) return;
   refreshTimer = window.setTimeout(() => {
+    refreshTimer = 0;
     const { route } = store.get();
     if (route.name === 'passes') actions.loadPasses(route.query);
     else if (route.name === 'pass' && route.params.passId === String(msg.pass_id)) actions.loadPass(route.params.passId);
@@ -124,6 +148,10 @@ function render() {
       store.set({ token: null, me: null });
     },
   });
+  if (state.route.name !== 'pass' && stopFollowing) {
+    stopFollowing();
+    stopFollowing = null;
+  }
   if (state.route.name !== 'wheel' && wheelView) {
     wheelView.destroy();
     wheelView = null;
