@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 APT_STAMP := $(VENV)/.apt-installed
-DEBIAN_PACKAGES := chromium poppler-utils fonts-dejavu-core docker-compose
+DEBIAN_PACKAGES := chromium poppler-utils fonts-dejavu-core docker-compose nodejs
 
 .PHONY: run test lint bench venv system-deps clean
 
