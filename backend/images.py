@@ -11,6 +11,7 @@ from matplotlib import colormaps
 
 from backend.artefacts import FrameArtefacts, load_artefacts
 from backend.storage import BlobStore
+from pipeline import Centres
 
 SIGMA_COLORMAP = "viridis"
 
@@ -90,3 +91,24 @@ def layer_png(store: BlobStore, sha256: str, layer: str, max_width_px: int | Non
         return LayerPng(mask_png(artefacts.mask, max_width_px), 0.0, 0.0)
     low, high = sigma_scale(artefacts.sigma_map)
     return LayerPng(sigma_png(artefacts.sigma_map, low, high, max_width_px), low, high)
+
+
+def prerender_layers(store: BlobStore, centres: Centres) -> dict[str, str | float | None]:
+    """Render a frame's full-size mask and coloured σ map once, in the worker, as blobs.
+
+    Returns the MeasurementFrame fields: mask_png_sha256, sigma_png_sha256, sigma_min_px,
+    sigma_max_px (the σ ones None for fixed-σ methods).
+    """
+    layers: dict[str, str | float | None] = {
+        "mask_png_sha256": store.put(mask_png(centres.mask, None), ".png"),
+        "sigma_png_sha256": None,
+        "sigma_min_px": None,
+        "sigma_max_px": None,
+    }
+    if centres.sigma_map is not None:
+        low, high = sigma_scale(centres.sigma_map)
+        layers["sigma_png_sha256"] = store.put(
+            sigma_png(centres.sigma_map, low, high, None), ".png"
+        )
+        layers["sigma_min_px"], layers["sigma_max_px"] = low, high
+    return layers

@@ -20,6 +20,7 @@ from sqlalchemy.exc import InterfaceError, OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.artefacts import save_artefacts
+from backend.images import prerender_layers
 from backend.remote_store import make_worker_store
 from backend.results import apply_alarms, measurement_row
 from backend.storage import BlobStore
@@ -160,6 +161,7 @@ def store_wheel_results(session: Session, store: BlobStore, pass_wheel_id: int) 
                     seq=frame.seq,
                     artefact_sha256=save_artefacts(store, frame_centres.centres),
                     centre_count=len(frame_centres.centres),
+                    **prerender_layers(store, frame_centres.centres),
                 )
             )
         if result.status != MEASURED:

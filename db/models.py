@@ -209,7 +209,8 @@ class Measurement(Base):
 
 
 class MeasurementFrame(Base):
-    """Per-frame artefacts of a measurement (centres, mask, sigma map) in the store."""
+    """Per-frame artefacts of a measurement (centres, mask, sigma map) in the store, with
+    the full-size mask and coloured σ map pre-rendered as PNG blobs by the worker."""
 
     __tablename__ = "measurement_frame"
     __table_args__ = (UniqueConstraint("measurement_id", "sensor", "seq"),)
@@ -222,6 +223,10 @@ class MeasurementFrame(Base):
     seq: Mapped[int] = mapped_column(Integer)
     artefact_sha256: Mapped[str] = mapped_column(String(64))
     centre_count: Mapped[int] = mapped_column(Integer)
+    mask_png_sha256: Mapped[str | None] = mapped_column(String(64))
+    sigma_png_sha256: Mapped[str | None] = mapped_column(String(64))
+    sigma_min_px: Mapped[float | None] = mapped_column(Float)
+    sigma_max_px: Mapped[float | None] = mapped_column(Float)
 
     measurement: Mapped[Measurement] = relationship(back_populates="frames")
 

@@ -15,7 +15,7 @@ from sqlalchemy import select
 from backend.artefacts import FrameArtefacts
 from backend.deps import PassWheelDep, SessionDep, StoreDep, ViewerDep, WheelDep
 from backend.errors import NotFoundError
-from backend.images import SIGMA_COLORMAP, cached_artefacts, frame_png, layer_png
+from backend.images import SIGMA_COLORMAP, LayerPng, cached_artefacts, frame_png, layer_png
 from backend.queries import METHODS, method_result, pass_wheels
 from backend.routes.passes import ERRORS
 from backend.schemas import CentresRead, PassWheelRead, ProfileRead, TrendPoint, WheelTrend
@@ -64,9 +64,9 @@ def _measurement(pass_wheel: PassWheel, method: str) -> Measurement:
     )
 
 
-def _artefact_sha(
+def _artefact_row(
     session: SessionDep, pass_wheel: PassWheel, method: str, position: str, index: int
-) -> tuple[Frame, str]:
+) -> tuple[Frame, MeasurementFrame]:
     frame = _frame(session, pass_wheel, position, index)
     measurement = _measurement(pass_wheel, method)
     row = session.scalar(
@@ -80,7 +80,7 @@ def _artefact_sha(
         raise NotFoundError(
             f"no {method} extraction is stored for {frame.sensor} frame {frame.seq}"
         )
-    return frame, row.artefact_sha256
+    return frame, row
 
 
 def _artefacts(
@@ -91,8 +91,8 @@ def _artefacts(
     position: str,
     index: int,
 ) -> tuple[Frame, FrameArtefacts]:
-    frame, sha256 = _artefact_sha(session, pass_wheel, method, position, index)
-    return frame, cached_artefacts(store, sha256)
+    frame, row = _artefact_row(session, pass_wheel, method, position, index)
+    return frame, cached_artefacts(store, row.artefact_sha256)
 
 
 def _revalidated(request: Request, etag: str) -> Response | None:
@@ -145,11 +145,14 @@ def get_mask_png(
     max_width: MaxWidth = None,
 ) -> Response:
     """The stripe mask the method searched centres in (255 = stripe)."""
-    _frame_row, sha256 = _artefact_sha(session, pass_wheel, method, position, index)
-    etag = f'"{sha256[:24]}-mask-{max_width}"'
+    _frame_row, row = _artefact_row(session, pass_wheel, method, position, index)
+    etag = f'"{row.artefact_sha256[:24]}-mask-{max_width}"'
     if (cached := _revalidated(request, etag)) is not None:
         return cached
-    data = layer_png(store, sha256, "mask", max_width).png
+    if max_width is None and row.mask_png_sha256 is not None:
+        data = store.get(row.mask_png_sha256, ".png")
+    else:
+        data = layer_png(store, row.artefact_sha256, "mask", max_width).png
     return Response(data, media_type="image/png", headers={"ETag": etag, **REVALIDATE})
 
 
@@ -173,10 +176,15 @@ def get_sigma_png(
 ) -> Response:
     """The σ map coloured (transparent where no scale was chosen). Its colour scale is in
     the headers X-Colormap, X-Sigma-Min-Px and X-Sigma-Max-Px."""
-    _frame_row, sha256 = _artefact_sha(session, pass_wheel, method, position, index)
-    _sigma_map(cached_artefacts(store, sha256), method)
-    etag = f'"{sha256[:24]}-sigma-{max_width}"'
-    layer = layer_png(store, sha256, "sigma", max_width)
+    _frame_row, row = _artefact_row(session, pass_wheel, method, position, index)
+    etag = f'"{row.artefact_sha256[:24]}-sigma-{max_width}"'
+    if max_width is None and row.sigma_png_sha256 is not None:
+        layer = LayerPng(
+            store.get(row.sigma_png_sha256, ".png"), row.sigma_min_px, row.sigma_max_px
+        )
+    else:
+        _sigma_map(cached_artefacts(store, row.artefact_sha256), method)
+        layer = layer_png(store, row.artefact_sha256, "sigma", max_width)
     headers = {
         "X-Colormap": SIGMA_COLORMAP,
         "X-Sigma-Min-Px": f"{layer.sigma_min_px}",
