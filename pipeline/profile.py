@@ -35,9 +35,10 @@ tread's curvature does not bias it)."""
 OVERLAP_NEIGHBOURS = 8
 MIN_BACK_FACE_POINTS = 20
 CONSENSUS_RADIUS_MM = 2.0
-CONSENSUS_TOLERANCE_MM = 0.4
-"""Where the other sensor has ≥ 5 points within 2 mm of a point, the point must lie within
-0.4 mm of their local line (curvature over 2 mm of the R12 flange top bends it 0.17 mm)."""
+CONSENSUS_MIN_POINTS = 6
+CONSENSUS_TOLERANCE_MM = 0.12
+"""Where the other sensor has ≥ 6 points within 2 mm of a point, the point must lie near
+their local curve: within 0.12 mm, or more where the two sensors agree less overall."""
 LINK_RADIUS_MM = 0.5
 MIN_COMPONENT_POINTS = 40
 """Profile pieces linked by < 0.5 mm gaps and holding fewer than 40 points (≈ 5 mm of
@@ -144,20 +145,44 @@ def overlap_residual(inner_xz: np.ndarray, outer_xz: np.ndarray) -> tuple[float 
     return float(np.sqrt(np.mean(residual**2))), int(np.count_nonzero(in_overlap))
 
 
-def _consistent_with(points: np.ndarray, other: np.ndarray) -> np.ndarray:
-    """True where `points` agree with the other sensor's local line, or it has no say there."""
-    ok = np.ones(points.shape[0], bool)
-    if points.shape[0] == 0 or other.shape[0] < 5:
-        return ok
+def _cross_residuals(points: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """Offset of each point from the other sensor's local curve (NaN where it has no say).
+
+    The local curve is a quadratic v(u) in the principal axes of the other sensor's points
+    within CONSENSUS_RADIUS_MM, so the curvature of the flange top does not count as offset.
+    """
+    residual = np.full(points.shape[0], np.nan)
+    if points.shape[0] == 0 or other.shape[0] < CONSENSUS_MIN_POINTS:
+        return residual
     tree = cKDTree(other)
     for i, near in enumerate(tree.query_ball_point(points, CONSENSUS_RADIUS_MM)):
-        if len(near) < 5:
+        if len(near) < CONSENSUS_MIN_POINTS:
             continue
         local = other[near]
         centre = local.mean(axis=0)
         _, _, vt = np.linalg.svd(local - centre, full_matrices=False)
-        ok[i] = abs((points[i] - centre) @ vt[1]) <= CONSENSUS_TOLERANCE_MM
-    return ok
+        u, v = (local - centre) @ vt[0], (local - centre) @ vt[1]
+        coefficients = np.polyfit(u, v, 2) if np.ptp(u) > 0.5 else np.polyfit(u, v, 1)
+        p = points[i] - centre
+        residual[i] = p @ vt[1] - np.polyval(coefficients, p @ vt[0])
+    return residual
+
+
+def _consistent_with(points: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """True where `points` agree with the other sensor's local curve, or it has no say there.
+
+    The tolerance follows the sensors' agreement: max(0.12 mm, |median| + 4·1.4826·MAD) of
+    the offsets, so a small systematic offset between two calibrations is not mistaken for
+    stray points, while a bump seen by one sensor only is.
+    """
+    residual = _cross_residuals(points, other)
+    known = np.isfinite(residual)
+    if not np.any(known):
+        return np.ones(points.shape[0], bool)
+    centre = float(np.median(residual[known]))
+    spread = 1.4826 * float(np.median(np.abs(residual[known] - centre)))
+    tolerance = max(CONSENSUS_TOLERANCE_MM, abs(centre) + 4.0 * spread)
+    return ~known | (np.abs(residual) <= tolerance)
 
 
 def _main_components(xz: np.ndarray) -> np.ndarray:
