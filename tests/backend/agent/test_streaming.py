@@ -53,6 +53,15 @@ def server(tmp_path: Path) -> Iterator[LiveServer]:
     live.stop()
 
 
+@pytest.fixture(scope="module")
+def shared_server(tmp_path_factory: pytest.TempPathFactory) -> Iterator[LiveServer]:
+    """One server for the tests that leave no pass behind (or one of their own site)."""
+    live = LiveServer(tmp_path_factory.mktemp("shared") / "data")
+    live.start()
+    yield live
+    live.stop()
+
+
 def agent_command(station: Path, server: LiveServer, token: str, *extra: str) -> list[str]:
     command = [sys.executable, "-m", "backend.cli", "agent", "--server", server.url]
     return [*command, "--token", token, "--station", str(station), *extra]
@@ -265,8 +274,9 @@ def test_a_removed_camera_makes_its_wheels_not_measured_and_the_pass_goes_on(
     ],
 )
 def test_a_refused_token_is_one_line(
-    tmp_path: Path, sim_pass: Path, server: LiveServer, role: str | None, message: str
+    tmp_path: Path, sim_pass: Path, shared_server: LiveServer, role: str | None, message: str
 ) -> None:
+    server = shared_server
     station = write_replay_station(sim_pass, tmp_path / "station")
     token = "wrong-token" if role is None else server.tokens[role]
     result = run_agent(station, server, token=token)
@@ -303,8 +313,9 @@ def test_frames_buffered_while_the_server_is_down_are_sent_by_the_next_run(
 
 
 def test_an_open_whose_answer_was_lost_finds_its_pass_instead_of_opening_another(
-    server: LiveServer,
+    shared_server: LiveServer,
 ) -> None:
+    server = shared_server
     calibration = calibration_to_document(build_station().calibration)
     request = PassOpen("site-a", "2026-11-23T22:00:00.123456+00:00", "up", None, 1, calibration)
     client = StreamClient(server.url, server.tokens["operator"])
