@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import queue
+import socket
+import threading
+import time
+
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -14,7 +19,9 @@ from backend.agent.axles import (
     VehicleTag,
     parse_tag,
     parse_wheel_event,
+    start_reader,
 )
+from tests.backend.agent.live_server import free_port
 
 
 def label_train(counter: AxleCounter, axles: int, tags: list[VehicleTag]) -> list[tuple]:
@@ -64,3 +71,38 @@ def test_event_lines_parse() -> None:
 def test_bad_event_lines_are_named(parse, line: str, message: str) -> None:
     with pytest.raises(EventError, match=message):
         parse(line)
+
+
+def test_a_tcp_wheel_sensor_feeds_events_from_each_connection_in_turn() -> None:
+    port = free_port()
+    stop = threading.Event()
+    events: queue.Queue[object] = queue.Queue()
+    start_reader(f"tcp://127.0.0.1:{port}", parse_wheel_event, events, stop)
+    try:
+        for lines in (b'{"event": "axle", "speed_kmh": 30}\n', b'\n{"event": "end"}\n'):
+            deadline = time.monotonic() + 30
+            while True:
+                try:
+                    connection = socket.create_connection(("127.0.0.1", port), timeout=5)
+                    break
+                except ConnectionRefusedError:
+                    assert time.monotonic() < deadline
+                    time.sleep(0.02)
+            with connection:
+                connection.sendall(lines)
+        assert events.get(timeout=30) == AxleEvent(30.0)
+        assert events.get(timeout=30) == EndEvent()
+    finally:
+        stop.set()
+    assert events.get(timeout=30) is None
+
+
+def test_a_bad_line_ends_the_stream_with_its_error(tmp_path) -> None:
+    path = tmp_path / "axles.jsonl"
+    path.write_text('{"event": "axle"}\n{"event": "brake"}\n{"event": "axle"}\n')
+    events: queue.Queue[object] = queue.Queue()
+    start_reader(f"file:{path}", parse_wheel_event, events, threading.Event())
+    assert events.get(timeout=30) == AxleEvent()
+    error = events.get(timeout=30)
+    assert isinstance(error, EventError) and "got 'brake'" in str(error)
+    assert events.get(timeout=30) is None
