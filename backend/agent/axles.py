@@ -174,14 +174,17 @@ def iter_lines(source: str, stop: threading.Event) -> Iterator[str]:
 def start_reader(
     source: str, parse: Callable[[str], object], out: queue.Queue[object], stop: threading.Event
 ) -> threading.Thread:
-    """Read `source` in a daemon thread, putting parsed events (or the EventError/OSError
-    that ended it) on `out`, then None at its end."""
+    """Read `source` in a daemon thread, putting on `out` each parsed event or the EventError
+    of a bad line (reading goes on), the OSError that ended the source, then None."""
 
     def run() -> None:
         try:
             for line in iter_lines(source, stop):
-                out.put(parse(line))
-        except (EventError, OSError) as exc:
+                try:
+                    out.put(parse(line))
+                except EventError as exc:
+                    out.put(exc)
+        except OSError as exc:
             out.put(exc)
         out.put(None)
 

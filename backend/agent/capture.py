@@ -21,7 +21,14 @@ from datetime import UTC, datetime
 import cv2
 import numpy as np
 
-from backend.agent.axles import AxleCounter, AxleEvent, AxleLabel, EndEvent, VehicleTag
+from backend.agent.axles import (
+    AxleCounter,
+    AxleEvent,
+    AxleLabel,
+    EndEvent,
+    EventError,
+    VehicleTag,
+)
 from backend.agent.cameras import CameraSource, GrabFailed
 from backend.agent.progress import Progress
 from backend.agent.spool import PassOpen, Spool
@@ -187,7 +194,8 @@ class Capture:
     ) -> None:
         """Process events until the stream ends or `stop` is set; the last pass is ended.
 
-        Raises the EventError or OSError that ended the wheel-sensor stream, if any.
+        A bad event line is reported and skipped; raises the OSError that ended the
+        wheel-sensor stream, if any.
         """
         last_event_s = time.monotonic()
         try:
@@ -201,7 +209,9 @@ class Capture:
                 last_event_s = time.monotonic()
                 if event is None:
                     return
-                if isinstance(event, BaseException):
+                if isinstance(event, EventError):
+                    self._progress.warn(f"wheel sensor: {event}; line ignored")
+                elif isinstance(event, BaseException):
                     raise event
                 if isinstance(event, EndEvent):
                     self._end_pass()
