@@ -10,7 +10,7 @@ import { makePlotScale } from '../../frontend/js/lib/plot-scale.js';
 import { buildPointIndex, nearestPoint } from '../../frontend/js/lib/point-index.js';
 import { buildHash, parseHash } from '../../frontend/js/lib/route.js';
 import { boundsOf, niceTicks } from '../../frontend/js/lib/ticks.js';
-import { fitViewport, imageToScreen, screenToImage, zoomAt } from '../../frontend/js/lib/viewport.js';
+import { fitRegion, fitViewport, imageToScreen, screenToImage, zoomAt } from '../../frontend/js/lib/viewport.js';
 
 /** Deterministic pseudo-random numbers in [0, 1) (fixed seed). */
 function lcg(seed) {
@@ -169,4 +169,10 @@ test('formatters show missing values as a dash and times in UTC', () => {
   assert.equal(fmtSigned(-0.001), '0.00', 'no negative zero');
   assert.equal(fmtSigned(-0.5), '−0.50');
   assert.equal(fmtTime('2026-11-23T10:00:00+01:00'), '2026-11-23 09:00:00 UTC');
+});
+
+test('fitRegion centres a region and fits its larger side', () => {
+  const vp = fitRegion(100, 200, 500, 400, 800, 600);
+  assert.equal(vp.scale, 2);
+  assert.deepEqual(imageToScreen(vp, 300, 300), [400, 300]);
 });

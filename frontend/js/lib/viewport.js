@@ -32,6 +32,27 @@ export function fitViewport(imageWidthPx, imageHeightPx, canvasWidthPx, canvasHe
 }
 
 /**
+ * Viewport showing an image region [xMin, xMax] × [yMin, yMax] (px) centred in a canvas.
+ * @param {number} xMin
+ * @param {number} yMin
+ * @param {number} xMax
+ * @param {number} yMax
+ * @param {number} canvasWidthPx CSS px
+ * @param {number} canvasHeightPx CSS px
+ * @returns {Viewport}
+ */
+export function fitRegion(xMin, yMin, xMax, yMax, canvasWidthPx, canvasHeightPx) {
+  const width = Math.max(1, xMax - xMin);
+  const height = Math.max(1, yMax - yMin);
+  const scale = clampScale(Math.min(canvasWidthPx / width, canvasHeightPx / height));
+  return {
+    scale,
+    offsetX: canvasWidthPx / 2 - ((xMin + xMax) / 2) * scale,
+    offsetY: canvasHeightPx / 2 - ((yMin + yMax) / 2) * scale,
+  };
+}
+
+/**
  * Zoom by a factor keeping the image point under the screen point (sx, sy) fixed.
  * @param {Viewport} vp
  * @param {number} factor > 1 zooms in

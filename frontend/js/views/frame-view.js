@@ -10,11 +10,14 @@ import { drawColourLegend } from '../draw/legend.js';
 import { VIRIDIS } from '../lib/colormap.js';
 import { fmtNumber } from '../lib/format.js';
 import { buildPointIndex, nearestPoint } from '../lib/point-index.js';
-import { fitViewport, panBy, screenToImage, zoomAt } from '../lib/viewport.js';
+import { boundsOf } from '../lib/ticks.js';
+import { fitRegion, fitViewport, panBy, screenToImage, zoomAt } from '../lib/viewport.js';
 import { fitCanvas, h } from './dom.js';
 
 /** Hover picks the nearest centre within this many screen px. */
 const HOVER_RADIUS_CSS_PX = 8;
+/** Margin around the stripe when the view fits it, image px. */
+const STRIPE_MARGIN_PX = 60;
 
 /**
  * @typedef {object} FrameData
@@ -44,6 +47,8 @@ export class FrameView {
     /** @type {Record<string, import('../lib/point-index.js').PointIndex>} */
     this.indexes = {};
     this.pending = false;
+    /** @type {'stripe'|'frame'} what the next fit shows; a new frame opens on its stripe */
+    this.fitTo = 'stripe';
     this.lastDrawMs = 0;
     this.pointsDrawn = 0;
     this.bindEvents();
@@ -52,17 +57,22 @@ export class FrameView {
   }
 
   /**
-   * Show a new frame (fits it to the canvas) or keep the view when only the data object changed.
+   * Show a frame's layers: a new frame is fitted to its stripe, more layers of the same
+   * frame keep the view.
    * @param {FrameData} data
    */
   setData(data) {
-    const sameSize = this.data && this.data.image.width === data.image.width && this.data.image.height === data.image.height;
+    // a new frame opens on its stripe; layers added to the same frame keep the view
+    const newFrame = !this.data || this.data.image !== data.image;
     this.data = data;
     this.indexes = {};
     for (const [method, c] of Object.entries(data.centres)) {
       if (c && Array.isArray(c.x)) this.indexes[method] = buildPointIndex(c.x, c.y, 8);
     }
-    if (!sameSize) this.viewport = null;
+    if (newFrame) {
+      this.viewport = null;
+      this.fitTo = 'stripe';
+    }
     if (!this.highlight) this.readout.textContent = 'hover a centre point';
     this.drawLegend();
     this.request();
@@ -89,9 +99,27 @@ export class FrameView {
     this.readout.textContent = 'loading…';
   }
 
+  /** Fit the view, alternating between the stripe (all centres) and the whole frame. */
   fit() {
+    this.fitTo = this.fitTo === 'stripe' ? 'frame' : 'stripe';
     this.viewport = null;
     this.request();
+  }
+
+  /**
+   * The fitted view of the current frame: its stripe with a margin, or the whole frame.
+   * @param {number} widthPx
+   * @param {number} heightPx
+   * @returns {import('../lib/viewport.js').Viewport}
+   */
+  fittedViewport(widthPx, heightPx) {
+    const { image, centres } = /** @type {FrameData} */ (this.data);
+    const sets = Object.values(centres).filter((c) => c && Array.isArray(c.x));
+    const xs = boundsOf(sets.map((c) => c.x));
+    const ys = boundsOf(sets.map((c) => c.y));
+    if (this.fitTo === 'frame' || !xs || !ys) return fitViewport(image.width, image.height, widthPx, heightPx);
+    return fitRegion(xs[0] - STRIPE_MARGIN_PX, ys[0] - STRIPE_MARGIN_PX,
+      xs[1] + STRIPE_MARGIN_PX, ys[1] + STRIPE_MARGIN_PX, widthPx, heightPx);
   }
 
   /** @param {number} factor */
@@ -126,7 +154,7 @@ export class FrameView {
     if (!this.data) return;
     const started = performance.now();
     const { ctx, widthPx, heightPx, pixelRatio } = fitCanvas(this.canvas);
-    if (!this.viewport) this.viewport = fitViewport(this.data.image.width, this.data.image.height, widthPx, heightPx);
+    if (!this.viewport) this.viewport = this.fittedViewport(widthPx, heightPx);
     const centres = Object.entries(this.data.centres)
       .filter(([, c]) => c && Array.isArray(c.x))
       .map(([method, c]) => ({ method, x: c.x, y: c.y }));

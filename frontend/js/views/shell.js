@@ -8,7 +8,7 @@ import { h } from './dom.js';
 /** Keyboard shortcuts shown by "?" (the wheel page's are listed there too). */
 export const SHORTCUTS = [
   ['g p', 'passes'], ['g u', 'upload'], ['j / k', 'next / previous row'], ['Enter', 'open row'],
-  ['a / s', 'adaptive / Steger centres'], ['m / o', 'stripe mask / σ map'], ['f', 'fit frame'],
+  ['a / s', 'adaptive / Steger centres'], ['m / o', 'stripe mask / σ map'], ['f', 'fit stripe / whole frame'],
   ['+ / −', 'zoom'], ['← ↑ → ↓', 'pan'], ['[ / ]', 'previous / next wheel'], ['i', 'next sensor'],
   ['Esc', 'close 3D or help, else up one level'], ['?', 'this help'],
 ];

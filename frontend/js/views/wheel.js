@@ -142,7 +142,7 @@ export class WheelView {
         h('input', { type: 'checkbox', 'data-layer': key, checked: show[key],
           onchange: (/** @type {Event} */ e) => this.handlers.setQuery({ [key]: /** @type {HTMLInputElement} */ (e.target).checked ? '1' : '0' }) }),
         ` ${label} `, h('kbd', {}, shortcut))),
-      h('button', { onclick: () => this.frame.fit(), title: 'fit the frame (f)' }, 'Fit ', h('kbd', {}, 'f')),
+      h('button', { onclick: () => this.frame.fit(), title: 'fit: the stripe, then the whole frame (f)' }, 'Fit ', h('kbd', {}, 'f')),
       this.layerNote,
     );
   }
