@@ -4,7 +4,6 @@ driven by Playwright."""
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import shutil
 import socket
@@ -48,7 +47,7 @@ class Service:
             return self.made[role]
         result = subprocess.run(
             [
-                *wheelscan_verb("backend.cli.serve"),
+                *WHEELSCAN,
                 "token",
                 "create",
                 "--role",
@@ -68,21 +67,8 @@ class Service:
         return self.made[role]
 
 
-def wheelscan_verb(module: str) -> list[str]:
-    """The command line of a `wheelscan` verb group: `python -m backend.cli` once `module`
-    is registered in VERB_MODULES, else the module's own register/func, run the same way."""
-    from backend.cli import VERB_MODULES
-
-    if module in VERB_MODULES:
-        return [sys.executable, "-m", "backend.cli"]
-    runner = (
-        "import argparse, importlib, sys;"
-        "parser = argparse.ArgumentParser(prog='wheelscan');"
-        f"importlib.import_module('{module}').register(parser.add_subparsers(required=True));"
-        "args = parser.parse_args();"
-        "sys.exit(args.func(args))"
-    )
-    return [sys.executable, "-c", runner]
+WHEELSCAN = [sys.executable, "-m", "backend.cli"]
+"""The `wheelscan` command line, run from this checkout's interpreter."""
 
 
 def _free_port() -> int:
@@ -108,8 +94,6 @@ def _wait_healthy(url: str, process: subprocess.Popen[bytes], log: Path) -> None
 @pytest.fixture(scope="session")
 def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
     """The real service on loopback: `wheelscan serve` with a temp data dir and SQLite."""
-    if importlib.util.find_spec("backend.cli.serve") is None:
-        pytest.skip("`wheelscan serve` (issue 5) is not in the tree yet: browser tests NOT run")
     data_dir = tmp_path_factory.mktemp("e2e-data")
     port = _free_port()
     env = {
@@ -124,7 +108,7 @@ def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
     with log.open("wb") as sink:
         process = subprocess.Popen(
             [
-                *wheelscan_verb("backend.cli.serve"),
+                *WHEELSCAN,
                 "serve",
                 "--host",
                 "127.0.0.1",
@@ -155,9 +139,7 @@ def pass_archive(tmp_path_factory: pytest.TempPathFactory) -> Path:
     folder = out / "pass"
     result = subprocess.run(
         [
-            sys.executable,
-            "-m",
-            "backend.cli",
+            *WHEELSCAN,
             "synth-pass",
             str(folder),
             "--vehicles",
