@@ -167,6 +167,15 @@ export class WheelView {
           h('td', { class: `num ${hasAlarmOn(s, p.key, limitRow?.wheel_profile) ? 'alarm' : ''}` }, fmtNumber(s[p.key])),
           h('td', { class: 'num' }, fmtSigned(a[p.key] != null && s[p.key] != null ? a[p.key] - s[p.key] : null)),
           h('td', { class: 'num' }, limitText(limitRow, p.key)))))),
+      h('table', { class: 'grid compact quality' },
+        h('thead', {}, h('tr', {}, ['Quality', 'points in / out', 'overlap RMS', 'rejected', 'σ mean (range) px']
+          .map((t) => h('th', {}, t)))),
+        h('tbody', {}, [['adaptive', a], ['steger', s]].map(([m, r]) => h('tr', {},
+          h('th', {}, m),
+          h('td', { class: 'num' }, `${r.quality?.points_inner ?? '–'} / ${r.quality?.points_outer ?? '–'}`),
+          h('td', { class: 'num' }, r.quality?.overlap_residual_mm == null ? '–' : `${fmtNumber(r.quality.overlap_residual_mm, 3)} mm`),
+          h('td', { class: 'num' }, r.quality?.rejected_points ?? '–'),
+          h('td', { class: 'num' }, `${fmtNumber(r.sigma_mean_px)} (${fmtNumber(r.sigma_min_px)}–${fmtNumber(r.sigma_max_px)})`))))),
       h('ul', { class: 'alarms' }, [...(a.alarms ?? []).map((/** @type {any} */ al) => ['adaptive', al]),
         ...(s.alarms ?? []).map((/** @type {any} */ al) => ['steger', al])].map(([m, al]) =>
         h('li', { class: 'alarm' }, `${m}: ${al.message}`))),
