@@ -39,6 +39,10 @@ CONSENSUS_MIN_POINTS = 6
 CONSENSUS_TOLERANCE_MM = 0.12
 """Where the other sensor has ≥ 6 points within 2 mm of a point, the point must lie near
 their local curve: within 0.12 mm, or more where the two sensors agree less overall."""
+SELF_RADIUS_MM = 3.0
+SELF_TOLERANCE_MM = 0.05
+"""A point is also checked against its own sensor's local quadratic over ±3 mm: a short
+bump (a glint, a spot touching the stripe) leaves it by more than 0.05 mm."""
 LINK_RADIUS_MM = 0.5
 MIN_COMPONENT_POINTS = 40
 """Profile pieces linked by < 0.5 mm gaps and holding fewer than 40 points (≈ 5 mm of
@@ -145,17 +149,17 @@ def overlap_residual(inner_xz: np.ndarray, outer_xz: np.ndarray) -> tuple[float 
     return float(np.sqrt(np.mean(residual**2))), int(np.count_nonzero(in_overlap))
 
 
-def _cross_residuals(points: np.ndarray, other: np.ndarray) -> np.ndarray:
-    """Offset of each point from the other sensor's local curve (NaN where it has no say).
+def _local_residuals(points: np.ndarray, other: np.ndarray, radius_mm: float) -> np.ndarray:
+    """Offset of each point from the local curve of `other` (NaN where it has no say).
 
-    The local curve is a quadratic v(u) in the principal axes of the other sensor's points
-    within CONSENSUS_RADIUS_MM, so the curvature of the flange top does not count as offset.
+    The local curve is a quadratic v(u) in the principal axes of the points of `other`
+    within `radius_mm`, so the curvature of the flange top does not count as offset.
     """
     residual = np.full(points.shape[0], np.nan)
     if points.shape[0] == 0 or other.shape[0] < CONSENSUS_MIN_POINTS:
         return residual
     tree = cKDTree(other)
-    for i, near in enumerate(tree.query_ball_point(points, CONSENSUS_RADIUS_MM)):
+    for i, near in enumerate(tree.query_ball_point(points, radius_mm)):
         if len(near) < CONSENSUS_MIN_POINTS:
             continue
         local = other[near]
@@ -168,21 +172,30 @@ def _cross_residuals(points: np.ndarray, other: np.ndarray) -> np.ndarray:
     return residual
 
 
-def _consistent_with(points: np.ndarray, other: np.ndarray) -> np.ndarray:
-    """True where `points` agree with the other sensor's local curve, or it has no say there.
-
-    The tolerance follows the sensors' agreement: max(0.12 mm, |median| + 4·1.4826·MAD) of
-    the offsets, so a small systematic offset between two calibrations is not mistaken for
-    stray points, while a bump seen by one sensor only is.
-    """
-    residual = _cross_residuals(points, other)
+def _outside(residual: np.ndarray, floor_mm: float) -> np.ndarray:
+    """True where |residual| exceeds max(floor, |median| + 4·1.4826·MAD) (NaN → False)."""
     known = np.isfinite(residual)
     if not np.any(known):
-        return np.ones(points.shape[0], bool)
+        return np.zeros(residual.shape, bool)
     centre = float(np.median(residual[known]))
     spread = 1.4826 * float(np.median(np.abs(residual[known] - centre)))
-    tolerance = max(CONSENSUS_TOLERANCE_MM, abs(centre) + 4.0 * spread)
-    return ~known | (np.abs(residual) <= tolerance)
+    tolerance = max(floor_mm, abs(centre) + 4.0 * spread)
+    return known & (np.abs(np.nan_to_num(residual)) > tolerance)
+
+
+def _consistent_with(points: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """False for points that leave the other sensor's local curve AND bend away from their own.
+
+    A bump seen by one sensor only fails both tests; where the two sensors disagree smoothly
+    (a systematic offset, a method's bias) neither sensor's points are dropped, so the flange
+    top is never left without points. Tolerances follow the data: max(floor, |median| +
+    4·1.4826·MAD) of the offsets.
+    """
+    cross = _outside(_local_residuals(points, other, CONSENSUS_RADIUS_MM), CONSENSUS_TOLERANCE_MM)
+    if not np.any(cross):
+        return np.ones(points.shape[0], bool)
+    own = _outside(_local_residuals(points, points, SELF_RADIUS_MM), SELF_TOLERANCE_MM)
+    return ~(cross & own)
 
 
 def _main_components(xz: np.ndarray) -> np.ndarray:
