@@ -94,3 +94,22 @@ def test_overlap_residual_of_a_line_by_hand() -> None:
     outer = np.column_stack([t[20:80], np.full(60, 0.1)])
     residual, count = overlap_residual(inner, outer)
     assert residual == pytest.approx(0.1, abs=1e-9) and count == 60
+
+
+def test_bump_seen_by_one_sensor_only_is_dropped() -> None:
+    inner, outer = _track_points("right", 676.5)
+    top = PROFILE.x_mm[np.argmax(PROFILE.z_mm)]
+    x = inner[:, 0] - 676.5
+    bump = np.abs(x - top + 0.5) < 1.0
+    inner = inner.copy()
+    inner[bump, 2] -= 0.25  # track Z down = profile z up
+    profile = fuse_profile(inner, outer, side="right")
+    assert profile.rejected_points >= np.count_nonzero(bump) // 2
+    p = fit_flange_parameters(profile.x_mm, profile.z_mm)
+    assert p.flange_height_mm == pytest.approx(PROFILE.truth.flange_height_mm, abs=0.02)
+
+
+def test_smooth_disagreement_keeps_both_sensors() -> None:
+    inner, outer = _track_points("right", 676.5)
+    profile = fuse_profile(inner, outer + np.array([0.0, 0.0, 0.15]), side="right")
+    assert profile.rejected_points == 0
