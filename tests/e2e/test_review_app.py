@@ -269,6 +269,13 @@ def test_switching_methods_redraws_the_profile_and_parameter_table(
     rows = page.locator(".param-table tbody tr")
     assert rows.count() == 5
     assert page.locator(".diff-plot + .note").inner_text().split(" ")[0].isdigit()
+    box = page.locator(".profile-plot").bounding_box()
+    note = page.locator(".profile-plot + .note")
+    for dy in range(10, int(box["height"]), 4):  # down a vertical line until the flange
+        page.mouse.move(box["x"] + box["width"] * 0.2, box["y"] + dy)
+        if "mm · z" in note.inner_text():
+            break
+    assert note.inner_text().startswith("steger: x "), note.inner_text()
     page.locator(".side-panel").screenshot(path=str(screenshots / "10-wheel-side-steger.png"))
 
 

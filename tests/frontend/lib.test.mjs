@@ -6,7 +6,7 @@ import { VIRIDIS, lutIndex } from '../../frontend/js/lib/colormap.js';
 import { fmtNumber, fmtSigned, fmtTime } from '../../frontend/js/lib/format.js';
 import { tintMask } from '../../frontend/js/lib/layer-pixels.js';
 import { differenceAlongStripe } from '../../frontend/js/lib/method-difference.js';
-import { makePlotScale } from '../../frontend/js/lib/plot-scale.js';
+import { makePlotScale, nearestOnScreen } from '../../frontend/js/lib/plot-scale.js';
 import { buildPointIndex, nearestPoint } from '../../frontend/js/lib/point-index.js';
 import { buildHash, parseHash } from '../../frontend/js/lib/route.js';
 import { boundsOf, niceTicks } from '../../frontend/js/lib/ticks.js';
@@ -175,4 +175,14 @@ test('fitRegion centres a region and fits its larger side', () => {
   const vp = fitRegion(100, 200, 500, 400, 800, 600);
   assert.equal(vp.scale, 2);
   assert.deepEqual(imageToScreen(vp, 300, 300), [400, 300]);
+});
+
+test('nearestOnScreen finds the drawn point under the pointer and skips gaps', () => {
+  const s = makePlotScale([0, 100], [0, 50], {
+    widthPx: 200, heightPx: 100, margin: { left: 0, right: 0, top: 0, bottom: 0 }, padFraction: 0,
+  });
+  const xs = [0, 50, null, 100];
+  const zs = [0, 25, null, 50];
+  assert.equal(nearestOnScreen(s, xs, zs, s.toX(50) + 3, s.toY(25), 5), 1);
+  assert.equal(nearestOnScreen(s, xs, zs, 150, 90, 5), -1);
 });

@@ -12,7 +12,7 @@ from sqlalchemy import select
 
 from backend.config import Settings
 from backend.storage import BlobStore
-from db.models import MeasurementFrame
+from db.models import Frame, MeasurementFrame
 from tests.scale.conftest import PASS_TIMEOUT_S
 from tests.scale.topology import (
     WHEELSCAN,
@@ -99,12 +99,21 @@ def test_a_worker_without_the_shared_volume_measures_from_frames_fetched_over_th
             wait_for_pass(client, pass_id, PASS_TIMEOUT_S)
         results = measurement_results(client, pass_id)
         with client.app.state.session_factory() as session:
-            artefacts = set(session.scalars(select(MeasurementFrame.artefact_sha256)))
+            frames = set(session.scalars(select(Frame.sha256)))
+            written = session.execute(
+                select(
+                    MeasurementFrame.artefact_sha256,
+                    MeasurementFrame.mask_png_sha256,
+                    MeasurementFrame.sigma_png_sha256,
+                )
+            ).all()
     assert results == in_process_results
     api_store, worker_cache = BlobStore(settings.frames_dir), BlobStore(elsewhere.frames_dir)
-    assert artefacts and all(api_store.has(sha256, ".npz") for sha256 in artefacts)
-    assert len(list(elsewhere.frames_dir.rglob("*.png"))) == 8, "the 8 frames, fetched once"
-    assert all(worker_cache.has(sha256, ".npz") for sha256 in artefacts)
+    assert len(frames) == 8 and all(worker_cache.has(sha256, ".png") for sha256 in frames)
+    assert written, "the worker stored per-frame artefacts"
+    for artefact, mask, sigma in written:
+        assert api_store.has(artefact, ".npz"), "artefacts reach the service's store"
+        assert all(api_store.has(png, ".png") for png in (mask, sigma) if png is not None)
 
 
 def test_a_worker_killed_mid_wheel_loses_no_wheel_and_measures_none_twice(

@@ -59,3 +59,29 @@ function padRange([lo, hi], fraction) {
   const span = hi - lo || Math.abs(hi) || 1;
   return [lo - span * fraction, hi + span * fraction];
 }
+
+/**
+ * Index of the data point drawn nearest to a screen point, within maxPx, or -1.
+ * @param {PlotScale} scale
+ * @param {ArrayLike<number|null>} xs
+ * @param {ArrayLike<number|null>} ys
+ * @param {number} sx screen x, CSS px
+ * @param {number} sy screen y, CSS px
+ * @param {number} maxPx search radius, CSS px
+ * @returns {number}
+ */
+export function nearestOnScreen(scale, xs, ys, sx, sy, maxPx) {
+  let best = -1;
+  let bestD2 = maxPx * maxPx;
+  for (let i = 0; i < xs.length; i += 1) {
+    const x = xs[i];
+    const y = ys[i];
+    if (x === null || y === null) continue;
+    const d2 = (scale.toX(x) - sx) ** 2 + (scale.toY(y) - sy) ** 2;
+    if (d2 <= bestD2) {
+      bestD2 = d2;
+      best = i;
+    }
+  }
+  return best;
+}

@@ -16,18 +16,20 @@ import { fitCanvas, h } from './dom.js';
  * @param {HTMLCanvasElement} canvas
  * @param {Record<string, any>} profiles method → ProfileRead from the API (or {error})
  * @param {string[]} methods methods to draw, first one gets its constructions drawn
- * @returns {string|null} a message when there is nothing to draw
+ * @param {{x: number, z: number}|null} [marker] a profile point to ring (the hovered one), mm
+ * @returns {{note: string|null, scale: import('../lib/plot-scale.js').PlotScale|null}} a note
+ *   when there is nothing to draw; the plot's scale otherwise
  */
-export function renderProfile(canvas, profiles, methods) {
+export function renderProfile(canvas, profiles, methods, marker = null) {
   const usable = methods.filter((m) => profiles[m] && Array.isArray(profiles[m].x_mm));
   const { ctx, widthPx, heightPx, pixelRatio } = fitCanvas(canvas);
   if (usable.length === 0) {
     ctx.clearRect(0, 0, canvas.width, canvas.height);
-    return methods.map((m) => `${m}: ${profiles[m]?.error ?? 'no profile'}`).join('; ');
+    return { note: methods.map((m) => `${m}: ${profiles[m]?.error ?? 'no profile'}`).join('; '), scale: null };
   }
   const first = profiles[usable[0]];
   const values = first.parameters ?? {};
-  drawProfile(ctx, {
+  const scale = drawProfile(ctx, {
     curves: usable.map((m) => ({ method: m, x_mm: profiles[m].x_mm, z_mm: profiles[m].z_mm })),
     reference: first.reference_x_mm?.length
       ? { name: first.reference_profile ?? 'reference', x_mm: first.reference_x_mm, z_mm: first.reference_z_mm }
@@ -35,7 +37,14 @@ export function renderProfile(canvas, profiles, methods) {
     constructions: first.construction ?? null,
     values: { sh: values.flange_height_mm, sd: values.flange_thickness_mm, qr: values.qr_mm },
   }, { widthPx, heightPx, pixelRatio });
-  return null;
+  if (scale && marker) {
+    ctx.strokeStyle = '#ffffff';
+    ctx.lineWidth = 1.5;
+    ctx.beginPath();
+    ctx.arc(scale.toX(marker.x), scale.toY(marker.z), 6, 0, 2 * Math.PI);
+    ctx.stroke();
+  }
+  return { note: null, scale };
 }
 
 /**

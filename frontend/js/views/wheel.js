@@ -5,6 +5,7 @@
  * Steger along the stripe; the trend across passes; exports and the 3D view.
  */
 import { differenceAlongStripe } from '../lib/method-difference.js';
+import { nearestOnScreen } from '../lib/plot-scale.js';
 import { fmtNumber, fmtSensor, fmtSigned, METHODS, PARAMETERS } from '../lib/format.js';
 import { hasAlarmOn, limitStem, limitsFor, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
@@ -49,6 +50,13 @@ export class WheelView {
           h('h2', {}, '3D'), this.viewerRoot)));
     root.replaceChildren(this.section);
     this.frame = new FrameView(frameRoot);
+    /** @type {Record<string, any>} */
+    this.profiles = {};
+    this.profileOrder = ['adaptive', 'steger'];
+    /** @type {import('../lib/plot-scale.js').PlotScale|null} */
+    this.profileScale = null;
+    this.profileCanvas.addEventListener('pointermove', (e) => this.hoverProfile(e.offsetX, e.offsetY));
+    this.profileCanvas.addEventListener('pointerleave', () => this.drawProfilePlot(null));
     /** @type {any} */
     this.shown = {};
     /** @type {any} */
@@ -90,15 +98,43 @@ export class WheelView {
     this.layerNote.textContent = layerNote(show, w);
     if (changed('table', `${method}|${w.record?.wheel_id}|${w.loadMs}`)) this.renderTable(w.record, state.limits, method);
     if (changed('profile', `${method}|${w.loadMs}`)) {
-      const order = method === 'steger' ? ['steger', 'adaptive'] : ['adaptive', 'steger'];
-      this.profileNote.textContent = renderProfile(this.profileCanvas, w.profiles, order)
-        ?? 'Dashed grey: reference. Constructions of the selected method: Sh (yellow), Sd (green), qR (pink).';
+      this.profileOrder = method === 'steger' ? ['steger', 'adaptive'] : ['adaptive', 'steger'];
+      this.profiles = w.profiles;
+      this.drawProfilePlot(null);
     }
     if (changed('trend', w.trend)) {
       this.trendPlot = w.trend?.error ? null : renderTrend(this.trendRoot, w.trend, this.trendPlot);
       if (w.trend?.error) this.trendRoot.replaceChildren(h('p', { class: 'error' }, `trend unavailable: ${w.trend?.error}`));
     }
     if (changed('viewer', w.viewerUrl ?? null)) this.renderViewer(w.viewerUrl);
+  }
+
+  /**
+   * Draw the profile plot, ringing a hovered point and reading it out.
+   * @param {{method: string, x: number, z: number}|null} hovered
+   */
+  drawProfilePlot(hovered) {
+    const { note, scale } = renderProfile(this.profileCanvas, this.profiles, this.profileOrder, hovered);
+    this.profileScale = scale;
+    this.profileNote.textContent = note ?? (hovered
+      ? `${hovered.method}: x ${fmtNumber(hovered.x, 2)} mm · z ${fmtNumber(hovered.z, 2)} mm`
+      : 'Dashed grey: reference. Constructions of the selected method: Sh (yellow), Sd (green), qR (pink). Hover the profile to read points.');
+  }
+
+  /**
+   * @param {number} sx
+   * @param {number} sy
+   */
+  hoverProfile(sx, sy) {
+    const scale = this.profileScale;
+    if (!scale) return;
+    for (const method of this.profileOrder) {
+      const p = this.profiles[method];
+      if (!p || !Array.isArray(p.x_mm)) continue;
+      const i = nearestOnScreen(scale, p.x_mm, p.z_mm, sx, sy, 10);
+      if (i >= 0) return this.drawProfilePlot({ method, x: p.x_mm[i], z: p.z_mm[i] });
+    }
+    return this.drawProfilePlot(null);
   }
 
   destroy() {
