@@ -115,13 +115,17 @@ def wheels(server: LiveServer, pass_id: int) -> list[dict]:
 
 
 def measured_wheels(server: LiveServer, pass_id: int) -> dict[tuple, dict]:
-    """Wheels of a pass once all are measured (or not), keyed by identity, ids left out."""
+    """Wheels of a pass once its job is done (every wheel measured or not, back-to-back
+    distances written), keyed by identity, ids left out."""
     deadline = time.monotonic() + DEADLINE_S
-    rows = wheels(server, pass_id)
-    while not all(w["state"] in TERMINAL for w in rows):
-        assert time.monotonic() < deadline, rows
+    url = f"{server.url}/api/passes/{pass_id}"
+    while (job := httpx.get(url, headers=server.headers("viewer")).json()["job"])[
+        "state"
+    ] != "done":
+        assert time.monotonic() < deadline, job
         time.sleep(0.2)
-        rows = wheels(server, pass_id)
+    rows = wheels(server, pass_id)
+    assert all(w["state"] in TERMINAL for w in rows), rows
     return {
         (w["vehicle_id"], w["axle"], w["side"]): {k: w[k] for k in w if k != "wheel_id"}
         for w in rows
