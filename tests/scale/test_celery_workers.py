@@ -145,6 +145,30 @@ def test_a_worker_killed_mid_wheel_loses_no_wheel_and_measures_none_twice(
     assert finished_tasks(victim, rescuer) == len(states)
 
 
+def test_a_pool_process_killed_mid_wheel_is_replaced_and_its_wheel_measured_once_more(
+    pass_archive, in_process_results, postgres_url, shared_redis_url, tmp_path: Path
+) -> None:
+    settings = Settings(data_dir=tmp_path, database_url=postgres_url, broker_url=shared_redis_url)
+    with workers(1, worker_env(settings), tmp_path) as (worker,), api(settings) as client:
+        pass_id = upload(client, pass_archive)
+        wait_until(
+            lambda: "running" in [s for s, _ in wheel_states(client, pass_id).values()],
+            PASS_TIMEOUT_S,
+            "the worker to be measuring a wheel",
+        )
+        assert worker.kill_pool_children() == 1
+        orphans = [i for i, (s, _) in wheel_states(client, pass_id).items() if s == "running"]
+        wait_for_pass(client, pass_id, PASS_TIMEOUT_S)
+        results = measurement_results(client, pass_id)
+        states = wheel_states(client, pass_id)
+    assert "WorkerLostError" in worker.log(), "the message is rejected back to the queue"
+    assert results == in_process_results
+    assert len(orphans) == 1
+    assert states[orphans[0]][1] == 2
+    assert all(attempts == 1 for i, (_s, attempts) in states.items() if i != orphans[0])
+    assert finished_tasks(worker) == len(states)
+
+
 def test_a_broker_restart_that_drops_every_message_during_a_pass_loses_no_wheel(
     pass_archive,
     in_process_results,

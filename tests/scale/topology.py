@@ -142,6 +142,18 @@ class WorkerProcess:
         """How many tasks this worker finished, by the state they returned."""
         return Counter(TASK_OUTCOME.findall(self.log()))
 
+    def kill_pool_children(self) -> int:
+        """SIGKILL the worker's pool processes only (as the OOM killer would); returns how
+        many. The worker's main process stays up and replaces them."""
+        children = [
+            int(stat.parent.name)
+            for stat in Path("/proc").glob("[0-9]*/stat")
+            if _parent_pid(stat) == self.process.pid
+        ]
+        for pid in children:
+            os.kill(pid, signal.SIGKILL)
+        return len(children)
+
     def kill(self) -> None:
         """SIGKILL the worker and its pool child at once (as a power cut would)."""
         os.killpg(self.process.pid, signal.SIGKILL)
@@ -154,6 +166,14 @@ class WorkerProcess:
                 self.process.wait(timeout=60)
             except subprocess.TimeoutExpired:
                 self.kill()
+
+
+def _parent_pid(stat: Path) -> int | None:
+    try:
+        text = stat.read_text()
+    except OSError:
+        return None
+    return int(text[text.rindex(")") + 2 :].split()[1])
 
 
 @contextmanager
