@@ -68,7 +68,9 @@ def test_messages_redelivered_to_live_workers_measure_no_wheel_twice(
 ) -> None:
     settings = Settings(data_dir=tmp_path, database_url=postgres_url, broker_url=shared_redis_url)
     env = worker_env(settings)
-    env["WHEELSCAN_BROKER_VISIBILITY_TIMEOUT_S"] = "1"  # far shorter than a wheel takes
+    # Far shorter than a wheel takes (≥ 1 s): every message is delivered again mid-wheel.
+    env["WHEELSCAN_BROKER_VISIBILITY_TIMEOUT_S"] = "0.2"
+    env["WHEELSCAN_BROKER_RESTORE_INTERVAL_S"] = "0.2"
     with workers(2, env, tmp_path) as started, api(settings) as client:
         pass_id = upload(client, pass_archive)
         wait_for_pass(client, pass_id, PASS_TIMEOUT_S)
