@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
 from typing import Annotated, Literal
 
-from fastapi import APIRouter, Query, Request
+from fastapi import APIRouter, FastAPI, Query, Request
 from fastapi.concurrency import run_in_threadpool
 from pydantic import BaseModel
 
@@ -12,7 +14,18 @@ from backend.deps import PassWheelDep, SessionDep, SettingsDep, StoreDep, Viewer
 from backend.routes.passes import ERRORS
 from backend.viewer import WheelViewer, load_wheel_scene_data
 
-router = APIRouter(prefix="/api", tags=["3D viewer"])
+
+@asynccontextmanager
+async def stop_viewer_on_shutdown(app: FastAPI) -> AsyncIterator[None]:
+    """Stop the viser server (started on first use) with the app: its threads would
+    otherwise keep the process alive after the HTTP server stopped."""
+    yield
+    viewer: WheelViewer | None = getattr(app.state, "viewer", None)
+    if viewer is not None:
+        viewer.stop()
+
+
+router = APIRouter(prefix="/api", tags=["3D viewer"], lifespan=stop_viewer_on_shutdown)
 
 
 class ViewerRead(BaseModel):
