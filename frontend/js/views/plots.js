@@ -87,7 +87,8 @@ export function renderTrend(root, trend, previous) {
   }
   const series = [{}];
   const data = [x];
-  for (const method of METHODS) {
+  // Steger first, so the adaptive lines (the product's method) are drawn on top
+  for (const method of [...METHODS].reverse()) {
     for (const s of TREND_SERIES) {
       series.push({
         label: `${s.label} ${method}`,
@@ -104,6 +105,8 @@ export function renderTrend(root, trend, previous) {
   return new uPlot({
     width, height: 190, series,
     scales: { x: { time: true } },
+    // pass times in UTC, like every other time the application shows
+    tzDate: (/** @type {number} */ ts) => uPlot.tzDate(new Date(ts * 1000), 'Etc/UTC'),
     axes: [{ stroke: '#c9d1db', grid: { stroke: '#262d37' } },
       { stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: 'mm', size: 44 }],
     legend: { live: true },
