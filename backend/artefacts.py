@@ -48,7 +48,7 @@ def save_artefacts(store: BlobStore, centres: Centres) -> str:
     if centres.sigma_map is not None:
         arrays["sigma_map"] = np.asarray(centres.sigma_map, np.float32)
     buffer = io.BytesIO()
-    np.savez_compressed(buffer, **arrays)
+    np.savez_compressed(buffer, **arrays)  # type: ignore[arg-type]
     return store.put(buffer.getvalue(), ARTEFACT_SUFFIX)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import hmac
 import secrets
 from datetime import datetime
 from typing import Any
@@ -47,8 +48,9 @@ def authenticate(session: Session, token: str | None) -> ApiToken:
     """The live token row for a presented bearer token, or UnauthorizedError."""
     if not token:
         raise UnauthorizedError("missing bearer token: send 'Authorization: Bearer <token>'")
-    row = session.scalar(select(ApiToken).where(ApiToken.token_sha256 == hash_token(token)))
-    if row is None:
+    digest = hash_token(token)
+    row = session.scalar(select(ApiToken).where(ApiToken.token_sha256 == digest))
+    if row is None or not hmac.compare_digest(row.token_sha256, digest):
         raise UnauthorizedError("unknown token: create one with 'wheelscan token create'")
     now = utc_now()
     if row.revoked_at is not None:

@@ -58,6 +58,8 @@ def load_demo(settings: Settings, *, vehicles: int) -> int:
             if found is not None:
                 return found[0].id
             own = read_pass_archive(path, decode_frames=False)
+            if own.calibration is None:
+                raise ValueError(f"{path} has no calibration.json; the simulator writes one")
             site = get_or_create_site(session, own.manifest.site)
             add_calibration_version(
                 session, site, own.calibration, registered=True, note="simulated station (demo)"

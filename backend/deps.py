@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
-from typing import Annotated
+from typing import Annotated, Any
 
 from fastapi import Depends, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
@@ -15,7 +15,7 @@ from backend.config import Settings
 from backend.errors import NotFoundError
 from backend.runner import TaskRunner
 from backend.storage import BlobStore
-from db.models import ApiToken, Job, Pass, PassWheel, Site, Wheel
+from db.models import ROLES, ApiToken, Job, Pass, PassWheel, Site, Wheel
 
 
 def get_settings_dep(request: Request) -> Settings:
@@ -40,6 +40,8 @@ SessionDep = Annotated[Session, Depends(get_session)]
 StoreDep = Annotated[BlobStore, Depends(get_store)]
 RunnerDep = Annotated[TaskRunner, Depends(get_runner)]
 
+# Every lookup first checks the role its route declares: 401 and 403 come before 404,
+# whatever the order of a route's parameters, so nobody learns which ids exist.
 bearer_scheme = HTTPBearer(auto_error=False, description="an API token (wheelscan token create)")
 
 
@@ -60,36 +62,70 @@ ViewerDep = Annotated[ApiToken, Depends(_role_dependency("viewer"))]
 OperatorDep = Annotated[ApiToken, Depends(_role_dependency("operator"))]
 AdminDep = Annotated[ApiToken, Depends(_role_dependency("admin"))]
 
+_ROUTE_ROLES: dict[int, str] = {}
 
-def get_pass_or_404(session: SessionDep, pass_id: int) -> Pass:
+
+def _declared_role(dependant: Any) -> str:
+    """The highest role any `require_<role>` dependency of `dependant` asks for."""
+    found = ROLES[0]
+    for sub in dependant.dependencies:
+        name = getattr(sub.call, "__name__", "").removeprefix("require_")
+        for role in (name, _declared_role(sub)):
+            if role in ROLES and ROLES.index(role) > ROLES.index(found):
+                found = role
+    return found
+
+
+def require_route_role(
+    request: Request,
+    session: SessionDep,
+    credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer_scheme)],
+) -> ApiToken:
+    """Authenticate with the role the matched route declares, before any lookup runs."""
+    route = request.scope.get("route")
+    role = _ROUTE_ROLES.get(id(route))
+    if role is None:
+        role = _declared_role(route.dependant) if hasattr(route, "dependant") else ROLES[0]
+        _ROUTE_ROLES[id(route)] = role
+    token = authenticate(session, credentials.credentials if credentials else None)
+    require_role(token, role)
+    return token
+
+
+CallerDep = Annotated[ApiToken, Depends(require_route_role)]
+
+
+def get_pass_or_404(session: SessionDep, pass_id: int, _caller: CallerDep) -> Pass:
     train_pass = session.get(Pass, pass_id)
     if train_pass is None:
         raise NotFoundError(f"pass {pass_id} not found")
     return train_pass
 
 
-def get_job_or_404(session: SessionDep, job_id: int) -> Job:
+def get_job_or_404(session: SessionDep, job_id: int, _caller: CallerDep) -> Job:
     job = session.get(Job, job_id)
     if job is None:
         raise NotFoundError(f"job {job_id} not found")
     return job
 
 
-def get_wheel_or_404(session: SessionDep, wheel_id: int) -> Wheel:
+def get_wheel_or_404(session: SessionDep, wheel_id: int, _caller: CallerDep) -> Wheel:
     wheel = session.get(Wheel, wheel_id)
     if wheel is None:
         raise NotFoundError(f"wheel {wheel_id} not found")
     return wheel
 
 
-def get_site_or_404(session: SessionDep, site_name: str) -> Site:
+def get_site_or_404(session: SessionDep, site_name: str, _caller: CallerDep) -> Site:
     site = session.scalar(select(Site).where(Site.name == site_name))
     if site is None:
         raise NotFoundError(f"site {site_name!r} not found; create it with POST /api/sites")
     return site
 
 
-def get_pass_wheel_or_404(session: SessionDep, pass_id: int, wheel_id: int) -> PassWheel:
+def get_pass_wheel_or_404(
+    session: SessionDep, pass_id: int, wheel_id: int, _viewer: ViewerDep
+) -> PassWheel:
     pass_wheel = session.scalar(
         select(PassWheel).where(PassWheel.pass_id == pass_id, PassWheel.wheel_id == wheel_id)
     )

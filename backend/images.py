@@ -12,6 +12,7 @@ from matplotlib import colormaps
 from backend.artefacts import FrameArtefacts, load_artefacts
 from backend.storage import BlobStore
 from pipeline import Centres
+from pipeline.archive import decode_frame
 
 SIGMA_COLORMAP = "viridis"
 
@@ -37,7 +38,7 @@ def frame_png(png_bytes: bytes, max_width_px: int | None) -> bytes:
     """A stored frame, downscaled to `max_width_px` when wider (grey levels kept)."""
     if max_width_px is None:
         return png_bytes
-    image = cv2.imdecode(np.frombuffer(png_bytes, np.uint8), cv2.IMREAD_UNCHANGED)
+    image = decode_frame(png_bytes, "stored frame")
     return encode_png(_downscale(image, max_width_px, nearest=False))
 
 
@@ -89,6 +90,8 @@ def layer_png(store: BlobStore, sha256: str, layer: str, max_width_px: int | Non
     artefacts = cached_artefacts(store, sha256)
     if layer == "mask":
         return LayerPng(mask_png(artefacts.mask, max_width_px), 0.0, 0.0)
+    if artefacts.sigma_map is None:
+        raise ValueError(f"artefacts {sha256[:12]}… have no σ map (a fixed-σ method)")
     low, high = sigma_scale(artefacts.sigma_map)
     return LayerPng(sigma_png(artefacts.sigma_map, low, high, max_width_px), low, high)
 

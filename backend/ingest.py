@@ -23,9 +23,9 @@ from backend.errors import InvalidInputError, PayloadTooLargeError
 from backend.sites import add_calibration_version, current_calibration, get_or_create_site
 from backend.storage import BlobStore
 from backend.wheels import create_job, get_or_create_wheel
-from db.models import ApiToken, Frame, Job, Pass, PassWheel, Site
+from db.models import ApiToken, Calibration, Frame, Job, Pass, PassWheel, Site
 from pipeline.archive import ArchiveLimits, PassArchive, read_pass_archive
-from pipeline.calibration import parse_calibration
+from pipeline.calibration import StationCalibration, parse_calibration
 from pipeline.errors import ArchiveError
 from pipeline.manifest import WheelEntry
 
@@ -118,13 +118,19 @@ def store_archive(
     of the same archive that committed first wins; its pass is returned instead.
     """
     manifest = archive.manifest
+    station = archive.calibration
+    if station is None:
+        raise InvalidInputError("pass archive: no calibration (validate_archive first)")
     site = get_or_create_site(session, manifest.site)
+    calibration: Calibration | None
     if archive.has_own_calibration:
         calibration = add_calibration_version(
-            session, site, archive.calibration, registered=False, note="from an uploaded archive"
+            session, site, station, registered=False, note="from an uploaded archive"
         )
     else:
         calibration = current_calibration(session, site)
+    if calibration is None:
+        raise InvalidInputError(f"site {site.name!r} has no registered calibration")
     train_pass = Pass(
         site_id=site.id,
         calibration_id=calibration.id,
@@ -151,7 +157,9 @@ def store_archive(
         for position in ("inner", "outer"):
             sensor = entry.sensor_name(position)
             for path in entry.frames(position):
-                _add_frame(session, store, archive, train_pass, entry, sensor, path, next_seq)
+                _add_frame(
+                    session, store, archive, station, train_pass, entry, sensor, path, next_seq
+                )
         session.flush()
         pass_wheel_ids.append(pass_wheel.id)
     job = create_job(session, train_pass, wheels_total=len(pass_wheel_ids))
@@ -171,6 +179,7 @@ def _add_frame(
     session: Session,
     store: BlobStore,
     archive: PassArchive,
+    station: StationCalibration,
     train_pass: Pass,
     entry: WheelEntry,
     sensor: str,
@@ -179,7 +188,7 @@ def _add_frame(
 ) -> None:
     data = archive.frame_bytes(path)
     sha256 = store.put(data, ".png")
-    calibration = archive.calibration.sensor(sensor)
+    sensor_calibration = station.sensor(sensor)
     seq = next_seq.get(sensor, 0)
     next_seq[sensor] = seq + 1
     session.add(
@@ -190,9 +199,9 @@ def _add_frame(
             sha256=sha256,
             vehicle_id=entry.vehicle_id,
             axle=entry.axle,
-            width_px=calibration.image_width_px,
-            height_px=calibration.image_height_px,
-            bit_depth=calibration.bit_depth,
+            width_px=sensor_calibration.image_width_px,
+            height_px=sensor_calibration.image_height_px,
+            bit_depth=sensor_calibration.bit_depth,
         )
     )
 

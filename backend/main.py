@@ -15,6 +15,14 @@ from backend.errors import MULTIPART_OVERHEAD_BYTES, BodySizeLimit, install_erro
 from backend.limits import ensure_default_limits
 from backend.routes import ROUTERS
 from backend.runner import TaskRunner
+from backend.security import (
+    AuthLimit,
+    FailedAuthLimiter,
+    FailedAuthTracker,
+    SecurityHeaders,
+    StrictContentTypes,
+    install_log_redaction,
+)
 from backend.storage import BlobStore
 from db.engine import make_engine, make_session_factory, upgrade_database
 
@@ -66,6 +74,11 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     app.add_middleware(
         BodySizeLimit, max_body_bytes=settings.max_upload_bytes + MULTIPART_OVERHEAD_BYTES
     )
+    app.state.auth_tracker = FailedAuthTracker(AuthLimit())
+    app.add_middleware(StrictContentTypes)
+    app.add_middleware(FailedAuthLimiter, tracker=app.state.auth_tracker)
+    app.add_middleware(SecurityHeaders)
+    install_log_redaction()
     for router in ROUTERS:
         app.include_router(router)
     if settings.frontend_dir.is_dir():

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from datetime import datetime
+from typing import cast
 
 from sqlalchemy import Select, func, select
 from sqlalchemy.orm import Session
 
-from backend.schemas import JobProgress, MethodResult, Page, PassSummary, PassWheelRead
+from backend.schemas import JobProgress, MethodResult, Page, PassSummary, PassWheelRead, Side
 from db.models import Frame, Job, Measurement, Pass, PassWheel, Site, Wheel
 
 PRIMARY_METHOD = "adaptive"
@@ -38,11 +39,12 @@ def job_progress(job: Job) -> JobProgress:
 
 
 def _alarm_count(session: Session, pass_id: int) -> int:
-    return session.scalar(
+    count = session.scalar(
         select(func.coalesce(func.sum(Measurement.alarm_count), 0))
         .join(PassWheel, Measurement.pass_wheel_id == PassWheel.id)
         .where(PassWheel.pass_id == pass_id, Measurement.method == PRIMARY_METHOD)
     )
+    return int(count or 0)
 
 
 def pass_summary(session: Session, train_pass: Pass) -> PassSummary:
@@ -64,22 +66,24 @@ def pass_summary(session: Session, train_pass: Pass) -> PassSummary:
         )
         vehicles = list(dict.fromkeys(rows))
     job = session.scalars(select(Job).where(Job.pass_id == train_pass.id).limit(1)).first()
-    return PassSummary(
-        id=train_pass.id,
-        site=train_pass.site.name,
-        started_at=train_pass.started_at,
-        direction=train_pass.direction,
-        speed_kmh=train_pass.speed_kmh,
-        fleet=train_pass.fleet,
-        source=train_pass.source,
-        state=train_pass.state,
-        calibration_version=train_pass.calibration.version,
-        vehicles=vehicles,
-        wheels_total=sum(states.values()),
-        wheels_measured=states.get("measured", 0),
-        wheels_not_measured=states.get("not_measured", 0) + states.get("failed", 0),
-        alarm_count=_alarm_count(session, train_pass.id),
-        job=job_progress(job) if job else None,
+    return PassSummary.model_validate(
+        {
+            "id": train_pass.id,
+            "site": train_pass.site.name,
+            "started_at": train_pass.started_at,
+            "direction": train_pass.direction,
+            "speed_kmh": train_pass.speed_kmh,
+            "fleet": train_pass.fleet,
+            "source": train_pass.source,
+            "state": train_pass.state,
+            "calibration_version": train_pass.calibration.version,
+            "vehicles": vehicles,
+            "wheels_total": sum(states.values()),
+            "wheels_measured": states.get("measured", 0),
+            "wheels_not_measured": states.get("not_measured", 0) + states.get("failed", 0),
+            "alarm_count": _alarm_count(session, train_pass.id),
+            "job": job_progress(job) if job else None,
+        }
     )
 
 
@@ -144,7 +148,7 @@ def pass_wheels(session: Session, train_pass: Pass) -> list[PassWheelRead]:
                 wheel_id=wheel.id,
                 vehicle_id=wheel.vehicle_id,
                 axle=wheel.axle,
-                side=wheel.side,
+                side=cast(Side, wheel.side),
                 state=pass_wheel.state,
                 reason=pass_wheel.reason,
                 missing_sensors=list(pass_wheel.missing_sensors or []),

@@ -35,8 +35,9 @@ from reportlab.platypus import (  # noqa: E402
 )
 
 from backend.artefacts import load_artefacts  # noqa: E402
-from backend.schemas import PassSummary, PassWheelRead  # noqa: E402
+from backend.schemas import MethodResult, PassSummary, PassWheelRead  # noqa: E402
 from backend.storage import BlobStore  # noqa: E402
+from pipeline.archive import decode_frame  # noqa: E402
 from pipeline.reference import REFERENCE_PROFILES, load_reference_profile  # noqa: E402
 
 PARAMETERS = (
@@ -159,7 +160,7 @@ def _construction_points(construction: dict[str, Any]) -> list[tuple[str, tuple[
 
 def overlay_thumbnail(frame_png: bytes, points: dict[str, np.ndarray] | None) -> bytes:
     """A frame (8-bit for display) with its centre points drawn on it, downscaled."""
-    image = cv2.imdecode(np.frombuffer(frame_png, np.uint8), cv2.IMREAD_UNCHANGED)
+    image = decode_frame(frame_png, "stored frame")
     if image.dtype == np.uint16:
         image = (image >> 8).astype(np.uint8)
     scale = min(1.0, THUMBNAIL_WIDTH_PX / image.shape[1])
@@ -222,9 +223,9 @@ def _parameter_table(wheels: list[PassWheelRead], limits: dict[str, dict[str, fl
         ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
     ]
     for wheel in wheels:
-        results = wheel.results or [None]
+        results: list[MethodResult | None] = [*wheel.results] or [None]
         for result in results:
-            row = [wheel.vehicle_id, wheel.axle, wheel.side]
+            row: list[Any] = [wheel.vehicle_id, wheel.axle, wheel.side]
             if result is None:
                 row += [
                     "–",

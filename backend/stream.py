@@ -24,7 +24,7 @@ from backend.sites import (
     validate_calibration_document,
 )
 from backend.storage import BlobStore
-from backend.wheels import create_job, get_or_create_wheel, refresh_job
+from backend.wheels import create_job, get_or_create_wheel, refresh_job, rows_changed
 from db.models import SENSORS, ApiToken, Calibration, Frame, Job, Pass, PassWheel, Wheel
 from db.types import utc_now
 from pipeline.archive import decode_frame
@@ -45,6 +45,7 @@ class FrameStored:
 def open_stream(session: Session, body: StreamOpen, token: ApiToken) -> tuple[Pass, Job]:
     """Create an open pass and its job; the calibration is the given one or the site's."""
     site = get_or_create_site(session, body.site)
+    calibration: Calibration | None
     if body.calibration is not None:
         station = validate_calibration_document(body.calibration)
         calibration = add_calibration_version(
@@ -95,7 +96,7 @@ def _check_frame(data: bytes, calibration: Calibration, sensor: str) -> tuple[in
 
 
 def _frame_count(session: Session, pass_id: int, vehicle_id: str, axle: int, sensor: str) -> int:
-    return session.scalar(
+    count = session.scalar(
         select(func.count(Frame.id)).where(
             Frame.pass_id == pass_id,
             Frame.vehicle_id == vehicle_id,
@@ -103,6 +104,7 @@ def _frame_count(session: Session, pass_id: int, vehicle_id: str, axle: int, sen
             Frame.sensor == sensor,
         )
     )
+    return count or 0
 
 
 def _pass_wheel(session: Session, train_pass: Pass, wheel: Wheel) -> PassWheel:
@@ -153,12 +155,13 @@ def _wheel_complete(session: Session, train_pass: Pass, pass_wheel: PassWheel) -
 
 def _claim_for_measurement(session: Session, pass_wheel: PassWheel) -> bool:
     """receiving → queued, atomically; True for the one caller that made the change."""
-    result = session.execute(
+    changed = rows_changed(
+        session,
         update(PassWheel)
         .where(PassWheel.id == pass_wheel.id, PassWheel.state == "receiving")
-        .values(state="queued")
+        .values(state="queued"),
     )
-    return result.rowcount == 1
+    return changed == 1
 
 
 def put_frame(
@@ -243,7 +246,8 @@ def declare_missing(
     wheel = get_or_create_wheel(session, body.vehicle_id, body.axle, body.side)
     pass_wheel = _pass_wheel(session, train_pass, wheel)
     reason = f"frames missing: {body.sensor} ({body.reason})"
-    result = session.execute(
+    changed = rows_changed(
+        session,
         update(PassWheel)
         .where(PassWheel.id == pass_wheel.id, PassWheel.state == "receiving")
         .values(
@@ -251,9 +255,9 @@ def declare_missing(
             reason=reason,
             missing_sensors=[body.sensor],
             finished_at=utc_now(),
-        )
+        ),
     )
-    if result.rowcount != 1:
+    if changed != 1:
         session.rollback()
         raise ConflictError(
             f"wheel {body.vehicle_id} axle {body.axle} {body.side} is already "
@@ -272,12 +276,13 @@ def close_pass(session: Session, train_pass: Pass, token: ApiToken) -> tuple[Job
     Returns the job and whether this call closed the pass (False when it was closed).
     """
     job = session.scalars(select(Job).where(Job.pass_id == train_pass.id).limit(1)).one()
-    closed = session.execute(
+    closed = rows_changed(
+        session,
         update(Pass)
         .where(Pass.id == train_pass.id, Pass.state == "open")
-        .values(state="closed", closed_at=utc_now())
+        .values(state="closed", closed_at=utc_now()),
     )
-    if closed.rowcount != 1:
+    if closed != 1:
         session.rollback()
         return job, False
     for pass_wheel in session.scalars(

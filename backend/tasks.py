@@ -24,7 +24,7 @@ from backend.images import prerender_layers
 from backend.remote_store import make_worker_store
 from backend.results import apply_alarms, measurement_row
 from backend.storage import BlobStore
-from backend.wheels import refresh_job
+from backend.wheels import refresh_job, rows_changed
 from db.engine import make_engine, make_session_factory
 from db.models import Frame, Measurement, MeasurementFrame, PassWheel, Wheel
 from db.types import utc_now
@@ -48,13 +48,14 @@ def _worker_context(database_url: str, data_dir: str) -> tuple[sessionmaker[Sess
 
 def claim_pass_wheel(session: Session, pass_wheel_id: int) -> bool:
     """queued → running, atomically; False when another worker has it or it is finished."""
-    result = session.execute(
+    changed = rows_changed(
+        session,
         update(PassWheel)
         .where(PassWheel.id == pass_wheel_id, PassWheel.state == "queued")
-        .values(state="running", attempts=PassWheel.attempts + 1, started_at=utc_now())
+        .values(state="running", attempts=PassWheel.attempts + 1, started_at=utc_now()),
     )
     session.commit()
-    return result.rowcount == 1
+    return changed == 1
 
 
 def record_wheel_crash(session: Session, pass_wheel_id: int, reason: str) -> None:
@@ -136,7 +137,7 @@ def store_wheel_results(session: Session, store: BlobStore, pass_wheel_id: int) 
     Returns the wheel's final state: "measured" when at least one method measured it,
     otherwise "not_measured" with the first method's reason.
     """
-    pass_wheel = session.get(PassWheel, pass_wheel_id)
+    pass_wheel = session.get_one(PassWheel, pass_wheel_id)
     train_pass = pass_wheel.train_pass
     calibration = parse_calibration(train_pass.calibration.document)
     frames = {p: _load_frames(session, pass_wheel, p) for p in POSITIONS}
@@ -177,7 +178,7 @@ def store_wheel_results(session: Session, store: BlobStore, pass_wheel_id: int) 
 def update_back_to_back(session: Session, pass_wheel_id: int) -> None:
     """Once both wheels of an axle are finished, store the axle's back-to-back distance on
     both wheels' measurements (per method) and re-evaluate their alarms. Idempotent."""
-    pass_wheel = session.get(PassWheel, pass_wheel_id)
+    pass_wheel = session.get_one(PassWheel, pass_wheel_id)
     wheel = pass_wheel.wheel
     pair = session.execute(
         select(PassWheel, Wheel)

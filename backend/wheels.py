@@ -2,13 +2,21 @@
 
 from __future__ import annotations
 
-from sqlalchemy import func, select, update
+from typing import Any, cast
+
+from sqlalchemy import CursorResult, Executable, func, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from db.models import TERMINAL_WHEEL_STATES, Job, Pass, PassWheel, Wheel
 from db.types import utc_now
 from pipeline import PIPELINE_VERSION
+
+
+def rows_changed(session: Session, statement: Executable) -> int:
+    """Execute an UPDATE/DELETE and return how many rows it changed."""
+    result = cast("CursorResult[Any]", session.execute(statement))
+    return result.rowcount
 
 
 def get_or_create_wheel(session: Session, vehicle_id: str, axle: int, side: str) -> Wheel:

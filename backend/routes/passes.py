@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated
+from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, UploadFile, status
 
@@ -23,7 +23,9 @@ from backend.schemas import ErrorRead, Page, PassAccepted, PassSummary, PassWhee
 
 router = APIRouter(prefix="/api/passes", tags=["passes"])
 
-ERRORS = {code: {"model": ErrorRead} for code in (401, 403, 404, 409, 413, 422)}
+ERRORS: dict[int | str, dict[str, Any]] = {
+    code: {"model": ErrorRead} for code in (401, 403, 404, 409, 413, 422)
+}
 
 
 @router.post("", status_code=status.HTTP_202_ACCEPTED, responses=ERRORS)

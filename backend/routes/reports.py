@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import Any, Literal
 
 from fastapi import APIRouter, Response
 from sqlalchemy import select
@@ -23,7 +23,10 @@ router = APIRouter(prefix="/api", tags=["reports"])
 
 Format = Literal["csv", "json", "pdf"]
 MEDIA_TYPES = {"csv": "text/csv", "json": "application/json", "pdf": "application/pdf"}
-FILES = {200: {"content": {m: {} for m in MEDIA_TYPES.values()}}, **ERRORS}
+FILES: dict[int | str, dict[str, Any]] = {
+    200: {"content": {m: {} for m in MEDIA_TYPES.values()}},
+    **ERRORS,
+}
 
 
 def _frames_of(session: Session, train_pass: Pass, wheel: PassWheelRead) -> list[Frame]:
@@ -57,7 +60,7 @@ def _render(
     if fmt == "csv":
         return report_csv(summary, wheels), f"{stem}.csv"
     if fmt == "json":
-        report = PassReport(pass_=summary, limits=limits, wheels=wheels)
+        report = PassReport.model_validate({"pass": summary, "limits": limits, "wheels": wheels})
         return report.model_dump_json(by_alias=True).encode(), f"{stem}.json"
     by_wheel = {pw.wheel_id: pw for pw in train_pass.wheels}
     figures = [

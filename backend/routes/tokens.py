@@ -20,7 +20,7 @@ router = APIRouter(prefix="/api", tags=["tokens"])
 @router.get("/me")
 def get_me(viewer: ViewerDep) -> Me:
     """The role and name of the presented token (any role)."""
-    return Me(role=viewer.role, name=viewer.name, prefix=viewer.prefix)
+    return Me.model_validate({"role": viewer.role, "name": viewer.name, "prefix": viewer.prefix})
 
 
 @router.get("/tokens")

@@ -6,7 +6,7 @@ Images are PNG (downscaled with `max_width`); centres and profiles are columnar 
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal, cast
 
 import numpy as np
 from fastapi import APIRouter, Query, Request, Response
@@ -18,7 +18,15 @@ from backend.errors import NotFoundError
 from backend.images import SIGMA_COLORMAP, LayerPng, cached_artefacts, frame_png, layer_png
 from backend.queries import METHODS, method_result, pass_wheels
 from backend.routes.passes import ERRORS
-from backend.schemas import CentresRead, PassWheelRead, ProfileRead, TrendPoint, WheelTrend
+from backend.schemas import (
+    CentresRead,
+    PassWheelRead,
+    ProfileRead,
+    Sensor,
+    Side,
+    TrendPoint,
+    WheelTrend,
+)
 from db.models import Frame, Measurement, MeasurementFrame, Pass, PassWheel
 from pipeline.reference import REFERENCE_PROFILES, load_reference_profile
 
@@ -27,7 +35,10 @@ router = APIRouter(prefix="/api", tags=["wheels"])
 Position = Literal["inner", "outer"]
 Method = Literal["adaptive", "steger"]
 WHEEL = "/passes/{pass_id}/wheels/{wheel_id}"
-PNG = {200: {"content": {"image/png": {}}, "description": "PNG image"}, **ERRORS}
+PNG: dict[int | str, dict[str, Any]] = {
+    200: {"content": {"image/png": {}}, "description": "PNG image"},
+    **ERRORS,
+}
 MaxWidth = Annotated[int | None, Query(ge=16, le=8192, description="downscale to this width [px]")]
 REVALIDATE = {"Cache-Control": "private, no-cache"}
 """Browsers keep the layers and ask again with If-None-Match (a 304 costs one lookup)."""
@@ -180,7 +191,9 @@ def get_sigma_png(
     etag = f'"{row.artefact_sha256[:24]}-sigma-{max_width}"'
     if max_width is None and row.sigma_png_sha256 is not None:
         layer = LayerPng(
-            store.get(row.sigma_png_sha256, ".png"), row.sigma_min_px, row.sigma_max_px
+            store.get(row.sigma_png_sha256, ".png"),
+            row.sigma_min_px or 0.0,
+            row.sigma_max_px or 0.0,
         )
     else:
         _sigma_map(cached_artefacts(store, row.artefact_sha256), method)
@@ -239,7 +252,7 @@ def get_centres(
     points = {name: np.round(values, 4).tolist() for name, values in artefacts.points.items()}
     return CentresRead(
         method=method,
-        sensor=frame.sensor,
+        sensor=cast(Sensor, frame.sensor),
         seq=frame.seq,
         width_px=frame.width_px,
         height_px=frame.height_px,
@@ -310,6 +323,6 @@ def get_trend(wheel: WheelDep, session: SessionDep, _viewer: ViewerDep) -> Wheel
         wheel_id=wheel.id,
         vehicle_id=wheel.vehicle_id,
         axle=wheel.axle,
-        side=wheel.side,
+        side=cast(Side, wheel.side),
         points=points,
     )

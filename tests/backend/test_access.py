@@ -42,7 +42,9 @@ def test_unknown_token_is_401(client) -> None:
     ],
 )
 def test_a_lower_role_is_403_naming_the_role_needed(client, auth, role, method, path) -> None:
-    response = client.request(method, path, headers=auth(role), json={})
+    # A well-formed body for the route (multipart for the upload), so only the role is wrong.
+    body_kwargs = {"files": {"file": ("a.zip", b"PK")}} if path == "/api/passes" else {"json": {}}
+    response = client.request(method, path, headers=auth(role), **body_kwargs)
     assert response.status_code == 403
     body = response.json()
     assert body["code"] == "forbidden"
