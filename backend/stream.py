@@ -1,4 +1,4 @@
-"""Live ingest (/work/notes/stream-api.md): open a pass, put frames in any order, close it.
+"""Live ingest (README: live streaming): open a pass, put frames in any order, close it.
 
 Frames are idempotent by sha256 and may come in any order and twice; a wheel whose two
 sensors have all their frames is queued for measurement at once (claimed by one atomic

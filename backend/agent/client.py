@@ -1,4 +1,4 @@
-"""The agent's side of the public streaming API (see notes/stream-api.md); nothing else."""
+"""The agent's side of the public streaming API (README: live streaming); nothing else."""
 
 from __future__ import annotations
 

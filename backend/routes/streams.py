@@ -1,4 +1,4 @@
-"""Live streaming of a pass (/work/notes/stream-api.md): open, put frames, declare, close."""
+"""Live streaming of a pass (README: live streaming): open, put frames, declare, close."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Streaming contract (/work/notes/stream-api.md): status codes, idempotency, resume, close."""
+"""Streaming contract (README: live streaming): status codes, idempotency, resume, close."""
 
 from __future__ import annotations
 
