@@ -93,9 +93,10 @@ def build_train(
     ids = tuple(f"V{v + 1:03d}" for v in range(vehicles))
     wheels = []
     for v, vehicle_id in enumerate(ids):
-        reference = references["S1002" if v % 2 else "LMA"]
+        family = "S1002" if v % 2 else "LMA"
+        reference = references[family]
         for axle in range(1, axles_per_vehicle + 1):
-            back_to_back = NOMINAL_BACK_TO_BACK_MM + rng.uniform(-1.5, 1.5)
+            back_to_back = NOMINAL_BACK_TO_BACK_MM[family] + rng.uniform(-1.5, 1.5)
             radius = rng.uniform(400.0, 420.0)
             for side in ("left", "right"):
                 wear = Wear(

@@ -26,8 +26,9 @@ IMAGE_HEIGHT_PX = 1200
 PIXEL_PITCH_MM = 0.0045
 FOCAL_LENGTH_MM = 16.0
 LASER_WAVELENGTH_NM = 405.0
-NOMINAL_BACK_TO_BACK_MM = 1353.0
-"""LM wheelsets: back-to-back 1353 ± 2 mm on standard gauge."""
+NOMINAL_BACK_TO_BACK_MM = {"LMA": 1353.0, "S1002": 1360.0}
+"""Nominal back-to-back per wheel profile on standard gauge [mm]: LM wheelsets 1353 ± 3,
+EN (S1002) wheelsets 1360 (limits 1357–1363)."""
 STATION_SEED = 20260405
 """Seed of the station's fixed mounting deviations (the 'true' calibration of the site)."""
 
