@@ -123,6 +123,7 @@ function wheelCard(wheel, side, mode, passId) {
   const shown = mode === 'steger' ? steger : adaptive;
   const cls = mode === 'difference' ? alarmClass(adaptive) : alarmClass(shown);
   const alarms = (shown?.alarms ?? []).map((/** @type {any} */ a) => a.message).join('; ');
+  const reason = reasonShown(wheel, mode === 'difference' ? undefined : shown);
   return h('a', {
     class: `wheel-card ${cls} state-${wheel.state}`,
     href: buildHash(['passes', passId, 'wheels', wheel.wheel_id], mode === 'difference' ? {} : { method: mode }),
@@ -130,14 +131,26 @@ function wheelCard(wheel, side, mode, passId) {
     dataset: { wheelId: String(wheel.wheel_id), side },
   },
   h('div', { class: 'card-head' }, h('span', {}, side), h('span', { class: 'state' }, wheel.state.replace('_', ' '))),
-  wheel.reason
-    ? h('div', { class: 'reason' }, wheel.reason)
+  reason
+    ? h('div', { class: 'reason' }, reason)
     : h('table', {}, SHOWN.map((p) => h('tr', {},
       h('th', { title: p.title }, p.label),
       h('td', { class: 'num' }, mode === 'difference'
         ? fmtSigned(diff(adaptive?.[p.key], steger?.[p.key]))
         : fmtNumber(shown?.[p.key])))),
   ));
+}
+
+/**
+ * Why a wheel card shows no figures: the shown method's reason when it was not measured,
+ * else (no result of that method, or the difference view) the wheel's own reason.
+ * @param {any} wheel a wheel record from the API
+ * @param {any} result the shown method's result, or undefined
+ * @returns {string|null}
+ */
+function reasonShown(wheel, result) {
+  if (result) return result.status === 'measured' ? null : (result.reason ?? wheel.reason ?? null);
+  return wheel.reason ?? null;
 }
 
 /**
