@@ -60,9 +60,8 @@ def run_section(module_name: str) -> str:
     """Run one benchmark module and wrap its section in markers."""
     body = importlib.import_module(module_name).run().strip()
     heading, _, rest = body.partition("\n")
-    return (
-        f"<!-- bench:{module_name} -->\n{heading}\n\n{stamp()}\n{rest}\n<!-- /bench:{module_name} -->\n"
-    )
+    opening, closing = f"<!-- bench:{module_name} -->", f"<!-- /bench:{module_name} -->"
+    return f"{opening}\n{heading}\n\n{stamp()}\n{rest}\n{closing}\n"
 
 
 def header() -> str:
