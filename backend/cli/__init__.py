@@ -17,6 +17,7 @@ VERB_MODULES: list[str] = [
     "backend.cli.measure",
     "backend.cli.worker",
     "backend.cli.serve",
+    "backend.cli.backup",
 ]
 
 
