@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from pipeline.jit import kernel
+
 MIN_POLYLINE_POINTS = 3
 """Chains shorter than this are isolated points or noise pairs and are dropped."""
 
@@ -14,68 +16,92 @@ is at least about 2σ long; shorter chains are side lobes of bends and noise."""
 MAX_NORMAL_TURN_RAD = np.deg2rad(30.0)
 """Largest angle between the normals of two linked points."""
 
-_OFFSETS = np.array(
-    [(dr, dc) for dr in range(-2, 3) for dc in range(-2, 3) if (dr, dc) != (0, 0)], np.int64
-)
+NEIGHBOUR_REACH_PX = 2
 """Neighbour pixels searched: the 5×5 window, so a one-pixel gap is bridged."""
 
 
-def _best_neighbours(rows, cols, x, y, nx, ny, shape) -> tuple[np.ndarray, np.ndarray]:
+@kernel
+def _best_neighbours(rows, cols, x, y, nx, ny, order, row_start, ahead, behind) -> None:
     """Index of the cheapest neighbour ahead (+tangent) and behind (−tangent), −1 if none.
+
+    `order` sorts the points by (row, col) and `row_start[r]` is where row r begins in it.
 
     Notes
     -----
     Steger's linking cost: distance plus the normal's turn; here also the offset across the
     line, so a parallel neighbour never wins over one ahead. A neighbour qualifies when it
     lies within 45° of the tangent and its normal turns by at most MAX_NORMAL_TURN_RAD.
+    Neighbours are visited row by row, column by column, and the first of equal costs wins.
     """
-    count = rows.size
-    index_map = np.full(shape, -1, np.int64)
-    index_map[rows, cols] = np.arange(count)
-    nr = rows[:, None] + _OFFSETS[None, :, 0]
-    nc = cols[:, None] + _OFFSETS[None, :, 1]
-    inside = (nr >= 0) & (nr < shape[0]) & (nc >= 0) & (nc < shape[1])
-    j = np.where(inside, index_map[np.clip(nr, 0, shape[0] - 1), np.clip(nc, 0, shape[1] - 1)], -1)
-    jj = np.maximum(j, 0)
-    dx = x[jj] - x[:, None]
-    dy = y[jj] - y[:, None]
-    along = -ny[:, None] * dx + nx[:, None] * dy
-    across = nx[:, None] * dx + ny[:, None] * dy
-    turn = np.arccos(np.clip(np.abs(nx[:, None] * nx[jj] + ny[:, None] * ny[jj]), 0, 1))
-    valid = (j >= 0) & (np.abs(across) < np.abs(along)) & (turn <= MAX_NORMAL_TURN_RAD)
-    cost = np.hypot(dx, dy) + 2 * np.abs(across) + turn
-    ahead = np.where(valid & (along > 0), cost, np.inf)
-    behind = np.where(valid & (along < 0), cost, np.inf)
+    sorted_cols = cols[order]
+    height = row_start.size - 1
+    for i in range(rows.size):
+        best_ahead = np.inf
+        best_behind = np.inf
+        ahead[i] = -1
+        behind[i] = -1
+        for dr in range(-NEIGHBOUR_REACH_PX, NEIGHBOUR_REACH_PX + 1):
+            r = rows[i] + dr
+            if r < 0 or r >= height:
+                continue
+            lo, hi = row_start[r], row_start[r + 1]
+            p = lo + np.searchsorted(sorted_cols[lo:hi], cols[i] - NEIGHBOUR_REACH_PX)
+            while p < hi and sorted_cols[p] <= cols[i] + NEIGHBOUR_REACH_PX:
+                j = order[p]
+                p += 1
+                if j == i:
+                    continue
+                dx = x[j] - x[i]
+                dy = y[j] - y[i]
+                along = -ny[i] * dx + nx[i] * dy
+                across = nx[i] * dx + ny[i] * dy
+                turn = np.arccos(min(abs(nx[i] * nx[j] + ny[i] * ny[j]), 1.0))
+                if abs(across) >= abs(along) or turn > MAX_NORMAL_TURN_RAD:
+                    continue
+                cost = np.hypot(dx, dy) + 2 * abs(across) + turn
+                if along > 0 and cost < best_ahead:
+                    best_ahead = cost
+                    ahead[i] = j
+                elif along < 0 and cost < best_behind:
+                    best_behind = cost
+                    behind[i] = j
 
-    def pick(costs: np.ndarray) -> np.ndarray:
-        k = np.argmin(costs, axis=1)
-        chosen = j[np.arange(count), k]
-        return np.where(np.isfinite(costs[np.arange(count), k]), chosen, -1)
 
-    return pick(ahead), pick(behind)
+@kernel
+def _walk_chains(ahead, behind, chain_of, position) -> None:
+    """Split the mutual links into ordered chains: `position` lists the points chain by chain,
+    `chain_of[k]` is the chain of the k-th listed point.
 
-
-def _walk_chains(neighbours: np.ndarray) -> list[list[int]]:
-    """Split a graph of degree ≤ 2 (neighbours: (K, 2), −1 = none) into ordered chains."""
-    degree = (neighbours >= 0).sum(axis=1)
-    visited = np.zeros(len(neighbours), bool)
-    chains = []
-    starts = list(np.flatnonzero(degree <= 1)) + list(np.flatnonzero(degree == 2))
-    for start in starts:
-        if visited[start]:
-            continue
-        chain = [int(start)]
-        visited[start] = True
-        current = start
-        while True:
-            nxt = [int(n) for n in neighbours[current] if n >= 0 and not visited[n]]
-            if not nxt:
-                break
-            current = nxt[0]
-            visited[current] = True
-            chain.append(current)
-        chains.append(chain)
-    return chains
+    A link i–j is kept when each picked the other (ahead or behind), so every point has at
+    most two links. Chains start at the ends (degree ≤ 1) in index order, then closed loops.
+    """
+    count = ahead.size
+    links = np.full((count, 2), -1, np.int64)
+    for i in range(count):
+        for k, j in enumerate((ahead[i], behind[i])):
+            if j >= 0 and (ahead[j] == i or behind[j] == i):
+                links[i, k] = j
+    visited = np.zeros(count, np.bool_)
+    listed = 0
+    chain = 0
+    for degree_limit in (1, 2):
+        for start in range(count):
+            degree = (links[start, 0] >= 0) + (links[start, 1] >= 0)
+            if visited[start] or degree > degree_limit:
+                continue
+            current = start
+            while current >= 0:
+                visited[current] = True
+                position[listed] = current
+                chain_of[listed] = chain
+                listed += 1
+                following = -1
+                for j in links[current]:
+                    if j >= 0 and not visited[j]:
+                        following = j
+                        break
+                current = following
+            chain += 1
 
 
 def link_points(
@@ -119,26 +145,27 @@ def link_points(
     """
     if rows.size == 0:
         return []
-    ahead, behind = _best_neighbours(rows, cols, x, y, nx, ny, shape)
-    count = rows.size
-    picks = np.stack([ahead, behind], axis=1)
-    idx = np.arange(count)
-    mutual = np.zeros((count, 2), bool)
-    for k in range(2):
-        j = picks[:, k]
-        ok = j >= 0
-        jj = np.maximum(j, 0)
-        mutual[:, k] = ok & ((ahead[jj] == idx) | (behind[jj] == idx))
-    neighbours = np.where(mutual, picks, -1)
+    rows = np.asarray(rows, np.int64)
+    cols = np.asarray(cols, np.int64)
+    order = np.lexsort((cols, rows))
+    row_start = np.searchsorted(rows[order], np.arange(shape[0] + 1))
+    ahead = np.empty(rows.size, np.int64)
+    behind = np.empty(rows.size, np.int64)
+    floats = [np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny)]
+    _best_neighbours(rows, cols, *floats, order, row_start, ahead, behind)
+    chain_of = np.empty(rows.size, np.int64)
+    position = np.empty(rows.size, np.int64)
+    _walk_chains(ahead, behind, chain_of, position)
+    bounds = np.flatnonzero(np.diff(chain_of)) + 1
     chains = []
-    for chain in _walk_chains(neighbours):
-        if len(chain) < MIN_POLYLINE_POINTS:
+    for chain in np.split(position, bounds):
+        if chain.size < MIN_POLYLINE_POINTS:
             continue
         length = np.hypot(np.diff(x[chain]), np.diff(y[chain])).sum()
         if length < MIN_LENGTH_SIGMAS * sigma_px[chain].max():
             continue
         first, last = chain[0], chain[-1]
         if (x[last], y[last]) < (x[first], y[first]):
-            chain.reverse()
-        chains.append(np.asarray(chain, np.int64))
+            chain = chain[::-1].copy()
+        chains.append(chain)
     return chains

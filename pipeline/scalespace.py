@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 
 from pipeline.gaussian import BORDER, GaussianDerivatives, gaussian_derivatives
+from pipeline.jit import kernel
 
 MIN_LEVEL_SIGMA_PX = 2.0
 """Least residual σ on a decimated grid [px of that grid]: the sampled kernels stay accurate
@@ -110,17 +111,47 @@ def scale_levels(
     return tuple(out)
 
 
-def _cubic_weights(frac: np.ndarray) -> np.ndarray:
-    """Keys cubic convolution weights (a = −1/2) of taps −1, 0, 1, 2 at fraction `frac`.
+@kernel
+def _keys_weight(distance: float) -> float:
+    """Keys cubic convolution weight (a = −1/2) of a tap `distance` grid steps away."""
+    d = abs(distance)
+    if d <= 1.0:
+        return (1.5 * d - 2.5) * d * d + 1.0
+    if d < 2.0:
+        return ((-0.5 * d + 2.5) * d - 4.0) * d + 2.0
+    return 0.0
 
-    a = −1/2 is the one choice that reproduces quadratics exactly (third-order accurate);
-    OpenCV's INTER_CUBIC uses a = −3/4, which does not even reproduce a linear ramp.
-    """
-    t = frac.astype(np.float32)[:, None] + np.array([1.0, 0.0, -1.0, -2.0], np.float32)[None, :]
-    d = np.abs(t)
-    near = (1.5 * d - 2.5) * d * d + 1
-    far = ((-0.5 * d + 2.5) * d - 4) * d + 2
-    return np.where(d <= 1, near, np.where(d < 2, far, 0)).astype(np.float32)
+
+@kernel
+def _reflect_index(index: int, size: int) -> int:
+    """An index folded into [0, size) with the edge pixel repeated (the BORDER mode)."""
+    if index < 0:
+        index = -index - 1
+    if index >= size:
+        index = 2 * size - index - 1
+    return index
+
+
+@kernel
+def _interpolate_cubic(field, u, v, out) -> None:
+    height, width = field.shape
+    for k in range(u.size):
+        u0 = np.floor(u[k])
+        v0 = np.floor(v[k])
+        fu = u[k] - u0
+        fv = v[k] - v0
+        total = 0.0
+        for i in range(4):
+            wv = _keys_weight(fv + 1.0 - i)
+            if wv == 0.0:
+                continue
+            row = _reflect_index(int(v0) + i - 1, height)
+            along = 0.0
+            for j in range(4):
+                wu = _keys_weight(fu + 1.0 - j)
+                along += wu * field[row, _reflect_index(int(u0) + j - 1, width)]
+            total += wv * along
+        out[k] = total
 
 
 def interpolate_cubic(field: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -135,17 +166,20 @@ def interpolate_cubic(field: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.nda
     Returns
     -------
     ndarray of shape (K,), float32
+
+    Notes
+    -----
+    Keys' kernel with a = −1/2 is the one choice that reproduces quadratics exactly
+    (third-order accurate); OpenCV's INTER_CUBIC uses a = −3/4, which does not even
+    reproduce a linear ramp.
     """
-    u0, v0 = np.floor(u), np.floor(v)
-    wu, wv = _cubic_weights(u - u0), _cubic_weights(v - v0)
-    height, width = field.shape
-    flat = field.ravel()
-    row_index = [_reflect(v0.astype(np.int64) + i - 1, height) * width for i in range(4)]
-    col_index = [_reflect(u0.astype(np.int64) + j - 1, width) for j in range(4)]
-    out = np.zeros(u.size, np.float32)
-    for i in range(4):
-        along = sum(wu[:, j] * flat[row_index[i] + col_index[j]] for j in range(4))
-        out += wv[:, i] * along
+    out = np.empty(np.shape(u), np.float32)
+    _interpolate_cubic(
+        field,
+        np.ascontiguousarray(u, np.float64).ravel(),
+        np.ascontiguousarray(v, np.float64).ravel(),
+        out.ravel(),
+    )
     return out
 
 
@@ -159,12 +193,6 @@ def sample_field(level: ScaleLevel, field: np.ndarray, rows, cols) -> np.ndarray
     return interpolate_cubic(
         field, level.to_level(cols.astype(np.float64)), level.to_level(rows.astype(np.float64))
     )
-
-
-def _reflect(index: np.ndarray, size: int) -> np.ndarray:
-    """Indices folded into [0, size) with the edge pixel repeated (the BORDER mode)."""
-    index = np.where(index < 0, -index - 1, index)
-    return np.where(index >= size, 2 * size - index - 1, index)
 
 
 def sample_derivatives(
