@@ -21,7 +21,7 @@ from backend.auth import record_audit
 from backend.config import Settings
 from backend.errors import InvalidInputError, PayloadTooLargeError
 from backend.sites import add_calibration_version, current_calibration, get_or_create_site
-from backend.storage import BlobStore
+from backend.storage import BlobStore, temporary_prefix
 from backend.wheels import create_job, get_or_create_wheel
 from db.models import ApiToken, Calibration, Frame, Job, Pass, PassWheel, Site
 from pipeline.archive import ArchiveLimits, PassArchive, read_pass_archive
@@ -42,15 +42,22 @@ def archive_limits(settings: Settings) -> ArchiveLimits:
     )
 
 
+def incoming_dir(settings: Settings) -> Path:
+    """Where uploads are received before they are validated and stored."""
+    return settings.data_dir / "incoming"
+
+
 def receive_upload(stream: BinaryIO, settings: Settings) -> tuple[Path, str]:
     """Copy an upload into a private temporary file, enforcing the size limit.
 
     Returns the file's path and the sha256 of its bytes; the caller removes the file.
     """
-    incoming = settings.data_dir / "incoming"
+    incoming = incoming_dir(settings)
     incoming.mkdir(parents=True, exist_ok=True)
     digest = hashlib.sha256()
-    handle = tempfile.NamedTemporaryFile(dir=incoming, suffix=".zip", delete=False)
+    handle = tempfile.NamedTemporaryFile(
+        dir=incoming, prefix=temporary_prefix(), suffix=".zip", delete=False
+    )
     size_bytes = 0
     with handle:
         while chunk := stream.read(COPY_CHUNK_BYTES):

@@ -12,6 +12,7 @@ from fastapi.staticfiles import StaticFiles
 from backend.celery_runner import make_task_runner
 from backend.config import Settings, get_settings
 from backend.errors import MULTIPART_OVERHEAD_BYTES, BodySizeLimit, install_error_handlers
+from backend.ingest import incoming_dir
 from backend.limits import ensure_default_limits
 from backend.routes import ROUTERS
 from backend.runner import TaskRunner
@@ -23,7 +24,7 @@ from backend.security import (
     StrictContentTypes,
     install_log_redaction,
 )
-from backend.storage import BlobStore
+from backend.storage import BlobStore, remove_abandoned_temporaries
 from db.engine import make_engine, make_session_factory, upgrade_database
 
 logger = logging.getLogger(__name__)
@@ -42,6 +43,12 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     """
     settings = settings or get_settings()
     settings.data_dir.mkdir(parents=True, exist_ok=True)
+    removed = sum(
+        remove_abandoned_temporaries(folder)
+        for folder in (settings.frames_dir, incoming_dir(settings))
+    )
+    if removed:
+        logger.warning("removed %d temporary file(s) a crashed process left behind", removed)
     engine = make_engine(settings.resolved_database_url)
     upgrade_database(engine)
     session_factory = make_session_factory(engine)

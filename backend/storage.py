@@ -2,7 +2,8 @@
 
 A blob lives at `<root>/<sha[:2]>/<sha><suffix>`; writing the same bytes twice is a no-op,
 and a write is atomic (temporary file in the same folder, fsync, rename), so a reader never
-sees half a file and a crash never leaves one under a real name.
+sees half a file and a crash never leaves one under a real name. A temporary file names its
+host and process; the next start removes those whose process is gone.
 """
 
 from __future__ import annotations
@@ -10,10 +11,47 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import socket
 import tempfile
 from pathlib import Path
 
 SHA256_PATTERN = re.compile(r"^[0-9a-f]{64}$")
+TEMPORARY_PREFIX = ".incoming-"
+_TEMPORARY_NAME = re.compile(rf"^{re.escape(TEMPORARY_PREFIX)}(?P<host>.+)-(?P<pid>\d+)-[a-z0-9_]+")
+
+
+def temporary_prefix() -> str:
+    """Prefix of this process's temporary files: `.incoming-<host>-<pid>-`."""
+    return f"{TEMPORARY_PREFIX}{socket.gethostname()}-{os.getpid()}-"
+
+
+def _process_gone(pid: int) -> bool:
+    if pid == os.getpid():
+        return True  # an earlier process with our pid (a restarted container)
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except PermissionError:
+        return False
+    return False
+
+
+def remove_abandoned_temporaries(folder: Path) -> int:
+    """Remove the temporary files under `folder` that a process of this host left when it
+    died between writing and renaming (a crash); returns how many.
+
+    Call it when the service starts, before this process writes: a file of a live process
+    (a worker sharing the store) or of another host is left alone.
+    """
+    host = socket.gethostname()
+    removed = 0
+    for path in folder.rglob(f"{TEMPORARY_PREFIX}*") if folder.is_dir() else ():
+        owner = _TEMPORARY_NAME.match(path.name)
+        if owner and owner["host"] == host and _process_gone(int(owner["pid"])):
+            path.unlink(missing_ok=True)
+            removed += 1
+    return removed
 
 
 class BlobStore:
@@ -35,7 +73,7 @@ class BlobStore:
         if path.exists():
             return sha256
         path.parent.mkdir(parents=True, exist_ok=True)
-        handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=".incoming-")
+        handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=temporary_prefix())
         try:
             with os.fdopen(handle, "wb") as stream:
                 stream.write(data)
