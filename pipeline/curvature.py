@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from pipeline.jit import kernel
+
 WINDOW_SIGMAS = 2.0
 """Half-width of the fitting window along the polyline, in units of the point's σ."""
 
@@ -12,6 +14,50 @@ FIT_ROUNDS = 3
 
 MIN_HALF_WINDOW_PX = 4.0
 """Least half-width of the fitting window [px]: enough points for a stable quadratic."""
+
+
+@kernel
+def _solve3(a, b) -> float:
+    """Third unknown of the symmetric 3×3 system a·s = b (Cramer's rule), NaN if singular."""
+    det = (
+        a[0, 0] * (a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1])
+        - a[0, 1] * (a[1, 0] * a[2, 2] - a[1, 2] * a[2, 0])
+        + a[0, 2] * (a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0])
+    )
+    top = (
+        a[0, 0] * (a[1, 1] * b[2] - b[1] * a[2, 1])
+        - a[0, 1] * (a[1, 0] * b[2] - b[1] * a[2, 0])
+        + b[0] * (a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0])
+    )
+    return top / det
+
+
+@kernel
+def _local_curvature(x, y, nx, ny, sigma, out) -> None:
+    count = x.size
+    half = np.maximum(WINDOW_SIGMAS * sigma, MIN_HALF_WINDOW_PX)
+    reach = int(np.ceil(half.max() * 1.5)) + 1
+    normal = np.empty((3, 3))
+    rhs = np.empty(3)
+    for i in range(count):
+        normal[:] = 0.0
+        rhs[:] = 0.0
+        inside = 0
+        for j in range(max(0, i - reach), min(count, i + reach + 1)):
+            dx = x[j] - x[i]
+            dy = y[j] - y[i]
+            u = -ny[i] * dx + nx[i] * dy
+            if abs(u) > half[i]:
+                continue
+            v = nx[i] * dx + ny[i] * dy
+            weight = np.exp(-0.5 * (u / sigma[i]) ** 2)
+            basis = (1.0, u, 0.5 * u * u)
+            for a in range(3):
+                rhs[a] += weight * basis[a] * v
+                for b in range(3):
+                    normal[a, b] += weight * basis[a] * basis[b]
+            inside += 1
+        out[i] = _solve3(normal, rhs) if inside >= 5 else 0.0
 
 
 def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> np.ndarray:
@@ -33,27 +79,10 @@ def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> 
         κ from the weighted fit v = a + b·u + (κ/2)·u² in each point's (tangent u, normal v)
         frame; 0 where fewer than 5 points are in the window.
     """
-    count = x.size
-    half = np.maximum(WINDOW_SIGMAS * sigma, MIN_HALF_WINDOW_PX)
-    reach = int(np.ceil(half.max() * 1.5)) + 1
-    offsets = np.arange(-reach, reach + 1)
-    j = np.arange(count)[:, None] + offsets[None, :]
-    valid = (j >= 0) & (j < count)
-    jj = np.clip(j, 0, count - 1)
-    dx = x[jj] - x[:, None]
-    dy = y[jj] - y[:, None]
-    u = -ny[:, None] * dx + nx[:, None] * dy
-    v = nx[:, None] * dx + ny[:, None] * dy
-    inside = valid & (np.abs(u) <= half[:, None])
-    weight = np.where(inside, np.exp(-0.5 * (u / sigma[:, None]) ** 2), 0.0)
-    basis = np.stack([np.ones_like(u), u, 0.5 * u * u], axis=2)
-    normal = np.einsum("kn,kni,knj->kij", weight, basis, basis)
-    rhs = np.einsum("kn,kni,kn->ki", weight, basis, v)
-    enough = inside.sum(axis=1) >= 5
-    normal[~enough] = np.eye(3)
-    rhs[~enough] = 0
-    solution = np.linalg.solve(normal, rhs[..., None])[..., 0]
-    return np.where(enough, solution[:, 2], 0.0)
+    out = np.empty(np.size(x))
+    arrays = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny, sigma))
+    _local_curvature(*arrays, out)
+    return out
 
 
 def remove_curvature_bias(

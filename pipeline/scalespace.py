@@ -123,7 +123,7 @@ def _keys_weight(distance: float) -> float:
 
 
 @kernel
-def _reflect_index(index: int, size: int) -> int:
+def reflect_index(index: int, size: int) -> int:
     """An index folded into [0, size) with the edge pixel repeated (the BORDER mode)."""
     if index < 0:
         index = -index - 1
@@ -133,25 +133,30 @@ def _reflect_index(index: int, size: int) -> int:
 
 
 @kernel
-def _interpolate_cubic(field, u, v, out) -> None:
+def cubic_value(field, u: float, v: float) -> float:
+    """Keys cubic convolution of `field` at grid coordinates (u = column, v = row)."""
     height, width = field.shape
+    u0 = np.floor(u)
+    v0 = np.floor(v)
+    total = 0.0
+    for i in range(4):
+        wv = _keys_weight(v - v0 + 1.0 - i)
+        if wv == 0.0:
+            continue
+        row = reflect_index(int(v0) + i - 1, height)
+        along = 0.0
+        for j in range(4):
+            along += (
+                _keys_weight(u - u0 + 1.0 - j) * field[row, reflect_index(int(u0) + j - 1, width)]
+            )
+        total += wv * along
+    return total
+
+
+@kernel
+def _interpolate_cubic(field, u, v, out) -> None:
     for k in range(u.size):
-        u0 = np.floor(u[k])
-        v0 = np.floor(v[k])
-        fu = u[k] - u0
-        fv = v[k] - v0
-        total = 0.0
-        for i in range(4):
-            wv = _keys_weight(fv + 1.0 - i)
-            if wv == 0.0:
-                continue
-            row = _reflect_index(int(v0) + i - 1, height)
-            along = 0.0
-            for j in range(4):
-                wu = _keys_weight(fu + 1.0 - j)
-                along += wu * field[row, _reflect_index(int(u0) + j - 1, width)]
-            total += wv * along
-        out[k] = total
+        out[k] = cubic_value(field, u[k], v[k])
 
 
 def interpolate_cubic(field: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
-from pipeline.gaussian import BORDER
-from pipeline.scalespace import ScaleLevel, interpolate_cubic
+from pipeline.jit import kernel
+from pipeline.scalespace import ScaleLevel, cubic_value, reflect_index
 
 STEP_PX = 0.25
 """Sampling step of the coarse search along the normal [px]."""
@@ -15,38 +14,60 @@ REFINE_STEP_PX = 0.5
 """Spacing of the cubic samples that refine each edge [px]."""
 
 
-def _edge_distance(profile: np.ndarray) -> np.ndarray:
-    """Distance [px] of the gradient maximum in each row of samples taken at STEP_PX, 2·STEP_PX….
+@kernel
+def _gradient_bilinear(ix, iy, u: float, v: float) -> float:
+    """|∇I| from bilinear Ix, Iy at level-grid coordinates (u, v), reflect border."""
+    height, width = ix.shape
+    u0 = np.floor(u)
+    v0 = np.floor(v)
+    fu = u - u0
+    fv = v - v0
+    c0 = reflect_index(int(u0), width)
+    c1 = reflect_index(int(u0) + 1, width)
+    r0 = reflect_index(int(v0), height)
+    r1 = reflect_index(int(v0) + 1, height)
+    gx = (ix[r0, c0] * (1 - fu) + ix[r0, c1] * fu) * (1 - fv)
+    gx += (ix[r1, c0] * (1 - fu) + ix[r1, c1] * fu) * fv
+    gy = (iy[r0, c0] * (1 - fu) + iy[r0, c1] * fu) * (1 - fv)
+    gy += (iy[r1, c0] * (1 - fu) + iy[r1, c1] * fu) * fv
+    return np.hypot(gx, gy)
 
-    Rows whose maximum sits at either end (no edge within reach) get NaN.
+
+@kernel
+def _edge_distances(ix, iy, stride, x, y, dx, dy, steps, out) -> None:
+    """Distance [px] from each centre to the gradient maximum along (dx, dy), NaN if none.
+
+    A coarse maximum of bilinear |∇I| sampled at `steps` is refined with five Keys cubic
+    samples REFINE_STEP_PX apart and a parabola through the best one and its neighbours
+    (a bilinear profile peaks at grid nodes, which would bias the distance by up to ½ px).
+    The maximum must lie strictly inside the searched reach.
     """
-    k = np.argmax(profile, axis=1)
-    interior = (k > 0) & (k < profile.shape[1] - 1)
-    return np.where(interior, (k + 1) * STEP_PX, np.nan)
-
-
-def _refine_peak(level: ScaleLevel, ray, distance: np.ndarray) -> np.ndarray:
-    """Refine maxima of |∇I| along rays (x, y, dx, dy) with cubic samples and a parabola.
-
-    Five samples REFINE_STEP_PX apart around the coarse maximum pick the best node; a
-    parabola through it and its neighbours gives the sub-sample position [px].
-    """
-    x, y, dx, dy = ray
-    d = level.derivatives
-    offsets = REFINE_STEP_PX * np.arange(-2, 3)
-    samples = []
-    for offset in offsets:
-        u = level.to_level(x + (distance + offset) * dx)
-        v = level.to_level(y + (distance + offset) * dy)
-        samples.append(np.hypot(interpolate_cubic(d.ix, u, v), interpolate_cubic(d.iy, u, v)))
-    profile = np.stack(samples, axis=1)
-    k = np.clip(np.argmax(profile, axis=1), 1, 3)
-    rows = np.arange(profile.shape[0])
-    left, mid, right = (profile[rows, k + j] for j in (-1, 0, 1))
-    curvature = left - 2 * mid + right
-    with np.errstate(divide="ignore", invalid="ignore"):
-        shift = np.where(curvature < 0, 0.5 * (left - right) / curvature, 0)
-    return distance + offsets[k] + np.clip(shift, -1, 1) * REFINE_STEP_PX
+    origin = 0.5 * (stride - 1)
+    refined = np.empty(5)
+    for k in range(x.size):
+        best = -1.0
+        at = 0
+        for i in range(steps.size):
+            u = (x[k] + steps[i] * dx[k] - origin) / stride
+            v = (y[k] + steps[i] * dy[k] - origin) / stride
+            value = _gradient_bilinear(ix, iy, u, v)
+            if value > best:
+                best = value
+                at = i
+        if at == 0 or at == steps.size - 1:
+            out[k] = np.nan
+            continue
+        distance = steps[at]
+        for i in range(5):
+            step = distance + (i - 2) * REFINE_STEP_PX
+            u = (x[k] + step * dx[k] - origin) / stride
+            v = (y[k] + step * dy[k] - origin) / stride
+            refined[i] = np.hypot(cubic_value(ix, u, v), cubic_value(iy, u, v))
+        node = min(max(np.argmax(refined), 1), 3)
+        left, mid, right = refined[node - 1], refined[node], refined[node + 1]
+        curvature = left - 2 * mid + right
+        shift = 0.5 * (left - right) / curvature if curvature < 0 else 0.0
+        out[k] = distance + (node - 2 + min(max(shift, -1.0), 1.0)) * REFINE_STEP_PX
 
 
 def stripe_widths(
@@ -79,24 +100,15 @@ def stripe_widths(
     A Gaussian profile of standard deviation s smoothed at σ has its steepest slope at
     ±√(s² + σ²). With d the mean distance of the two gradient maxima |∇I| from the centre,
     s = √(d² − σ²) and the width is 4s, which is the true 1/e² width of a Gaussian stripe.
-    The maxima are found on a bilinear profile, then refined on cubic samples (a bilinear
-    profile peaks at grid nodes, which would bias d by up to half a pixel).
+    The maxima are found on a bilinear profile, then refined on cubic samples.
     """
     steps = np.arange(1, int(np.ceil(reach_px / STEP_PX)) + 1) * STEP_PX
-    derivatives = level.derivatives
+    d = level.derivatives
+    x, y, nx, ny = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny))
     distances = []
     for sign in (1.0, -1.0):
-        map_x = level.to_level(x[:, None] + sign * steps[None, :] * nx[:, None])
-        map_y = level.to_level(y[:, None] + sign * steps[None, :] * ny[:, None])
-        gx, gy = (
-            cv2.remap(field, map_x, map_y, cv2.INTER_LINEAR, borderMode=BORDER)
-            for field in (derivatives.ix, derivatives.iy)
-        )
-        coarse = _edge_distance(np.hypot(gx, gy))
-        found = np.flatnonzero(np.isfinite(coarse))
-        ray = (x[found], y[found], sign * nx[found], sign * ny[found])
-        refined = np.full(x.size, np.nan)
-        refined[found] = _refine_peak(level, ray, coarse[found])
-        distances.append(refined)
+        out = np.empty(x.size)
+        _edge_distances(d.ix, d.iy, level.stride, x, y, sign * nx, sign * ny, steps, out)
+        distances.append(out)
     half = 0.5 * (distances[0] + distances[1])
     return 4 * np.sqrt(np.maximum(half**2 - level.sigma_px**2, 0))
