@@ -3,10 +3,11 @@
 Nothing goes into the store or the database before the whole archive has been read and
 every member matched its size and sha256 in the manifest (members are unpacked into a
 staging folder inside the data directory meanwhile). Then the database is migrated to the
-backup's revision, every row is inserted in one transaction, PostgreSQL's id sequences are
-moved past the restored ids, the blobs are renamed into the store, and only then is the
-transaction committed. A failure rolls back, removes the blobs renamed so far and takes
-the schema back to empty: a failed restore leaves the target as empty as it found it.
+backup's revision, a transaction begins, the blobs are renamed into the store (nothing
+names them before the commit), every row is inserted, PostgreSQL's id sequences are moved
+past the restored ids, and the transaction is committed. A failure rolls back, removes the
+blobs renamed so far and takes the schema back to empty: a failed restore leaves the target
+as empty as it found it.
 """
 
 from __future__ import annotations
@@ -207,15 +208,15 @@ def _member_data(tar: tarfile.TarFile, member: tarfile.TarInfo) -> IO[bytes]:
 
 
 def load_backup(engine: Engine, store: BlobStore, manifest: Manifest, staging: Path) -> None:
-    """Migrate, insert every row and move the blobs into the store, all or nothing."""
+    """Migrate, move the blobs into the store and insert every row: all or nothing."""
     _migrate_empty_database(engine, manifest.revision)
     moved: list[Path] = []
     try:
         with engine.begin() as connection:
+            move_blobs(store, manifest, staging, moved)
             insert_rows(connection, manifest, staging)
             if connection.dialect.name == "postgresql":
                 reset_sequences(connection)
-            move_blobs(store, manifest, staging, moved)
     except BaseException:
         for path in moved:
             path.unlink(missing_ok=True)
