@@ -110,19 +110,30 @@ def store_files(root: Path) -> dict[str, bytes]:
 
 def rewrite_backup(
     data: bytes,
-    change: Callable[[str, bytes], bytes],
+    change: Callable[[str, bytes], bytes | None],
     add: dict[str, bytes] | None = None,
 ) -> bytes:
-    """The backup tar with every member's bytes passed through `change` (and members added)."""
+    """The backup tar with every member's bytes passed through `change` (None drops the
+    member) and members added at the end."""
     out = io.BytesIO()
     with (
         tarfile.open(fileobj=io.BytesIO(data)) as source,
         tarfile.open(fileobj=out, mode="w", format=tarfile.PAX_FORMAT) as target,
     ):
-        contents = [(m.name, source.extractfile(m).read()) for m in source.getmembers()]
+        contents = [(m.name, member_bytes(source, m.name)) for m in source.getmembers()]
         for name, content in [*contents, *(add or {}).items()]:
             changed = change(name, content)
+            if changed is None:
+                continue
             info = tarfile.TarInfo(name)
             info.size = len(changed)
             target.addfile(info, io.BytesIO(changed))
     return out.getvalue()
+
+
+def member_bytes(tar: tarfile.TarFile, name: str) -> bytes:
+    """The content of one regular member of an archive."""
+    stream = tar.extractfile(name)
+    if stream is None:
+        raise ValueError(f"{name} is not a regular member")
+    return stream.read()

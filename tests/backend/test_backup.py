@@ -32,6 +32,7 @@ from tests.backend.backup_helpers import (
     database_rows,
     ingest,
     measure,
+    member_bytes,
     small_pass,
     store_files,
 )
@@ -60,7 +61,7 @@ def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
 def read_manifest(archive: Path) -> dict:
     with tarfile.open(archive) as tar:
         assert tar.getnames()[0] == "manifest.json"
-        return json.loads(tar.extractfile("manifest.json").read())
+        return json.loads(member_bytes(tar, "manifest.json"))
 
 
 def test_a_restore_into_an_empty_data_directory_gives_back_every_row_and_blob(source, tmp_path):
