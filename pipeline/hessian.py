@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pipeline.jit import kernel
+
 
 @dataclass(frozen=True, slots=True, eq=False)
 class HessianEigen:
@@ -22,6 +24,39 @@ class HessianEigen:
     ny: np.ndarray
 
 
+@kernel
+def eigen2(ixx: float, ixy: float, iyy: float) -> tuple[float, float, float, float]:
+    """λ1, λ2 (|λ1| ≥ |λ2|) and the unit eigenvector (nx, ny) of λ1 of one 2×2 Hessian.
+
+    λ = m ± r with m = (Ixx + Iyy)/2 and r = √(((Ixx − Iyy)/2)² + Ixy²); the larger magnitude
+    is m + sign(m)·r. The eigenvector of λ1 is (Ixy, λ1 − Ixx) or (λ1 − Iyy, Ixy); the longer
+    of the two is used, which is the numerically stable choice. Where the Hessian is a multiple
+    of the identity the normal is undefined and (1, 0) is returned.
+    """
+    mean = 0.5 * (ixx + iyy)
+    half_diff = 0.5 * (ixx - iyy)
+    root = np.sqrt(half_diff * half_diff + ixy * ixy)
+    signed_root = -root if mean < 0 else root
+    lambda1 = mean + signed_root
+    lambda2 = mean - signed_root
+    ax, ay = ixy, lambda1 - ixx
+    bx, by = lambda1 - iyy, ixy
+    if ax * ax + ay * ay >= bx * bx + by * by:
+        vx, vy = ax, ay
+    else:
+        vx, vy = bx, by
+    norm = np.hypot(vx, vy)
+    if norm == 0:
+        return lambda1, lambda2, 1.0, 0.0
+    return lambda1, lambda2, vx / norm, vy / norm
+
+
+@kernel
+def _eigen_all(ixx, ixy, iyy, lambda1, lambda2, nx, ny) -> None:
+    for k in range(ixx.size):
+        lambda1[k], lambda2[k], nx[k], ny[k] = eigen2(ixx[k], ixy[k], iyy[k])
+
+
 def hessian_eigen(ixx: np.ndarray, ixy: np.ndarray, iyy: np.ndarray) -> HessianEigen:
     """Eigenvalues (|λ1| ≥ |λ2|) and the unit eigenvector of λ1 of the 2×2 Hessian.
 
@@ -33,29 +68,11 @@ def hessian_eigen(ixx: np.ndarray, ixy: np.ndarray, iyy: np.ndarray) -> HessianE
     Returns
     -------
     HessianEigen
-        λ1, λ2 and the normal (nx, ny), same shape and dtype as the inputs.
-
-    Notes
-    -----
-    λ = m ± r with m = (Ixx + Iyy)/2 and r = √(((Ixx − Iyy)/2)² + Ixy²); the larger magnitude
-    is m + sign(m)·r. The eigenvector of λ1 is (Ixy, λ1 − Ixx) or (λ1 − Iyy, Ixy); the longer
-    of the two is used, which is the numerically stable choice. Where the Hessian is a multiple
-    of the identity the normal is undefined and (1, 0) is returned.
+        λ1, λ2 and the normal (nx, ny), same shape and dtype as the inputs (see `eigen2`).
     """
-    mean = 0.5 * (ixx + iyy)
-    half_diff = 0.5 * (ixx - iyy)
-    root = np.sqrt(half_diff * half_diff + ixy * ixy)
-    signed_root = np.where(mean < 0, -root, root)
-    lambda1 = mean + signed_root
-    lambda2 = mean - signed_root
-    ax, ay = ixy, lambda1 - ixx
-    bx, by = lambda1 - iyy, ixy
-    use_a = ax * ax + ay * ay >= bx * bx + by * by
-    vx = np.where(use_a, ax, bx)
-    vy = np.where(use_a, ay, by)
-    norm = np.hypot(vx, vy)
-    degenerate = norm == 0
-    safe = np.where(degenerate, 1, norm)
-    nx = np.where(degenerate, 1, vx / safe).astype(ixx.dtype, copy=False)
-    ny = np.where(degenerate, 0, vy / safe).astype(ixx.dtype, copy=False)
+    shape, dtype = np.shape(ixx), np.result_type(ixx)
+    flat = [np.ascontiguousarray(a, dtype).ravel() for a in (ixx, ixy, iyy)]
+    out = [np.empty(flat[0].size, dtype) for _ in range(4)]
+    _eigen_all(*flat, *out)
+    lambda1, lambda2, nx, ny = (a.reshape(shape) for a in out)
     return HessianEigen(lambda1=lambda1, lambda2=lambda2, nx=nx, ny=ny)

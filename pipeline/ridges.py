@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from pipeline.jit import kernel
+
 RIDGE_BETA = 0.5
 """β of the blob term exp(−RA²/2β²): a round spot (RA ≈ 1) keeps exp(−2) ≈ 0.14 of its
 response, a line (RA ≈ 0) all of it."""
@@ -18,6 +20,23 @@ RIDGE_C_FULL_SCALE = 0.01
 
 RIDGE_THRESHOLD = 0.5
 """Threshold on the multi-scale ridge response V ∈ [0, 1): half the saturated response."""
+
+
+@kernel
+def ridge_value(lambda1: float, lambda2: float, c_grey: float) -> float:
+    """V of one pixel from its σ²-normalised eigenvalues (see `ridge_response`)."""
+    if not lambda1 < 0:
+        return 0.0
+    ratio = lambda2 / lambda1
+    blob = np.exp(ratio * ratio * (-1 / (2 * RIDGE_BETA**2)))
+    structure = 1 - np.exp((lambda1 * lambda1 + lambda2 * lambda2) * (-1 / (2 * c_grey**2)))
+    return blob * structure
+
+
+@kernel
+def _ridge_all(lambda1, lambda2, c_grey, out) -> None:
+    for k in range(lambda1.size):
+        out[k] = ridge_value(lambda1[k], lambda2[k], c_grey)
 
 
 def ridge_response(lambda1: np.ndarray, lambda2: np.ndarray, *, c_grey: float) -> np.ndarray:
@@ -40,12 +59,15 @@ def ridge_response(lambda1: np.ndarray, lambda2: np.ndarray, *, c_grey: float) -
     V = exp(−RA²/2β²)·(1 − exp(−S²/2c²)), RA = λ2/λ1, S = √(λ1² + λ2²) (paper eqs. (4)–(6),
     with the fixed σ²-normalisation that makes scales comparable).
     """
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(lambda1 < 0, lambda2 / lambda1, 0).astype(np.float32, copy=False)
-    s2 = lambda1 * lambda1 + lambda2 * lambda2
-    blob = np.exp(ratio * ratio * np.float32(-1 / (2 * RIDGE_BETA**2)))
-    structure = 1 - np.exp(s2 * np.float32(-1 / (2 * c_grey**2)))
-    return np.where(lambda1 < 0, blob * structure, 0).astype(np.float32, copy=False)
+    shape = np.shape(lambda1)
+    out = np.empty(shape, np.float32)
+    _ridge_all(
+        np.ascontiguousarray(lambda1).ravel(),
+        np.ascontiguousarray(lambda2).ravel(),
+        float(c_grey),
+        out.ravel(),
+    )
+    return out
 
 
 def min_structure_squared(c_grey: float) -> float:
