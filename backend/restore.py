@@ -287,6 +287,7 @@ def reset_sequences(connection: Connection) -> None:
 
 def move_blobs(store: BlobStore, manifest: Manifest, staging: Path, moved: list[Path]) -> None:
     """Rename the staged blobs into the store (appending each to `moved`), then fsync."""
+    store.root.mkdir(parents=True, exist_ok=True)
     folders = set()
     with tqdm(total=len(manifest.blobs), unit="blob", desc="restore", disable=None) as bar:
         for blob in manifest.blobs:

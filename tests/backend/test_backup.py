@@ -24,8 +24,10 @@ from backend.backup import create_backup, database_snapshot, dump_tables
 from backend.config import Settings
 from backend.demo import zip_folder
 from backend.restore import restore_backup
-from db.engine import alembic_config, make_engine, make_session_factory
+from backend.snapshot import read_revision
+from db.engine import alembic_config, make_engine, make_session_factory, upgrade_database
 from db.models import Base, Frame, Site
+from db.types import utc_now
 from pipeline.simulator import write_synthetic_passes
 from tests.backend.backup_helpers import (
     add_token,
@@ -185,3 +187,27 @@ def test_a_backup_taken_while_passes_are_written_restores_whole_passes(tmp_path)
     )
     frames = store_files(restored.frames_dir)
     assert {f"{sha[:2]}/{sha}.png" for sha in column(rows, "frame", "sha256")} == set(frames)
+
+
+def test_a_backup_of_an_older_schema_restores_at_its_revision(tmp_path):
+    source = Settings(data_dir=tmp_path / "old")
+    engine = make_engine(source.resolved_database_url)
+    upgrade_database(engine, "0003")
+    with engine.begin() as connection:
+        connection.execute(
+            Base.metadata.tables["site"].insert(), {"name": "old", "created_at": utc_now()}
+        )
+    engine.dispose()
+    summary = create_backup(source, tmp_path / "old.tar")
+    assert summary.manifest.revision == "0003"
+    restored = Settings(data_dir=tmp_path / "restored")
+    restore_backup(restored, summary.path)
+    for settings in (source, restored):
+        engine = make_engine(settings.resolved_database_url)
+        with engine.connect() as connection:
+            assert read_revision(connection) == "0003"
+        upgrade_database(engine)
+        engine.dispose()
+    restored_rows = database_rows(restored.resolved_database_url)
+    assert restored_rows == database_rows(source.resolved_database_url)
+    assert column(restored_rows, "site", "name") == ["old"]
