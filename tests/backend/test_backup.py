@@ -14,15 +14,18 @@ import subprocess
 import sys
 import tarfile
 import threading
+from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 from alembic.script import ScriptDirectory
+from fastapi.testclient import TestClient
 from sqlalchemy import select
 
 from backend.backup import create_backup, database_snapshot, dump_tables
 from backend.config import Settings
 from backend.demo import zip_folder
+from backend.main import create_app
 from backend.restore import restore_backup
 from backend.snapshot import read_revision
 from db.engine import alembic_config, make_engine, make_session_factory, upgrade_database
@@ -41,8 +44,14 @@ from tests.backend.backup_helpers import (
 from tests.databases import BACKENDS, throwaway_database
 
 
+@dataclass(frozen=True)
+class Source:
+    settings: Settings
+    viewer_token: str
+
+
 @pytest.fixture(scope="module")
-def source(tmp_path_factory: pytest.TempPathFactory) -> Settings:
+def source(tmp_path_factory: pytest.TempPathFactory) -> Source:
     """A SQLite data directory with measured passes (about 10 s to build)."""
     root = tmp_path_factory.mktemp("backup-source")
     write_synthetic_passes(root / "pass", vehicles=1, seed=7, axles_per_vehicle=1)
@@ -50,8 +59,7 @@ def source(tmp_path_factory: pytest.TempPathFactory) -> Settings:
     settings = Settings(data_dir=root / "data")
     measure(settings, ingest(settings, zip_folder(root / "pass", root / "pass.zip")))
     measure(settings, ingest(settings, small_pass(root, 1)))
-    add_token(settings)
-    return settings
+    return Source(settings, add_token(settings))
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
@@ -68,20 +76,28 @@ def read_manifest(archive: Path) -> dict:
 
 def test_a_restore_into_an_empty_data_directory_gives_back_every_row_and_blob(source, tmp_path):
     out = tmp_path / "wheelscan.tar"
-    backup = run_cli("backup", str(out), "--data", str(source.data_dir))
+    backup = run_cli("backup", str(out), "--data", str(source.settings.data_dir))
     assert backup.returncode == 0, backup.stderr
     assert backup.stdout.startswith(f"wheelscan backup: wrote {out} (")
     restored = Settings(data_dir=tmp_path / "restored")
     restore = run_cli("restore", str(out), "--data", str(restored.data_dir))
     assert restore.returncode == 0, restore.stderr
 
-    rows = database_rows(source.resolved_database_url)
+    rows = database_rows(source.settings.resolved_database_url)
     assert database_rows(restored.resolved_database_url) == rows
-    assert store_files(restored.frames_dir) == store_files(source.frames_dir)
+    assert store_files(restored.frames_dir) == store_files(source.settings.frames_dir)
     states = set(column(rows, "pass_wheel", "state"))
     assert len(rows["train_pass"]) == 2 and {"measured", "not_measured"} <= states
     assert len(rows["measurement"]) == 8 and len(rows["frame"]) == 8
     assert len(rows["measurement_frame"]) > 0 and len(rows["api_token"]) == 1
+    with TestClient(create_app(restored.model_copy(update={"workers": 1}))) as client:
+        viewer = {"Authorization": f"Bearer {source.viewer_token}"}
+        passes = client.get("/api/passes", headers=viewer).json()["items"]
+        wheels = client.get(f"/api/passes/{passes[-1]['id']}/wheels", headers=viewer).json()
+        base = f"/api/passes/{passes[-1]['id']}/wheels/{wheels[0]['wheel_id']}"
+        for layer in ("frames/inner.png", "mask/outer.png", "sigma/inner.png"):
+            response = client.get(f"{base}/{layer}", headers=viewer)
+            assert response.status_code == 200, (layer, response.text)
 
 
 def column(rows: dict[str, list[tuple]], table: str, name: str) -> list:
@@ -90,7 +106,7 @@ def column(rows: dict[str, list[tuple]], table: str, name: str) -> list:
 
 
 def test_the_manifest_names_format_revision_dialect_counts_and_every_blob(source, tmp_path):
-    summary = create_backup(source, tmp_path / "wheelscan.tar.gz")
+    summary = create_backup(source.settings, tmp_path / "wheelscan.tar.gz")
     manifest = read_manifest(summary.path)
     head = ScriptDirectory.from_config(alembic_config(make_engine("sqlite://"))).get_current_head()
     assert (manifest["format"], manifest["revision"], manifest["dialect"]) == (
@@ -98,11 +114,11 @@ def test_the_manifest_names_format_revision_dialect_counts_and_every_blob(source
         head,
         "sqlite",
     )
-    rows = database_rows(source.resolved_database_url)
+    rows = database_rows(source.settings.resolved_database_url)
     assert {t["name"]: t["rows"] for t in manifest["tables"]} == {
         n: len(r) for n, r in rows.items()
     }
-    files = store_files(source.frames_dir)
+    files = store_files(source.settings.frames_dir)
     assert {f"{b['sha256'][:2]}/{b['sha256']}{b['suffix']}" for b in manifest["blobs"]} == set(
         files
     )
@@ -111,8 +127,8 @@ def test_the_manifest_names_format_revision_dialect_counts_and_every_blob(source
 
 @pytest.mark.postgres
 def test_a_sqlite_backup_restores_into_postgresql_and_a_postgresql_one_again(source, tmp_path):
-    sqlite_backup = create_backup(source, tmp_path / "sqlite.tar.gz").path
-    rows = database_rows(source.resolved_database_url)
+    sqlite_backup = create_backup(source.settings, tmp_path / "sqlite.tar.gz").path
+    rows = database_rows(source.settings.resolved_database_url)
     with (
         throwaway_database("postgresql", tmp_path) as first_url,
         throwaway_database("postgresql", tmp_path) as second_url,
@@ -126,7 +142,7 @@ def test_a_sqlite_backup_restores_into_postgresql_and_a_postgresql_one_again(sou
         second = Settings(data_dir=tmp_path / "second", database_url=second_url)
         restore_backup(second, postgres_backup.path)
         assert database_rows(second_url) == rows
-        assert store_files(second.frames_dir) == store_files(source.frames_dir)
+        assert store_files(second.frames_dir) == store_files(source.settings.frames_dir)
         engine = make_engine(second_url)
         with make_session_factory(engine)() as session:
             site = Site(name="added after the restore")
