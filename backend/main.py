@@ -14,6 +14,7 @@ from backend.config import Settings, get_settings
 from backend.errors import MULTIPART_OVERHEAD_BYTES, BodySizeLimit, install_error_handlers
 from backend.ingest import incoming_dir
 from backend.limits import ensure_default_limits
+from backend.outages import install_outage_handlers
 from backend.routes import ROUTERS
 from backend.runner import TaskRunner
 from backend.security import (
@@ -78,6 +79,7 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     app.state.store = BlobStore(settings.frames_dir)
     app.state.runner = task_runner
     install_error_handlers(app)
+    install_outage_handlers(app)
     app.add_middleware(
         BodySizeLimit, max_body_bytes=settings.max_upload_bytes + MULTIPART_OVERHEAD_BYTES
     )

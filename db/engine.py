@@ -8,6 +8,7 @@ from alembic import command
 from alembic.config import Config
 from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.engine import make_url
+from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import Session, sessionmaker
 
 MIGRATIONS_DIR = Path(__file__).resolve().parent / "migrations"
@@ -43,9 +44,22 @@ def _configure_sqlite_connection(dbapi_connection: object, _record: object) -> N
     cursor.close()
 
 
+class _Session(Session):
+    """A Session whose close() does not fail when the database has dropped the connection
+    (PostgreSQL restarted): the server rolled the transaction back as the connection ended,
+    so nothing is left to undo, and a request that was answered stays answered."""
+
+    def close(self) -> None:
+        try:
+            super().close()
+        except DBAPIError as exc:
+            if not exc.connection_invalidated:
+                raise
+
+
 def make_session_factory(engine: Engine) -> sessionmaker[Session]:
     """Sessions bound to `engine`; loaded objects stay readable after commit."""
-    return sessionmaker(engine, expire_on_commit=False)
+    return sessionmaker(engine, class_=_Session, expire_on_commit=False)
 
 
 def alembic_config(engine: Engine) -> Config:
