@@ -29,13 +29,13 @@ from tqdm import tqdm
 
 from backend.config import Settings
 from backend.snapshot import (
-    BLOB_COLUMNS,
     FORMAT,
     MANIFEST_MEMBER,
     BackupError,
     BlobEntry,
     Manifest,
     TableEntry,
+    blob_columns,
     blob_member,
     encode_row,
     fsync_folder,
@@ -135,18 +135,14 @@ def dump_tables(
     for table in schema_tables(connection):
         path = spool / table_member(table.name)
         path.parent.mkdir(parents=True, exist_ok=True)
-        blob_columns = [
-            (index, BLOB_COLUMNS[table.name][column.name])
-            for index, column in enumerate(table.columns)
-            if column.name in BLOB_COLUMNS.get(table.name, {})
-        ]
+        references_at = blob_columns(table)
         query = select(table).order_by(*table.primary_key.columns)
         digest, rows = hashlib.sha256(), 0
         with path.open("wb") as stream:
             header = json.dumps({"columns": [column.name for column in table.columns]})
             lines = [f"{header}\n".encode()]
             for row in connection.execute(query.execution_options(yield_per=ROWS_PER_FETCH)):
-                references.update((row[i], suffix) for i, suffix in blob_columns if row[i])
+                references.update((row[i], suffix) for i, suffix in references_at if row[i])
                 lines.append(f"{encode_row(tuple(row))}\n".encode())
                 rows += 1
                 if len(lines) >= ROWS_PER_FETCH:

@@ -137,6 +137,25 @@ def schema_tables(connection: Connection) -> list[Table]:
     return tables
 
 
+def blob_columns(table: Table) -> list[tuple[int, str]]:
+    """(column index, blob suffix) of the columns of `table` that name a blob in the store.
+
+    Raises BackupError for a sha256 column in neither BLOB_COLUMNS nor DIGEST_COLUMNS, so a
+    new reference to the store cannot be left out of backups unnoticed.
+    """
+    found = []
+    for index, column in enumerate(table.columns):
+        suffix = BLOB_COLUMNS.get(table.name, {}).get(column.name)
+        if suffix is not None:
+            found.append((index, suffix))
+        elif column.name.endswith("sha256") and (table.name, column.name) not in DIGEST_COLUMNS:
+            raise BackupError(
+                f"column {table.name}.{column.name} is not known to name a blob or not; "
+                "add it to BLOB_COLUMNS or DIGEST_COLUMNS in backend/snapshot.py"
+            )
+    return found
+
+
 def read_revision(connection: Connection) -> str | None:
     """The Alembic revision of the database (None when it was never migrated)."""
     if VERSION_TABLE not in inspect(connection).get_table_names():

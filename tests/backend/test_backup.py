@@ -27,7 +27,7 @@ from backend.config import Settings
 from backend.demo import zip_folder
 from backend.main import create_app
 from backend.restore import restore_backup
-from backend.snapshot import read_revision
+from backend.snapshot import blob_columns, read_revision
 from db.engine import alembic_config, make_engine, make_session_factory, upgrade_database
 from db.models import Base, Frame, Site
 from db.types import utc_now
@@ -227,3 +227,10 @@ def test_a_backup_of_an_older_schema_restores_at_its_revision(tmp_path):
     restored_rows = database_rows(restored.resolved_database_url)
     assert restored_rows == database_rows(source.resolved_database_url)
     assert column(restored_rows, "site", "name") == ["old"]
+
+
+def test_every_sha256_column_of_the_models_is_known_to_name_a_blob_or_not():
+    for table in Base.metadata.sorted_tables:
+        blob_columns(table)  # raises for a sha256 column nobody classified
+    frame_columns = blob_columns(Base.metadata.tables["measurement_frame"])
+    assert sorted(suffix for _index, suffix in frame_columns) == [".npz", ".png", ".png"]
