@@ -22,15 +22,21 @@ from sqlalchemy import select, update
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.config import Settings
-from backend.tasks import measure_pass_wheel, record_wheel_crash
+from backend.outages import DATABASE_ERRORS
+from backend.tasks import measure_pass_wheel, record_wheel_crash, update_back_to_back
 from backend.wheels import refresh_job
-from db.models import Job, PassWheel
+from db.models import TERMINAL_WHEEL_STATES, Job, PassWheel
 
 logger = logging.getLogger(__name__)
 
 
 PARENT_CHECK_INTERVAL_S = 2.0
 """How often a pool worker checks that the server that started it is still alive."""
+TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (*DATABASE_ERRORS, ConnectionError)
+"""Faults that pass (database restarting, frame store unreachable): the wheel is measured
+again later instead of failing."""
+RETRY_BACKOFF_MAX_S = 30.0
+"""Longest wait between two tries of a wheel that met a passing fault (1, 2, 4, … s)."""
 
 
 def exit_with_parent(parent_pid: int) -> None:
@@ -66,7 +72,9 @@ class ProcessPoolRunner:
 
     Workers are started with "spawn" (no fork of a threaded server) and only when the
     first task arrives. A worker that dies hard (segfault, out of memory) breaks the
-    pool: its wheel is recorded as failed and a new pool takes over.
+    pool: its wheel is recorded as failed and a new pool takes over. A task that meets a
+    passing fault (the database restarting) is tried again 1, 2, 4, … s later (at most
+    RETRY_BACKOFF_MAX_S apart) until it goes through.
     """
 
     def __init__(self, settings: Settings, session_factory: sessionmaker[Session]) -> None:
@@ -75,6 +83,8 @@ class ProcessPoolRunner:
         self._lock = Lock()
         self._executor: ProcessPoolExecutor | None = None
         self._pending: set[Future[str]] = set()
+        self._retries: set[threading.Timer] = set()
+        self._stopped = False
 
     def _pool(self) -> ProcessPoolExecutor:
         with self._lock:
@@ -116,6 +126,9 @@ class ProcessPoolRunner:
         error = future.exception()
         if error is None:
             return
+        if isinstance(error, TRANSIENT_ERRORS):
+            self._retry_later(pass_wheel_id, 0, error)
+            return
         if isinstance(error, BrokenProcessPool):
             with self._lock:
                 self._executor = None
@@ -125,6 +138,34 @@ class ProcessPoolRunner:
                 record_wheel_crash(session, pass_wheel_id, f"worker crashed: {error!r}")
         except Exception:
             logger.exception("pass wheel %d: could not record the crash", pass_wheel_id)
+
+    def _retry_later(self, pass_wheel_id: int, attempt: int, error: BaseException) -> None:
+        delay_s = min(2.0**attempt, RETRY_BACKOFF_MAX_S)
+        logger.warning(
+            "pass wheel %d: %s; measuring it again in %.0f s",
+            pass_wheel_id,
+            str(error).splitlines()[0] if str(error) else type(error).__name__,
+            delay_s,
+        )
+        timer = threading.Timer(delay_s, self._retry, args=(pass_wheel_id, attempt))
+        timer.daemon = True
+        with self._lock:
+            if self._stopped:
+                return  # the wheel stays "running"; the next start resumes it
+            self._retries.add(timer)
+        timer.start()
+
+    def _retry(self, pass_wheel_id: int, attempt: int) -> None:
+        with self._lock:
+            self._retries.discard(threading.current_thread())  # type: ignore[arg-type]
+        try:
+            with self._session_factory() as session:
+                again = requeue_wheel(session, pass_wheel_id)
+        except TRANSIENT_ERRORS as error:
+            self._retry_later(pass_wheel_id, attempt + 1, error)
+            return
+        if again:
+            self._submit_one(pass_wheel_id)
 
     def resume(self) -> int:
         with self._session_factory() as session:
@@ -150,5 +191,27 @@ class ProcessPoolRunner:
         for the wheels being measured right now."""
         with self._lock:
             executor, self._executor = self._executor, None
+            self._stopped = True
+            for timer in self._retries:
+                timer.cancel()
         if executor is not None:
             executor.shutdown(wait=True, cancel_futures=True)
+
+
+def requeue_wheel(session: Session, pass_wheel_id: int) -> bool:
+    """Put back a wheel whose task met a passing fault: running → queued; True when it is
+    to be measured again. A wheel that was finished before the fault gets what came after
+    its results (back-to-back, the job's count) brought up to date instead."""
+    session.execute(
+        update(PassWheel)
+        .where(PassWheel.id == pass_wheel_id, PassWheel.state == "running")
+        .values(state="queued")
+    )
+    session.commit()
+    state, pass_id = session.execute(
+        select(PassWheel.state, PassWheel.pass_id).where(PassWheel.id == pass_wheel_id)
+    ).one()
+    if state in TERMINAL_WHEEL_STATES:
+        update_back_to_back(session, pass_wheel_id)
+    refresh_job(session, pass_id)
+    return state == "queued"

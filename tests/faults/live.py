@@ -13,6 +13,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -58,6 +59,7 @@ class LiveServer:
         self.process: subprocess.Popen[bytes] | None = None
         self._groups: list[int] = []
         self._tokens: dict[str, str] = {}
+        self._token_lock = threading.Lock()
 
     def env(self) -> dict[str, str]:
         env = {
@@ -140,10 +142,11 @@ class LiveServer:
         return self.log.read_text(errors="replace")[-chars:] if self.log.exists() else ""
 
     def token(self, role: str) -> str:
-        """A token with `role` in this server's database (made once)."""
-        if role not in self._tokens:
-            self._tokens[role] = issue_token(self.settings, role, f"faults {role}")
-        return self._tokens[role]
+        """A token with `role` in this server's database (made once, by one thread)."""
+        with self._token_lock:
+            if role not in self._tokens:
+                self._tokens[role] = issue_token(self.settings, role, f"faults {role}")
+            return self._tokens[role]
 
     def client(self, role: str = "operator", timeout_s: float = REQUEST_TIMEOUT_S) -> httpx.Client:
         return httpx.Client(
