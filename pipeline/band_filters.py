@@ -1,0 +1,147 @@
+"""Gaussian derivatives on the blocks of a band only: the separable filters of
+`pipeline.gaussian`, evaluated where the stripe can be.
+
+A band is a boolean grid of BLOCK_PX × BLOCK_PX blocks over one pyramid level. The x pass
+runs on every row the y pass reads (the band's blocks widened by the kernel radius), the
+y pass on the band's blocks. Inside the band the derivatives are those of the full frame
+(the same kernels and reflect border, summed in another order); outside they are 0.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+
+import cv2
+import numpy as np
+
+from pipeline.gaussian import BORDER, GaussianDerivatives, gaussian_kernels
+from pipeline.jit import kernel
+
+BLOCK_PX = 8
+"""Side of a band block [px of its level]."""
+
+
+@kernel
+def _row_needs(blocks, reach_px, padded_rows):
+    """Blocks per padded row whose x pass the y pass reads (rows shifted down by `reach_px`)."""
+    need = np.zeros((padded_rows, blocks.shape[1]), np.bool_)
+    for br in range(blocks.shape[0]):
+        for bc in range(blocks.shape[1]):
+            if blocks[br, bc]:
+                stop = min(br * BLOCK_PX + BLOCK_PX + 2 * reach_px, padded_rows)
+                need[br * BLOCK_PX : stop, bc] = True
+    return need
+
+
+@functools.cache
+def _passes(radius: int) -> tuple[Callable[..., None], Callable[..., None]]:
+    """The x and y passes compiled for one kernel radius [px].
+
+    The radius is a compile-time constant, so the tap loop unrolls and the loop over the
+    columns of a stretch vectorises (about 8× faster than a radius known only at run time).
+    """
+
+    @kernel
+    def x_pass(src, g0, g1, g2, need, out0, out1, out2) -> None:
+        """Convolve the needed stretches of each padded row with G, G', G'' along x."""
+        width = out0.shape[1]
+        for rp in range(src.shape[0]):
+            bc = 0
+            while bc < need.shape[1]:
+                if not need[rp, bc]:
+                    bc += 1
+                    continue
+                start = bc
+                while bc < need.shape[1] and need[rp, bc]:
+                    bc += 1
+                c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
+                # Views starting at 0 keep every index provably ≥ 0: no wrap-around test
+                # in the loop, which would stop it vectorising.
+                seg = src[rp, c0 : c1 + 2 * radius]
+                a0, a1, a2 = out0[rp, c0:c1], out1[rp, c0:c1], out2[rp, c0:c1]
+                for i in range(c1 - c0):
+                    centre = np.float32(seg[i + radius])
+                    s0 = g0[radius] * centre
+                    s1 = np.float32(0.0)
+                    s2 = g2[radius] * centre
+                    for k in range(1, radius + 1):
+                        left = np.float32(seg[i + radius - k])
+                        right = np.float32(seg[i + radius + k])
+                        s0 += g0[radius + k] * (left + right)
+                        s1 += g1[radius + k] * (left - right)  # convolution: G'(k) meets I(c − k)
+                        s2 += g2[radius + k] * (left + right)
+                    a0[i], a1[i], a2[i] = s0, s1, s2
+
+    @kernel
+    def y_pass(t, g_even, g_odd, blocks, out_even, out_odd) -> None:
+        """Convolve x-pass rows along y with one even and one odd kernel on the band's blocks.
+
+        Two outputs of one input per call: more arrays in one loop exceed the alias checks
+        the compiler will make, and the loop stops vectorising. Indices are unsigned flat
+        offsets (never negative), so there is no wrap-around test either.
+        """
+        height, width = out_even.shape
+        flat = t.ravel()
+        row_step = np.uint64(width)
+        for br in range(blocks.shape[0]):
+            bc = 0
+            while bc < blocks.shape[1]:
+                if not blocks[br, bc]:
+                    bc += 1
+                    continue
+                start = bc
+                while bc < blocks.shape[1] and blocks[br, bc]:
+                    bc += 1
+                c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
+                for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+                    # Row r sits at r + radius of the x-pass rows.
+                    first = np.uint64(r + radius) * row_step + np.uint64(c0)
+                    even, odd = out_even[r, c0:c1], out_odd[r, c0:c1]
+                    for i in range(c1 - c0):
+                        at = first + np.uint64(i)
+                        s_even = g_even[radius] * flat[at]
+                        s_odd = np.float32(0.0)
+                        for k in range(1, radius + 1):
+                            up = flat[at - np.uint64(k) * row_step]
+                            down = flat[at + np.uint64(k) * row_step]
+                            s_even += g_even[radius + k] * (up + down)
+                            s_odd += g_odd[radius + k] * (up - down)
+                        even[i], odd[i] = s_even, s_odd
+
+    return x_pass, y_pass
+
+
+def band_derivatives(image: np.ndarray, sigma_px: float, blocks: np.ndarray) -> GaussianDerivatives:
+    """Ix, Iy, Ixx, Ixy, Iyy of `image` at scale `sigma_px` on the band's blocks.
+
+    Parameters
+    ----------
+    image : ndarray of shape (M, N), uint8, uint16 or float32
+        Grey image of one pyramid level [grey levels].
+    sigma_px : float
+        Gaussian scale [px of that level].
+    blocks : ndarray of shape (ceil(M/8), ceil(N/8)), bool
+        The band: blocks where the derivatives are wanted.
+
+    Returns
+    -------
+    GaussianDerivatives
+        Five float32 (M, N) images, 0 outside the band.
+    """
+    kernels = gaussian_kernels(sigma_px)
+    radius = kernels.radius_px
+    # Convolution by reversed kernels: G and G'' are symmetric, G' antisymmetric.
+    g0, g1, g2 = (np.asarray(k, np.float32) for k in (kernels.g0, kernels.g1, kernels.g2))
+    padded = cv2.copyMakeBorder(image, radius, radius, radius, radius, BORDER)
+    need = _row_needs(blocks, radius, padded.shape[0])
+    rows, cols = image.shape
+    along_x = [np.empty((padded.shape[0], cols), np.float32) for _ in range(3)]
+    x_pass, y_pass = _passes(radius)
+    x_pass(padded, g0, g1, g2, need, *along_x)
+    ix, iy, ixx, ixy, iyy, unused = (np.zeros((rows, cols), np.float32) for _ in range(6))
+    smooth_x, d1_x, d2_x = along_x
+    y_pass(d1_x, g0, g1, blocks, ix, ixy)
+    y_pass(smooth_x, g2, g1, blocks, iyy, iy)
+    y_pass(d2_x, g0, g1, blocks, ixx, unused)
+    return GaussianDerivatives(sigma_px=kernels.sigma_px, ix=ix, iy=iy, ixx=ixx, ixy=ixy, iyy=iyy)
