@@ -78,7 +78,7 @@ def create_backup(settings: Settings, out: Path) -> BackupSummary:
     url = make_url(settings.resolved_database_url)
     if url.get_backend_name() == "sqlite" and not Path(url.database or "").is_file():
         raise BackupError(f"no database at {url.database}")
-    engine = make_engine(url.render_as_string(hide_password=False))
+    engine = make_engine(settings.resolved_database_url)
     store = BlobStore(settings.frames_dir)
     try:
         with tempfile.TemporaryDirectory(dir=out.parent, prefix=f".{out.name}.") as spool:

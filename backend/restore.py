@@ -75,7 +75,7 @@ def restore_backup(settings: Settings, archive: Path) -> RestoreSummary:
         Path(url.database) if url.get_backend_name() == "sqlite" and url.database else None
     )
     created_file = sqlite_file is not None and not sqlite_file.exists()
-    engine = make_engine(url.render_as_string(hide_password=False))
+    engine = make_engine(settings.resolved_database_url)
     try:
         check_database_empty(engine)
         settings.data_dir.mkdir(parents=True, exist_ok=True)
@@ -178,8 +178,10 @@ def _unpack_member(
     staging: Path,
 ) -> None:
     spec = expected.pop(member.name, None)
-    if spec is None or not member.isreg():
+    if spec is None:
         raise BackupError(f"member {member.name!r} of the backup is not in its manifest")
+    if not member.isreg():
+        raise BackupError(f"member {member.name} of the backup is not a regular file")
     size, sha256 = spec
     if member.size != size:
         raise BackupError(f"member {member.name} is {member.size} bytes; its manifest says {size}")

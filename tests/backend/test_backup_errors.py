@@ -88,6 +88,24 @@ def other_tar(_data: bytes) -> bytes:
     return out.getvalue()
 
 
+def a_blob_as_symlink(data: bytes) -> bytes:
+    """The backup with its first blob replaced by a symbolic link to /etc/passwd."""
+    out = io.BytesIO()
+    with (
+        tarfile.open(fileobj=io.BytesIO(data)) as source,
+        tarfile.open(fileobj=out, mode="w", format=tarfile.PAX_FORMAT) as target,
+    ):
+        blobs = [m.name for m in source.getmembers() if m.name.startswith("blobs/")]
+        for member in source.getmembers():
+            if member.name == blobs[0]:
+                link = tarfile.TarInfo(member.name)
+                link.type, link.linkname = tarfile.SYMTYPE, "/etc/passwd"
+                target.addfile(link)
+            else:
+                target.addfile(member, source.extractfile(member))
+    return out.getvalue()
+
+
 BAD_ARCHIVES = {
     "not an archive": (lambda _d: b"PK\x03\x04 a zip, not a backup" * 40, "not a readable tar"),
     "another tar": (other_tar, "its first member is not manifest.json"),
@@ -97,6 +115,7 @@ BAD_ARCHIVES = {
         with_members(lambda name, c: None if name.startswith("blobs/") else c),
         "is truncated: ",
     ),
+    "symlink member": (a_blob_as_symlink, "is not a regular file"),
     "tampered blob": (with_members(flip_last_byte("blobs/")), "does not match its sha256"),
     "tampered rows": (with_members(flip_last_byte("tables/frame")), "does not match its sha256"),
     "extra member": (
