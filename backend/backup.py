@@ -21,9 +21,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
-from sqlalchemy import Connection, Engine, select
+from sqlalchemy import Connection, Engine, Row, Table, select
 from sqlalchemy.engine import make_url
 from tqdm import tqdm
 
@@ -130,30 +130,57 @@ def dump_tables(
 
     Returns the tables' entries and the blobs (sha256, suffix) that the rows name.
     """
-    entries: list[TableEntry] = []
-    references: set[tuple[str, str]] = set()
-    for table in schema_tables(connection):
-        path = spool / table_member(table.name)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        references_at = blob_columns(table)
-        query = select(table).order_by(*table.primary_key.columns)
-        digest, rows = hashlib.sha256(), 0
-        with path.open("wb") as stream:
-            header = json.dumps({"columns": [column.name for column in table.columns]})
-            lines = [f"{header}\n".encode()]
-            for row in connection.execute(query.execution_options(yield_per=ROWS_PER_FETCH)):
-                references.update((row[i], suffix) for i, suffix in references_at if row[i])
-                lines.append(f"{encode_row(tuple(row))}\n".encode())
-                rows += 1
-                if len(lines) >= ROWS_PER_FETCH:
-                    _write_hashed(stream, digest, lines)
-            _write_hashed(stream, digest, lines)
-        entries.append(
-            TableEntry(
-                name=table.name, rows=rows, bytes=path.stat().st_size, sha256=digest.hexdigest()
-            )
-        )
-    return entries, references
+    references = BlobReferences()
+    entries = [
+        _dump_table(connection, table, spool, references) for table in schema_tables(connection)
+    ]
+    return entries, references.blobs
+
+
+def _dump_table(
+    connection: Connection, table: Table, spool: Path, references: BlobReferences
+) -> TableEntry:
+    path = spool / table_member(table.name)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    query = select(table).order_by(*table.primary_key.columns)
+    digest, rows = hashlib.sha256(), 0
+    with path.open("wb") as stream:
+        header = json.dumps({"columns": [column.name for column in table.columns]})
+        lines = [f"{header}\n".encode()]
+        for row in connection.execute(query.execution_options(yield_per=ROWS_PER_FETCH)):
+            references.note(table, row)
+            lines.append(f"{encode_row(tuple(row))}\n".encode())
+            rows += 1
+            if len(lines) >= ROWS_PER_FETCH:
+                _write_hashed(stream, digest, lines)
+        _write_hashed(stream, digest, lines)
+    return TableEntry(
+        name=table.name, rows=rows, bytes=path.stat().st_size, sha256=digest.hexdigest()
+    )
+
+
+class BlobReferences:
+    """The blobs that rows name, taken in table by table in foreign-key order.
+
+    Frame retention (backend/retention.py) deletes the raw frame blobs of a pass and sets
+    its `frames_removed_at`, keeping the frame rows: those rows name no blob any more.
+    """
+
+    def __init__(self) -> None:
+        self.blobs: set[tuple[str, str]] = set()
+        self._columns: dict[str, list[tuple[int, str]]] = {}
+        self._frames_removed: set[int] = set()
+
+    def note(self, table: Table, row: Row[Any]) -> None:
+        """Take in the blobs that one row of `table` names."""
+        values = row._mapping
+        if table.name == "train_pass" and values.get("frames_removed_at") is not None:
+            self._frames_removed.add(values["id"])
+        if table.name == "frame" and values["pass_id"] in self._frames_removed:
+            return
+        if table.name not in self._columns:
+            self._columns[table.name] = blob_columns(table)
+        self.blobs.update((row[i], suffix) for i, suffix in self._columns[table.name] if row[i])
 
 
 def _write_hashed(stream: BinaryIO, digest: hashlib._Hash, lines: list[bytes]) -> None:
@@ -176,7 +203,8 @@ def list_blobs(store: BlobStore, references: set[tuple[str, str]]) -> list[BlobE
     if missing:
         raise BackupError(
             f"the frame store {store.root} lacks {len(missing)} blob(s) the database names "
-            f"(first: {missing[0]}); no backup written"
+            f"(first: {missing[0]}; lost, or removed by frame retention meanwhile: then "
+            "back up again); no backup written"
         )
     return entries
 
@@ -224,7 +252,14 @@ def _add_blobs(
     total = sum(blob.bytes for blob in blobs)
     with tqdm(total=total, unit="B", unit_scale=True, desc="backup", disable=None) as bar:
         for blob in blobs:
-            with store.path_for(blob.sha256, blob.suffix).open("rb") as source:
+            try:
+                source = store.path_for(blob.sha256, blob.suffix).open("rb")
+            except FileNotFoundError:
+                raise BackupError(
+                    f"blob {blob.sha256}{blob.suffix} left the frame store while the backup "
+                    "ran (frame retention?); back up again; no backup written"
+                ) from None
+            with source:
                 reader = _HashingReader(source)
                 tar.addfile(
                     _member(blob_member(blob.sha256, blob.suffix), blob.bytes, mtime), reader

@@ -28,6 +28,7 @@ from backend.demo import zip_folder
 from backend.main import create_app
 from backend.restore import restore_backup
 from backend.snapshot import blob_columns, read_revision
+from backend.storage import BlobStore
 from db.engine import alembic_config, make_engine, make_session_factory, upgrade_database
 from db.models import Base, Frame, Site
 from db.types import utc_now
@@ -234,3 +235,23 @@ def test_every_sha256_column_of_the_models_is_known_to_name_a_blob_or_not():
         blob_columns(table)  # raises for a sha256 column nobody classified
     frame_columns = blob_columns(Base.metadata.tables["measurement_frame"])
     assert sorted(suffix for _index, suffix in frame_columns) == [".npz", ".png", ".png"]
+
+
+def test_a_pass_whose_frames_retention_removed_is_backed_up_without_them(tmp_path):
+    retention = pytest.importorskip("backend.retention", reason="frame retention not there yet")
+    settings = Settings(data_dir=tmp_path / "data")
+    measure(settings, ingest(settings, small_pass(tmp_path, 1)))
+    ingest(settings, small_pass(tmp_path, 2))  # its wheels still queued: it keeps its frames
+    engine = make_engine(settings.resolved_database_url)
+    with make_session_factory(engine)() as session:
+        store = BlobStore(settings.frames_dir)
+        removed = retention.remove_expired_frames(session, store, 1.0)
+    engine.dispose()
+    assert [removal.pass_id for removal in removed] == [1]
+
+    restored = Settings(data_dir=tmp_path / "restored")
+    restore_backup(restored, create_backup(settings, tmp_path / "b.tar").path)
+    rows = database_rows(restored.resolved_database_url)
+    assert rows == database_rows(settings.resolved_database_url)
+    assert store_files(restored.frames_dir) == store_files(settings.frames_dir)
+    assert len(rows["frame"]) == 8  # the rows of the removed frames stay
