@@ -59,21 +59,22 @@ def receive_upload(stream: BinaryIO, settings: Settings) -> tuple[Path, str]:
         dir=incoming, prefix=temporary_prefix(), suffix=".zip", delete=False
     )
     size_bytes = 0
-    with handle:
-        while chunk := stream.read(COPY_CHUNK_BYTES):
-            size_bytes += len(chunk)
-            if size_bytes > settings.max_upload_bytes:
-                handle.close()
-                Path(handle.name).unlink(missing_ok=True)
-                raise PayloadTooLargeError(
-                    f"upload is larger than {settings.max_upload_bytes} bytes; "
-                    "split the pass or raise WHEELSCAN_MAX_UPLOAD_BYTES"
-                )
-            digest.update(chunk)
-            handle.write(chunk)
-    if size_bytes == 0:
-        Path(handle.name).unlink(missing_ok=True)
-        raise InvalidInputError("the uploaded file is empty; send a wheelscan-pass/1 zip")
+    try:
+        with handle:
+            while chunk := stream.read(COPY_CHUNK_BYTES):
+                size_bytes += len(chunk)
+                if size_bytes > settings.max_upload_bytes:
+                    raise PayloadTooLargeError(
+                        f"upload is larger than {settings.max_upload_bytes} bytes; "
+                        "split the pass or raise WHEELSCAN_MAX_UPLOAD_BYTES"
+                    )
+                digest.update(chunk)
+                handle.write(chunk)
+        if size_bytes == 0:
+            raise InvalidInputError("the uploaded file is empty; send a wheelscan-pass/1 zip")
+    except BaseException:
+        Path(handle.name).unlink(missing_ok=True)  # refused, or the disk is full: keep nothing
+        raise
     return Path(handle.name), digest.hexdigest()
 
 

@@ -1,0 +1,126 @@
+"""The data disk nearly full: a small tmpfs mounted as the server's data dir (frame store
+and SQLite), filled up to the last MiBs. Uploads are refused with 507 and leave nothing
+half-written; reads go on; once space is freed the same upload goes through."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+from tests.faults.live import (
+    LiveServer,
+    check_database,
+    check_store,
+    upload,
+    wait_for_job,
+    wheels_of,
+)
+from tests.scale.topology import synthetic_pass_zip
+
+DISK_MIB = 24
+"""The data disk: a measured axle pass (3.4 MB of frames, the artefacts, SQLite) and room."""
+JOB_TIMEOUT_S = 120.0
+MIB = 1024 * 1024
+
+
+@pytest.fixture
+def small_disk(tmp_path: Path) -> Iterator[Path]:
+    """A tmpfs of DISK_MIB MiB, unmounted afterwards (needs root)."""
+    if os.geteuid() != 0:
+        pytest.skip("not root: cannot mount a small tmpfs, so the full disk is NOT tested")
+    mount_point = tmp_path / "disk"
+    mount_point.mkdir()
+    mounted = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={DISK_MIB}m", "tmpfs", str(mount_point)],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        check=False,
+    )
+    if mounted.returncode != 0:
+        pytest.skip(f"mount -t tmpfs failed ({mounted.stderr.strip()}): full disk NOT tested")
+    try:
+        yield mount_point
+    finally:
+        subprocess.run(["umount", "-l", str(mount_point)], timeout=30, check=False)
+
+
+def fill(disk: Path, leave_bytes: int) -> Path:
+    """A file that takes all the disk's free space but `leave_bytes`."""
+    filler = disk / "filler"
+    size_bytes = shutil.disk_usage(disk).free - leave_bytes
+    with filler.open("wb") as out:
+        for _ in range(size_bytes // MIB):
+            out.write(bytes(MIB))
+        out.write(bytes(size_bytes % MIB))
+    return filler
+
+
+def reads_of(pass_id: int, wheel_id: int) -> list[str]:
+    base = f"/api/passes/{pass_id}"
+    return [
+        "/api/passes",
+        base,
+        f"{base}/wheels",
+        f"{base}/wheels/{wheel_id}",
+        f"{base}/wheels/{wheel_id}/frames/inner.png",
+        f"{base}/report.csv",
+        f"{base}/report.pdf",
+    ]
+
+
+@pytest.fixture(scope="module")
+def other_axle_archive(tmp_path_factory: pytest.TempPathFactory) -> bytes:
+    """Another simulated axle: frames of its own (the store holds none of them yet)."""
+    return synthetic_pass_zip(tmp_path_factory.mktemp("other-axle"), 1, 1, seed=8)
+
+
+@pytest.mark.parametrize(
+    "free_mib", [1, 4], ids=["no room for the upload", "room for the upload, not its frames"]
+)
+def test_a_nearly_full_disk_refuses_uploads_with_507_and_keeps_serving_reads(
+    small_disk: Path,
+    make_server: Callable[..., LiveServer],
+    axle_archive: bytes,
+    other_axle_archive: bytes,
+    tmp_path: Path,
+    free_mib: int,
+) -> None:
+    # TMPDIR (where the multipart body is spooled) on another disk, as a container's /tmp.
+    server = make_server(small_disk / "data", tmp_dir=tmp_path / "server-tmp")
+    with server.client() as client:
+        first = upload(client, axle_archive).raise_for_status().json()
+        wait_for_job(client, first["job_id"], JOB_TIMEOUT_S)
+        wheel_id = wheels_of(client, first["pass_id"])[0]["wheel_id"]
+        reads = reads_of(first["pass_id"], wheel_id)
+        before = {path: client.get(path) for path in reads}
+        assert {path: r.status_code for path, r in before.items()} == dict.fromkeys(reads, 200)
+
+        filler = fill(small_disk, free_mib * MIB)
+        second = other_axle_archive
+        refused = upload(client, second)
+        assert refused.status_code == 507, refused.text
+        assert refused.json()["code"] == "insufficient_storage"
+        assert "disk is full" in refused.json()["detail"]
+        for path in reads:
+            answer = client.get(path)
+            assert answer.status_code == 200, f"{path}: {answer.status_code} {answer.text[:200]}"
+            if not path.endswith(".pdf"):  # the PDF carries its generation time
+                assert answer.content == before[path].content, path
+        problems = check_store(server.data_dir, server.tmp_dir).problems
+        problems += check_database(server.settings.resolved_database_url, server.data_dir).problems
+        assert not problems, "\n".join(problems)
+
+        filler.unlink()
+        accepted = upload(client, second)
+        assert accepted.status_code == 202, accepted.text
+        wait_for_job(client, accepted.json()["job_id"], JOB_TIMEOUT_S)
+        assert [w["state"] for w in wheels_of(client, accepted.json()["pass_id"])] == [
+            "measured"
+        ] * 2
+        assert client.get("/api/passes").json()["total"] == 2
