@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from typing import Annotated, Any
 
-from fastapi import Depends, Request
+from fastapi import Depends, Path, Query, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy import select
 from sqlalchemy.orm import Session
@@ -16,6 +16,7 @@ from backend.errors import NotFoundError
 from backend.runner import TaskRunner
 from backend.storage import BlobStore
 from db.models import ROLES, ApiToken, Job, Pass, PassWheel, Site, Wheel
+from db.types import MAX_INTEGER
 
 
 def get_settings_dep(request: Request) -> Settings:
@@ -34,6 +35,9 @@ def get_store(request: Request) -> BlobStore:
 def get_runner(request: Request) -> TaskRunner:
     return request.app.state.runner
 
+
+RowId = Annotated[int, Path(ge=1, le=MAX_INTEGER, description="id of a stored row")]
+Offset = Annotated[int, Query(ge=0, le=MAX_INTEGER, description="rows to skip")]
 
 SettingsDep = Annotated[Settings, Depends(get_settings_dep)]
 SessionDep = Annotated[Session, Depends(get_session)]
@@ -95,21 +99,21 @@ def require_route_role(
 CallerDep = Annotated[ApiToken, Depends(require_route_role)]
 
 
-def get_pass_or_404(session: SessionDep, pass_id: int, _caller: CallerDep) -> Pass:
+def get_pass_or_404(session: SessionDep, pass_id: RowId, _caller: CallerDep) -> Pass:
     train_pass = session.get(Pass, pass_id)
     if train_pass is None:
         raise NotFoundError(f"pass {pass_id} not found")
     return train_pass
 
 
-def get_job_or_404(session: SessionDep, job_id: int, _caller: CallerDep) -> Job:
+def get_job_or_404(session: SessionDep, job_id: RowId, _caller: CallerDep) -> Job:
     job = session.get(Job, job_id)
     if job is None:
         raise NotFoundError(f"job {job_id} not found")
     return job
 
 
-def get_wheel_or_404(session: SessionDep, wheel_id: int, _caller: CallerDep) -> Wheel:
+def get_wheel_or_404(session: SessionDep, wheel_id: RowId, _caller: CallerDep) -> Wheel:
     wheel = session.get(Wheel, wheel_id)
     if wheel is None:
         raise NotFoundError(f"wheel {wheel_id} not found")
@@ -124,7 +128,7 @@ def get_site_or_404(session: SessionDep, site_name: str, _caller: CallerDep) -> 
 
 
 def get_pass_wheel_or_404(
-    session: SessionDep, pass_id: int, wheel_id: int, _viewer: ViewerDep
+    session: SessionDep, pass_id: RowId, wheel_id: RowId, _viewer: ViewerDep
 ) -> PassWheel:
     pass_wheel = session.scalar(
         select(PassWheel).where(PassWheel.pass_id == pass_id, PassWheel.wheel_id == wheel_id)

@@ -6,16 +6,38 @@ Every error body has the same shape: {"detail": str, "code": str}.
 from __future__ import annotations
 
 import logging
+from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
+from sqlalchemy.exc import DataError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Receive, Scope, Send
 
+from backend.schemas import ErrorRead
 from pipeline import PipelineError
 
 logger = logging.getLogger(__name__)
+
+
+ERROR_RESPONSES: dict[int | str, dict[str, Any]] = {
+    status: {"model": ErrorRead, "description": description}
+    for status, description in (
+        (400, "the request body could not be parsed"),
+        (401, "no token, or an unknown, expired or revoked one"),
+        (403, "the token's role is too low for this route"),
+        (404, "no such object"),
+        (409, "the object's state does not allow this"),
+        (413, "the request body is too large"),
+        (422, "invalid input"),
+        (429, "too many failed authentications from this address"),
+        (503, "the database does not answer (restarting); retry after Retry-After"),
+        (507, "the disk is full"),
+    )
+}
+"""The error answers every /api route may give, all {"detail", "code"}: documented once,
+on each router, so the OpenAPI document lists what the routes really answer."""
 
 
 class ServiceError(Exception):
@@ -87,6 +109,15 @@ def install_error_handlers(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def _validation_error(_request: Request, exc: RequestValidationError) -> JSONResponse:
         return error_response(422, _format_validation_error(exc), "invalid_input")
+
+    @app.exception_handler(DataError)
+    async def _data_error(_request: Request, exc: DataError) -> JSONResponse:
+        # The database refused a value as data (PostgreSQL text with a NUL byte): the
+        # request's input, which no schema constraint could express, not a server fault.
+        reason = str(exc.orig).splitlines()[0] if exc.orig is not None else "invalid value"
+        return error_response(
+            422, f"the database cannot store this input: {reason}", "invalid_input"
+        )
 
     @app.exception_handler(StarletteHTTPException)
     async def _http_error(_request: Request, exc: StarletteHTTPException) -> JSONResponse:

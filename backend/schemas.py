@@ -7,6 +7,8 @@ from typing import Any, Generic, Literal, TypeVar
 
 from pydantic import AwareDatetime, BaseModel, ConfigDict, Field
 
+from db.types import MAX_INTEGER
+
 Role = Literal["viewer", "operator", "admin"]
 Side = Literal["left", "right"]
 Sensor = Literal["left_inner", "left_outer", "right_inner", "right_outer"]
@@ -135,7 +137,7 @@ class FrameRead(ORMModel):
 
 class MissingSensor(BaseModel):
     vehicle_id: str = Field(min_length=1, max_length=100)
-    axle: int = Field(ge=0)
+    axle: int = Field(ge=0, le=MAX_INTEGER)
     side: Side
     sensor: Sensor
     reason: str = Field(min_length=1, max_length=500)

@@ -300,7 +300,8 @@ def load_wheel_scene_data(
     """Gather the scene of a wheel in a pass from the database and the artefact store."""
     pass_id, wheel_id = pass_wheel.pass_id, pass_wheel.wheel_id
     measurement = _measurement(pass_wheel, method)
-    if measurement is None or not measurement.profile:
+    # A wheel not measured keeps its track points but has no fused profile (no "x_mm").
+    if measurement is None or "x_mm" not in (measurement.profile or {}):
         raise NotFoundError(
             f"wheel {wheel_id} of pass {pass_id} has no {method} profile to show in 3D"
             f" (state: {pass_wheel.state})"
@@ -312,7 +313,7 @@ def load_wheel_scene_data(
         axle_measurement = _measurement(axle_wheel, method)
         if axle_measurement is not None:
             points.update(_track_points(store, axle_measurement, calibration))
-    profile = measurement.profile
+    profile = measurement.profile or {}
     return WheelSceneData(
         wheel_id=wheel_id,
         side=wheel.side,

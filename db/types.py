@@ -8,6 +8,10 @@ from sqlalchemy import DateTime
 from sqlalchemy.engine import Dialect
 from sqlalchemy.types import TypeDecorator
 
+MAX_INTEGER = 2**31 - 1
+"""The largest value of an Integer column (PostgreSQL INTEGER, the type of every id): input
+beyond it is refused before a query is built (SQLite and psycopg would raise, not find)."""
+
 
 class UtcDateTime(TypeDecorator[datetime]):
     """A timezone-aware UTC timestamp on every backend.

@@ -10,10 +10,10 @@ from fastapi import APIRouter, Path, Request, Response
 from starlette.concurrency import run_in_threadpool
 
 from backend.deps import OperatorDep, SettingsDep, StoreDep
-from backend.errors import InvalidInputError, NotFoundError, PayloadTooLargeError
+from backend.errors import ERROR_RESPONSES, InvalidInputError, NotFoundError, PayloadTooLargeError
 from backend.remote_store import BLOB_SUFFIXES
 
-router = APIRouter(prefix="/api/blobs", tags=["blobs"])
+router = APIRouter(prefix="/api/blobs", tags=["blobs"], responses=ERROR_RESPONSES)
 
 BlobName = Annotated[
     str,

@@ -6,8 +6,8 @@ from fastapi import APIRouter, status
 from sqlalchemy import select
 
 from backend.auth import record_audit
-from backend.deps import AdminDep, SessionDep, SiteDep, ViewerDep
-from backend.errors import ConflictError, NotFoundError
+from backend.deps import AdminDep, RowId, SessionDep, SiteDep, ViewerDep
+from backend.errors import ERROR_RESPONSES, ConflictError, NotFoundError
 from backend.schemas import CalibrationCreate, CalibrationRead, SiteCreate, SiteRead
 from backend.sites import (
     add_calibration_version,
@@ -16,7 +16,7 @@ from backend.sites import (
 )
 from db.models import Calibration, Site
 
-router = APIRouter(prefix="/api", tags=["sites and calibrations"])
+router = APIRouter(prefix="/api", tags=["sites and calibrations"], responses=ERROR_RESPONSES)
 
 
 def _site_read(session: SessionDep, site: Site) -> SiteRead:
@@ -82,7 +82,7 @@ def post_calibration(
 
 @router.get("/calibrations/{calibration_id}")
 def get_calibration(
-    calibration_id: int, session: SessionDep, _viewer: ViewerDep
+    calibration_id: RowId, session: SessionDep, _viewer: ViewerDep
 ) -> CalibrationRead:
     """One calibration version, as measured passes used it."""
     row = session.get(Calibration, calibration_id)

@@ -11,13 +11,12 @@ from starlette.concurrency import run_in_threadpool
 
 from backend.auth import authenticate, require_role
 from backend.deps import JobDep, ViewerDep
-from backend.errors import ServiceError
+from backend.errors import ERROR_RESPONSES, ServiceError
 from backend.queries import job_progress
-from backend.routes.passes import ERRORS
 from backend.schemas import JobProgress, JobRead
 from db.models import Job
 
-router = APIRouter(prefix="/api", tags=["jobs"])
+router = APIRouter(prefix="/api", tags=["jobs"], responses=ERROR_RESPONSES)
 
 POLL_INTERVAL_S = 0.25
 """How often a progress socket looks at the job rows (the database is the truth)."""
@@ -25,7 +24,7 @@ POLL_INTERVAL_S = 0.25
 WS_POLICY_VIOLATION = 4401
 
 
-@router.get("/jobs/{job_id}", responses=ERRORS)
+@router.get("/jobs/{job_id}")
 def get_job(job: JobDep, _viewer: ViewerDep) -> JobRead:
     """State and progress of a measurement job."""
     return JobRead.model_validate(job)

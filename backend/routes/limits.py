@@ -9,13 +9,13 @@ from sqlalchemy import select
 
 from backend.auth import record_audit
 from backend.deps import AdminDep, SessionDep, ViewerDep
-from backend.errors import InvalidInputError
+from backend.errors import ERROR_RESPONSES, InvalidInputError
 from backend.limits import ensure_default_limits
 from backend.schemas import LimitsRead, LimitsUpdate
 from db.models import FleetLimit
 from db.types import utc_now
 
-router = APIRouter(prefix="/api/limits", tags=["limits"])
+router = APIRouter(prefix="/api/limits", tags=["limits"], responses=ERROR_RESPONSES)
 
 Family = Literal["EN", "LM"]
 

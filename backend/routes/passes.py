@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Annotated, Any
+from typing import Annotated
 
 from fastapi import APIRouter, Query, UploadFile, status
 
 from backend.deps import (
+    Offset,
     OperatorDep,
     PassDep,
     RunnerDep,
@@ -16,19 +17,15 @@ from backend.deps import (
     StoreDep,
     ViewerDep,
 )
-from backend.errors import InvalidInputError
+from backend.errors import ERROR_RESPONSES, InvalidInputError
 from backend.ingest import discard, existing_upload, receive_upload, store_archive, validate_archive
 from backend.queries import PassFilter, list_passes, pass_summary, pass_wheels
-from backend.schemas import ErrorRead, Page, PassAccepted, PassSummary, PassWheelRead
+from backend.schemas import Page, PassAccepted, PassSummary, PassWheelRead
 
-router = APIRouter(prefix="/api/passes", tags=["passes"])
-
-ERRORS: dict[int | str, dict[str, Any]] = {
-    code: {"model": ErrorRead} for code in (401, 403, 404, 409, 413, 422)
-}
+router = APIRouter(prefix="/api/passes", tags=["passes"], responses=ERROR_RESPONSES)
 
 
-@router.post("", status_code=status.HTTP_202_ACCEPTED, responses=ERRORS)
+@router.post("", status_code=status.HTTP_202_ACCEPTED)
 def upload_pass(
     file: UploadFile,
     session: SessionDep,
@@ -69,7 +66,7 @@ def get_passes(
     alarm: Annotated[
         bool | None, Query(description="only passes with (true) or without alarms")
     ] = None,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    offset: Offset = 0,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
 ) -> Page[PassSummary]:
     """Passes, newest first, with wheels measured / not measured, alarms and live progress."""
@@ -80,13 +77,13 @@ def get_passes(
     return list_passes(session, where, offset, limit)
 
 
-@router.get("/{pass_id}", responses=ERRORS)
+@router.get("/{pass_id}")
 def get_pass(train_pass: PassDep, session: SessionDep, _viewer: ViewerDep) -> PassSummary:
     """One pass."""
     return pass_summary(session, train_pass)
 
 
-@router.get("/{pass_id}/wheels", responses=ERRORS)
+@router.get("/{pass_id}/wheels")
 def get_pass_wheels(
     train_pass: PassDep, session: SessionDep, _viewer: ViewerDep
 ) -> list[PassWheelRead]:

@@ -10,22 +10,21 @@ from sqlalchemy.orm import Session
 from starlette.concurrency import run_in_threadpool
 
 from backend.deps import PassDep, PassWheelDep, SessionDep, StoreDep, ViewerDep
+from backend.errors import ERROR_RESPONSES
 from backend.limits import WHEEL_PROFILES, limits_for
 from backend.queries import pass_summary, pass_wheels
 from backend.reports import load_wheel_figures, report_csv, report_pdf
-from backend.routes.passes import ERRORS
 from backend.schemas import PassReport, PassWheelRead
 from backend.storage import BlobStore
 from db.models import Frame, Pass, PassWheel
 from db.types import utc_now
 
-router = APIRouter(prefix="/api", tags=["reports"])
+router = APIRouter(prefix="/api", tags=["reports"], responses=ERROR_RESPONSES)
 
 Format = Literal["csv", "json", "pdf"]
 MEDIA_TYPES = {"csv": "text/csv", "json": "application/json", "pdf": "application/pdf"}
 FILES: dict[int | str, dict[str, Any]] = {
     200: {"content": {m: {} for m in MEDIA_TYPES.values()}},
-    **ERRORS,
 }
 
 

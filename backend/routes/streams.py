@@ -4,12 +4,11 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from fastapi import APIRouter, Query, Request, Response, status
+from fastapi import APIRouter, Path, Query, Request, Response, status
 from starlette.concurrency import run_in_threadpool
 
 from backend.deps import OperatorDep, PassDep, RunnerDep, SessionDep, SettingsDep, StoreDep
-from backend.errors import InvalidInputError, PayloadTooLargeError
-from backend.routes.passes import ERRORS
+from backend.errors import ERROR_RESPONSES, PayloadTooLargeError
 from backend.schemas import (
     FramePut,
     FrameRead,
@@ -19,11 +18,12 @@ from backend.schemas import (
     WheelStateRead,
 )
 from backend.stream import close_pass, declare_missing, list_frames, open_stream, put_frame
+from db.types import MAX_INTEGER
 
-router = APIRouter(prefix="/api/passes", tags=["streaming"])
+router = APIRouter(prefix="/api/passes", tags=["streaming"], responses=ERROR_RESPONSES)
 
 
-@router.post("/stream", status_code=status.HTTP_201_CREATED, responses=ERRORS)
+@router.post("/stream", status_code=status.HTTP_201_CREATED)
 def post_stream(body: StreamOpen, session: SessionDep, operator: OperatorDep) -> PassAccepted:
     """Open a pass to stream frames into."""
     train_pass, job = open_stream(session, body, operator)
@@ -33,13 +33,13 @@ def post_stream(body: StreamOpen, session: SessionDep, operator: OperatorDep) ->
 @router.put(
     "/{pass_id}/frames/{sensor}/{seq}",
     status_code=status.HTTP_201_CREATED,
-    responses={200: {"model": FramePut, "description": "identical frame already stored"}, **ERRORS},
+    responses={200: {"model": FramePut, "description": "identical frame already stored"}},
 )
 async def put_pass_frame(
     request: Request,
     response: Response,
     sensor: str,
-    seq: int,
+    seq: Annotated[int, Path(ge=0, le=MAX_INTEGER)],
     train_pass: PassDep,
     session: SessionDep,
     settings: SettingsDep,
@@ -47,11 +47,9 @@ async def put_pass_frame(
     runner: RunnerDep,
     operator: OperatorDep,
     vehicle_id: Annotated[str, Query(min_length=1, max_length=100)],
-    axle: Annotated[int, Query(ge=1)],
+    axle: Annotated[int, Query(ge=1, le=MAX_INTEGER)],
 ) -> FramePut:
     """Store one frame (PNG body); idempotent by sha256, any order, resumable."""
-    if seq < 0:
-        raise InvalidInputError(f"seq must be ≥ 0, got {seq}")
     data = bytearray()
     async for chunk in request.stream():
         data.extend(chunk)
@@ -76,7 +74,7 @@ async def put_pass_frame(
     return FramePut(sha256=stored.sha256, wheel_complete=stored.wheel_complete)
 
 
-@router.post("/{pass_id}/wheels/missing", responses=ERRORS)
+@router.post("/{pass_id}/wheels/missing")
 def post_missing(
     body: MissingSensor, train_pass: PassDep, session: SessionDep, operator: OperatorDep
 ) -> WheelStateRead:
@@ -91,13 +89,17 @@ def post_missing(
     )
 
 
-@router.get("/{pass_id}/frames", responses=ERRORS)
+@router.get("/{pass_id}/frames")
 def get_frames(train_pass: PassDep, session: SessionDep, _operator: OperatorDep) -> list[FrameRead]:
     """Frames stored so far (a sender resuming after a dropped connection skips these)."""
     return [FrameRead.model_validate(frame) for frame in list_frames(session, train_pass)]
 
 
-@router.post("/{pass_id}/close", status_code=status.HTTP_202_ACCEPTED, responses=ERRORS)
+@router.post(
+    "/{pass_id}/close",
+    status_code=status.HTTP_202_ACCEPTED,
+    responses={200: {"model": PassAccepted, "description": "the pass was already closed"}},
+)
 def post_close(
     response: Response, train_pass: PassDep, session: SessionDep, operator: OperatorDep
 ) -> PassAccepted:

@@ -8,13 +8,13 @@ from fastapi import APIRouter, Query, status
 from sqlalchemy import select
 
 from backend.auth import create_token, record_audit
-from backend.deps import AdminDep, SessionDep, ViewerDep
-from backend.errors import NotFoundError
+from backend.deps import AdminDep, Offset, RowId, SessionDep, ViewerDep
+from backend.errors import ERROR_RESPONSES, NotFoundError
 from backend.schemas import AuditRead, Me, TokenCreate, TokenCreated, TokenRead
 from db.models import ApiToken, AuditEvent
 from db.types import utc_now
 
-router = APIRouter(prefix="/api", tags=["tokens"])
+router = APIRouter(prefix="/api", tags=["tokens"], responses=ERROR_RESPONSES)
 
 
 @router.get("/me")
@@ -44,7 +44,7 @@ def post_token(body: TokenCreate, session: SessionDep, admin: AdminDep) -> Token
 
 
 @router.delete("/tokens/{token_id}")
-def revoke_token(token_id: int, session: SessionDep, admin: AdminDep) -> TokenRead:
+def revoke_token(token_id: RowId, session: SessionDep, admin: AdminDep) -> TokenRead:
     """Revoke a token at once (idempotent)."""
     row = session.get(ApiToken, token_id)
     if row is None:
@@ -60,7 +60,7 @@ def revoke_token(token_id: int, session: SessionDep, admin: AdminDep) -> TokenRe
 def list_audit(
     session: SessionDep,
     _admin: AdminDep,
-    offset: Annotated[int, Query(ge=0)] = 0,
+    offset: Offset = 0,
     limit: Annotated[int, Query(ge=1, le=1000)] = 100,
 ) -> list[AuditRead]:
     """The audit trail, newest first: who wrote what, when."""

@@ -11,7 +11,7 @@ from fastapi.concurrency import run_in_threadpool
 from pydantic import BaseModel
 
 from backend.deps import PassWheelDep, SessionDep, SettingsDep, StoreDep, ViewerDep
-from backend.routes.passes import ERRORS
+from backend.errors import ERROR_RESPONSES
 from backend.viewer import WheelViewer, load_wheel_scene_data
 
 
@@ -25,7 +25,9 @@ async def stop_viewer_on_shutdown(app: FastAPI) -> AsyncIterator[None]:
         viewer.stop()
 
 
-router = APIRouter(prefix="/api", tags=["3D viewer"], lifespan=stop_viewer_on_shutdown)
+router = APIRouter(
+    prefix="/api", tags=["3D viewer"], lifespan=stop_viewer_on_shutdown, responses=ERROR_RESPONSES
+)
 
 
 class ViewerRead(BaseModel):
@@ -36,7 +38,7 @@ class ViewerRead(BaseModel):
     method: str
 
 
-@router.get("/passes/{pass_id}/wheels/{wheel_id}/viewer", responses=ERRORS)
+@router.get("/passes/{pass_id}/wheels/{wheel_id}/viewer")
 async def get_wheel_viewer(
     request: Request,
     _viewer: ViewerDep,

@@ -14,10 +14,9 @@ from sqlalchemy import select
 
 from backend.artefacts import FrameArtefacts
 from backend.deps import PassWheelDep, SessionDep, StoreDep, ViewerDep, WheelDep
-from backend.errors import NotFoundError
+from backend.errors import ERROR_RESPONSES, NotFoundError
 from backend.images import SIGMA_COLORMAP, LayerPng, cached_artefacts, frame_png, layer_png
 from backend.queries import METHODS, method_result, pass_wheels
-from backend.routes.passes import ERRORS
 from backend.schemas import (
     CentresRead,
     PassWheelRead,
@@ -30,14 +29,13 @@ from backend.schemas import (
 from db.models import Frame, Measurement, MeasurementFrame, Pass, PassWheel
 from pipeline.reference import REFERENCE_PROFILES, load_reference_profile
 
-router = APIRouter(prefix="/api", tags=["wheels"])
+router = APIRouter(prefix="/api", tags=["wheels"], responses=ERROR_RESPONSES)
 
 Position = Literal["inner", "outer"]
 Method = Literal["adaptive", "steger"]
 WHEEL = "/passes/{pass_id}/wheels/{wheel_id}"
 PNG: dict[int | str, dict[str, Any]] = {
     200: {"content": {"image/png": {}}, "description": "PNG image"},
-    **ERRORS,
 }
 MaxWidth = Annotated[int | None, Query(ge=16, le=8192, description="downscale to this width [px]")]
 REVALIDATE = {"Cache-Control": "private, no-cache"}
@@ -113,7 +111,7 @@ def _revalidated(request: Request, etag: str) -> Response | None:
     return None
 
 
-@router.get(WHEEL, responses=ERRORS)
+@router.get(WHEEL)
 def get_pass_wheel(
     pass_wheel: PassWheelDep, session: SessionDep, _viewer: ViewerDep
 ) -> PassWheelRead:
@@ -214,7 +212,7 @@ def get_sigma_png(
 @router.get(
     WHEEL + "/sigma/{position}.f32",
     response_class=Response,
-    responses={200: {"content": {"application/octet-stream": {}}}, **ERRORS},
+    responses={200: {"content": {"application/octet-stream": {}}}},
 )
 def get_sigma_raw(
     position: Position,
@@ -237,7 +235,7 @@ def get_sigma_raw(
     )
 
 
-@router.get(WHEEL + "/centres/{position}", responses=ERRORS)
+@router.get(WHEEL + "/centres/{position}")
 def get_centres(
     position: Position,
     pass_wheel: PassWheelDep,
@@ -261,7 +259,7 @@ def get_centres(
     )
 
 
-@router.get(WHEEL + "/profile", responses=ERRORS)
+@router.get(WHEEL + "/profile")
 def get_profile(
     pass_wheel: PassWheelDep, _viewer: ViewerDep, method: Method = "adaptive"
 ) -> ProfileRead:
@@ -292,7 +290,7 @@ def get_profile(
     )
 
 
-@router.get("/wheels/{wheel_id}/trend", responses=ERRORS)
+@router.get("/wheels/{wheel_id}/trend")
 def get_trend(wheel: WheelDep, session: SessionDep, _viewer: ViewerDep) -> WheelTrend:
     """One wheel across passes, oldest first: its parameters per method and alarms."""
     rows = session.execute(
