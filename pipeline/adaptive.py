@@ -239,11 +239,21 @@ def choose_scales(
     return ScaleChoice(scale_index=index, strength=strength, lines=chosen)
 
 
-def scale_map(analysis: MultiScaleAnalysis, mask: np.ndarray) -> np.ndarray:
-    """σB per mask pixel (the same choice as `choose_scales`), 0 elsewhere (float32 (M, N))."""
-    rows, cols = np.nonzero(mask)
-    index = _chosen_index(analysis.scales, rows, cols)
-    sigmas = np.asarray((0.0, *analysis.sigmas_px), np.float32)
-    out = np.zeros(mask.shape, np.float32)
+def scale_map(
+    scales: tuple[LevelResponse, ...],
+    sigmas_px: tuple[float, ...],
+    rows: np.ndarray,
+    cols: np.ndarray,
+    shape: tuple[int, int],
+) -> np.ndarray:
+    """σB at the mask pixels (rows, cols), as `choose_scales` picks it; 0 elsewhere.
+
+    Returns
+    -------
+    ndarray of shape `shape`, float32
+    """
+    index = _chosen_index(scales, rows, cols)
+    sigmas = np.asarray((0.0, *sigmas_px), np.float32)
+    out = np.zeros(shape, np.float32)
     out[rows, cols] = sigmas[index + 1]
     return out

@@ -9,7 +9,6 @@ import numpy as np
 
 from pipeline.adaptive import (
     LevelResponse,
-    MultiScaleAnalysis,
     analyse_level,
     analyse_scales,
     choose_scales,
@@ -17,6 +16,8 @@ from pipeline.adaptive import (
     scale_map,
     stripe_scales,
 )
+from pipeline.band import band_pixels
+from pipeline.band_analysis import analyse_band
 from pipeline.curvature import remove_curvature_bias
 from pipeline.gaussian import MIN_SIGMA_PX
 from pipeline.imaging import GEOMETRY_FLOAT, to_float_image, validate_image
@@ -61,6 +62,10 @@ class Centres:
         "adaptive", "steger" or "classic".
     sigmas_px : tuple of float
         Scales used: (σ1, σ2, σ3) for "adaptive", (σ,) for "steger" and "classic".
+    path : str
+        How the frame was analysed: "band" (inside the stripe band located on the coarsest
+        scale, the camera-rate path), "full" (the whole frame, the reference), or "fallback"
+        (the whole frame because the band could not be trusted for this frame).
 
     All arrays are read-only.
     """
@@ -77,6 +82,7 @@ class Centres:
     polylines: tuple[np.ndarray, ...]
     method: str
     sigmas_px: tuple[float, ...]
+    path: str
 
     def __post_init__(self) -> None:
         arrays = [self.x, self.y, self.nx, self.ny, self.sigma, self.strength, self.width_px]
@@ -134,13 +140,21 @@ class _Selected:
     levels: tuple[ScaleLevel, ...]
 
 
+def _pixels(flags: np.ndarray, blocks: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """Rows and columns of the True pixels (raster order), searched in the band if given."""
+    return np.nonzero(flags) if blocks is None else band_pixels(flags, blocks)
+
+
 def _select_adaptive(
-    analysis: MultiScaleAnalysis, mask: np.ndarray
+    scales: tuple[LevelResponse, ...],
+    sigmas_px: tuple[float, ...],
+    mask: np.ndarray,
+    blocks: np.ndarray | None,
 ) -> tuple[_Selected, np.ndarray]:
     """Centre pixels at σB, and the σ map (σB per mask pixel, exact at the candidates)."""
-    hinted = np.logical_or.reduce([scale.hints for scale in analysis.scales])
-    rows, cols = np.nonzero(mask & hinted)
-    choice = choose_scales(analysis.scales, rows, cols)
+    hinted = np.logical_or.reduce([scale.hints for scale in scales])
+    rows, cols = _pixels(mask & hinted, blocks)
+    choice = choose_scales(scales, rows, cols)
     lines = choice.lines
     ok = centre_pixels(rows, cols, lines, choice.strength, mask.shape)
     ok &= choice.scale_index >= 0
@@ -148,15 +162,15 @@ def _select_adaptive(
     selected = _Selected(
         rows=rows[ok],
         cols=cols[ok],
-        sigma=np.asarray(analysis.sigmas_px, GEOMETRY_FLOAT)[index],
+        sigma=np.asarray(sigmas_px, GEOMETRY_FLOAT)[index],
         strength=choice.strength[ok],
         nx=lines.nx[ok],
         ny=lines.ny[ok],
         offset=lines.offset_px[ok],
         level_index=index,
-        levels=analysis.levels,
+        levels=tuple(scale.level for scale in scales),
     )
-    return selected, scale_map(analysis, mask)
+    return selected, scale_map(scales, sigmas_px, *_pixels(mask, blocks), mask.shape)
 
 
 def _fixed_scale(frame: np.ndarray, sigma_px: float, c_grey: float) -> LevelResponse:
@@ -164,8 +178,8 @@ def _fixed_scale(frame: np.ndarray, sigma_px: float, c_grey: float) -> LevelResp
     return analyse_level(level, c_grey=c_grey, shape=frame.shape, peak_reach_px=0)
 
 
-def _select_fixed(scale: LevelResponse, mask: np.ndarray) -> _Selected:
-    rows, cols = np.nonzero(mask & scale.hints)
+def _select_fixed(scale: LevelResponse, mask: np.ndarray, blocks: np.ndarray | None) -> _Selected:
+    rows, cols = _pixels(mask & scale.hints, blocks)
     level = scale.level
     lines = lines_at(level, rows, cols)
     ok = centre_pixels(rows, cols, lines, -lines.lambda1, mask.shape)
@@ -204,6 +218,7 @@ def _assemble(
     sigmas_px: tuple[float, ...],
     width_max: float,
     curvature_correction: bool,
+    path: str,
 ) -> Centres:
     nx = selected.nx.astype(GEOMETRY_FLOAT)
     ny = selected.ny.astype(GEOMETRY_FLOAT)
@@ -246,6 +261,7 @@ def _assemble(
         polylines=polylines,
         method=method,
         sigmas_px=sigmas_px,
+        path=path,
     )
 
 
@@ -257,6 +273,7 @@ def extract_centres(
     sigma: float | None = None,
     *,
     curvature_correction: bool | None = None,
+    full_frame: bool = False,
 ) -> Centres:
     """Extract the sub-pixel centre line of the bright laser stripe in a frame.
 
@@ -282,6 +299,10 @@ def extract_centres(
         polyline), removing the bias Gaussian smoothing gives curved stripes (0.28 px at
         σ = 7.5 px, R = 100 px). Default: on for "adaptive", off for "steger" and "classic",
         which stay the paper's baselines.
+    full_frame : bool
+        Analyse the whole frame (the reference) instead of the stripe band located on the
+        coarsest scale (the camera-rate path, "adaptive" and "steger"); the band path falls
+        back to the whole frame by itself when it cannot trust the band (see `Centres.path`).
 
     Returns
     -------
@@ -331,18 +352,19 @@ def extract_centres(
     c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
     correct = method == "adaptive" if curvature_correction is None else curvature_correction
     sigma_map = None
+    blocks = None
+    path = "full"
     if method == "classic":
         mask = segment_classic(image)
-        selected = _select_fixed(_fixed_scale(frame, fixed_sigma, c_grey), mask)
+        selected = _select_fixed(_fixed_scale(frame, fixed_sigma, c_grey), mask, None)
     else:
-        analysis = analyse_scales(frame, sigmas, c_grey=c_grey, peak_reach_px=width_max / 2)
-        mask = segment_ridges(analysis.response)
+        scales, mask, blocks, path = _analyse(image, frame, sigmas, c_grey, width_max, full_frame)
         if method == "steger":
-            reuse = [sc for sc in analysis.scales if sc.level.sigma_px == fixed_sigma]
+            reuse = [sc for sc in scales if sc.level.sigma_px == fixed_sigma]
             scale = reuse[0] if reuse else _fixed_scale(frame, fixed_sigma, c_grey)
-            selected = _select_fixed(scale, mask)
+            selected = _select_fixed(scale, mask, blocks if reuse else None)
         else:
-            selected, sigma_map = _select_adaptive(analysis, mask)
+            selected, sigma_map = _select_adaptive(scales, sigmas, mask, blocks)
     return _assemble(
         selected,
         mask,
@@ -351,4 +373,21 @@ def extract_centres(
         sigmas_px=sigmas if method == "adaptive" else (fixed_sigma,),
         width_max=width_max,
         curvature_correction=bool(correct),
+        path=path,
+    )
+
+
+def _analyse(image, frame, sigmas, c_grey, width_max, full_frame):
+    """Scales, stripe mask, band blocks (None: whole frame) and the path taken."""
+    peak_reach = width_max / 2
+    if not full_frame:
+        band = analyse_band(image, sigmas, c_grey=c_grey, peak_reach_px=peak_reach)
+        if band.mask is not None and band.band is not None:
+            return band.scales, band.mask, band.band.level_blocks(0), "band"
+    analysis = analyse_scales(frame, sigmas, c_grey=c_grey, peak_reach_px=peak_reach)
+    return (
+        analysis.scales,
+        segment_ridges(analysis.response),
+        None,
+        "full" if full_frame else "fallback",
     )

@@ -64,8 +64,28 @@ def level_for(sigma_px: float, max_level: int) -> int:
     return level
 
 
+@kernel
+def halve(image):
+    """2×2 means of an image with even sides, as float32 (cv2 INTER_AREA at exactly ½)."""
+    rows, cols = image.shape[0] // 2, image.shape[1] // 2
+    out = np.empty((rows, cols), np.float32)
+    for r in range(rows):
+        for c in range(cols):
+            total = (
+                np.float32(image[2 * r, 2 * c])
+                + np.float32(image[2 * r, 2 * c + 1])
+                + np.float32(image[2 * r + 1, 2 * c])
+                + np.float32(image[2 * r + 1, 2 * c + 1])
+            )
+            out[r, c] = total * np.float32(0.25)
+    return out
+
+
 def build_pyramid(image: np.ndarray, levels: int) -> list[np.ndarray]:
-    """The frame padded (reflect) to a multiple of 2^levels, and its 2×2-mean decimations."""
+    """The frame padded (reflect) to a multiple of 2^levels, and its 2×2-mean decimations.
+
+    `image` may be of any real dtype; the decimated levels are float32.
+    """
     stride = 2**levels
     pad_rows = -image.shape[0] % stride
     pad_cols = -image.shape[1] % stride
@@ -76,10 +96,15 @@ def build_pyramid(image: np.ndarray, levels: int) -> list[np.ndarray]:
     )
     pyramid = [base]
     for _ in range(levels):
-        prev = pyramid[-1]
-        size = (prev.shape[1] // 2, prev.shape[0] // 2)
-        pyramid.append(cv2.resize(prev, size, interpolation=cv2.INTER_AREA))
+        pyramid.append(halve(pyramid[-1]))
     return pyramid
+
+
+def level_shapes(shape: tuple[int, int], levels: int) -> tuple[tuple[int, int], ...]:
+    """Grid shape of pyramid levels 0..levels (level 0 is the frame itself, unpadded)."""
+    stride = 2**levels
+    padded = (-(-shape[0] // stride) * stride, -(-shape[1] // stride) * stride)
+    return (shape, *((padded[0] >> k, padded[1] >> k) for k in range(1, levels + 1)))
 
 
 def scale_levels(

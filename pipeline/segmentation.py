@@ -41,35 +41,61 @@ class ComponentShapes:
     elongation: np.ndarray
 
 
-def component_shapes(labels: np.ndarray, count: int) -> ComponentShapes:
-    """Area, equivalent bar length and elongation of each labelled component.
+def shapes_from_moments(
+    area: np.ndarray,
+    sum_r: np.ndarray,
+    sum_c: np.ndarray,
+    sum_rr: np.ndarray,
+    sum_cc: np.ndarray,
+    sum_rc: np.ndarray,
+) -> ComponentShapes:
+    """Area, equivalent bar length and elongation from each component's pixel moments.
 
     Notes
     -----
-    From the second moments: with λmax the largest eigenvalue of the pixel-coordinate
-    covariance, L = √(12·λmax) is the length of a uniform bar with that variance, and the
-    elongation is L²/A.
+    With λmax the largest eigenvalue of the pixel-coordinate covariance, L = √(12·λmax) is
+    the length of a uniform bar with that variance, and the elongation is L²/A.
     """
-    rows, cols = np.nonzero(labels)
-    lab = labels[rows, cols]
-    area = np.bincount(lab, minlength=count).astype(np.float64)
     safe = np.maximum(area, 1)
-
-    def mean(values: np.ndarray) -> np.ndarray:
-        return np.bincount(lab, weights=values, minlength=count) / safe
-
-    r = rows.astype(np.float64)
-    c = cols.astype(np.float64)
-    mr, mc = mean(r), mean(c)
-    vrr = mean(r * r) - mr**2
-    vcc = mean(c * c) - mc**2
-    vrc = mean(r * c) - mr * mc
+    mr, mc = sum_r / safe, sum_c / safe
+    vrr = sum_rr / safe - mr**2
+    vcc = sum_cc / safe - mc**2
+    vrc = sum_rc / safe - mr * mc
     lam_max = 0.5 * (vrr + vcc) + np.sqrt(0.25 * (vrr - vcc) ** 2 + vrc**2)
     length = np.sqrt(12 * np.maximum(lam_max, 0))
     return ComponentShapes(area_px=area, length_px=length, elongation=length**2 / safe)
 
 
-def _close_holes(mask: np.ndarray) -> np.ndarray:
+def component_shapes(labels: np.ndarray, count: int) -> ComponentShapes:
+    """Area, equivalent bar length and elongation of each labelled component."""
+    rows, cols = np.nonzero(labels)
+    lab = labels[rows, cols]
+    r = rows.astype(np.float64)
+    c = cols.astype(np.float64)
+
+    def total(values: np.ndarray | None) -> np.ndarray:
+        return np.bincount(lab, weights=values, minlength=count).astype(np.float64)
+
+    return shapes_from_moments(
+        total(None), total(r), total(c), total(r * r), total(c * c), total(r * c)
+    )
+
+
+def stripe_components(shapes: ComponentShapes) -> np.ndarray:
+    """Which components (index 0: background, never) are parts of the stripe (bool (K,)).
+
+    Candidates have area ≥ MIN_COMPONENT_AREA_PX and elongation ≥ MIN_ELONGATION; the longest
+    is the stripe, and further candidates at least KEEP_FRACTION of its length are its pieces.
+    """
+    candidate = (shapes.area_px >= MIN_COMPONENT_AREA_PX) & (shapes.elongation >= MIN_ELONGATION)
+    candidate[0] = False
+    if not candidate.any():
+        return candidate
+    main_length = shapes.length_px[candidate].max()
+    return candidate & (shapes.length_px >= KEEP_FRACTION * main_length)
+
+
+def close_holes(mask: np.ndarray) -> np.ndarray:
     """Fill small holes and notches of the mask with a morphological closing (paper §3.3).
 
     A closing, not a flood fill of every enclosed region: the background enclosed by a bent
@@ -94,20 +120,15 @@ def segment_ridges(response: np.ndarray) -> np.ndarray:
 
     Notes
     -----
-    V > RIDGE_THRESHOLD, 8-connected components; candidates have area ≥ MIN_COMPONENT_AREA_PX
-    and elongation ≥ MIN_ELONGATION; the longest is the stripe, and further candidates at least
-    KEEP_FRACTION of its length are kept as its pieces. Small holes are then closed.
+    V > RIDGE_THRESHOLD, 8-connected components, the stripe's among them
+    (`stripe_components`); small holes are then closed.
     """
     binary = (response > RIDGE_THRESHOLD).astype(np.uint8)
     count, labels = cv2.connectedComponents(binary, connectivity=8, ltype=cv2.CV_32S)
-    shapes = component_shapes(labels, count)
-    candidate = (shapes.area_px >= MIN_COMPONENT_AREA_PX) & (shapes.elongation >= MIN_ELONGATION)
-    candidate[0] = False
-    if not candidate.any():
+    keep = stripe_components(component_shapes(labels, count))
+    if not keep.any():
         return np.zeros(response.shape, dtype=bool)
-    main_length = shapes.length_px[candidate].max()
-    keep = candidate & (shapes.length_px >= KEEP_FRACTION * main_length)
-    return _close_holes(keep[labels])
+    return close_holes(keep[labels])
 
 
 def to_uint8(image: np.ndarray) -> np.ndarray:
@@ -143,4 +164,4 @@ def segment_classic(image: np.ndarray) -> np.ndarray:
     if count < 2 or area.max() < MIN_COMPONENT_AREA_PX:
         return np.zeros(image.shape, dtype=bool)
     keep = area >= max(KEEP_FRACTION * area.max(), MIN_COMPONENT_AREA_PX)
-    return _close_holes(keep[labels])
+    return close_holes(keep[labels])

@@ -1,0 +1,117 @@
+"""The stripe band: where in a frame the stripe can be, as blocks of every pyramid level.
+
+The coarsest scale's ridge response, which the adaptive method computes anyway, is cheap on
+its decimated grid and sees every part of a wheel stripe (narrow ones too: σ²-normalised,
+a 5 px stripe at σ 12 px still has S ≫ c). Where it exceeds BAND_SEED_RESPONSE the stripe
+may be; the band is that region widened by BAND_MARGIN_PX, which covers the stripe's own
+width, the max filter of the line strength, the width search and the closing of the mask.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from pipeline.band_filters import BLOCK_PX
+from pipeline.jit import kernel
+
+BAND_SEED_RESPONSE = 0.1
+"""Coarsest-scale V above which a pixel may belong to a stripe (the mask needs V > 0.5 at
+some scale; a round spot stays below exp(−2) ≈ 0.14 and is mostly left out)."""
+
+BAND_MARGIN_PX = 24.0
+"""Widening of the seeds [px of the frame]: half the widest stripe (10.5 px) plus the
+reach of the width search at σ1 (13 px)."""
+
+MAX_BAND_FRACTION = 0.4
+"""A band covering more of the frame than this saves nothing: the full-frame path runs."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class StripeBand:
+    """Blocks (BLOCK_PX × BLOCK_PX of each level's grid) that may hold the stripe.
+
+    `blocks[L]` is the bool block grid of pyramid level L (None for levels not used);
+    `fraction` the share of the frame's level-0 blocks in the band.
+    """
+
+    blocks: tuple[np.ndarray | None, ...]
+    fraction: float
+
+    def level_blocks(self, level: int) -> np.ndarray:
+        """The block grid of one pyramid level."""
+        grid = self.blocks[level]
+        if grid is None:
+            raise ValueError(f"the band has no blocks on level {level}")
+        return grid
+
+
+def block_grid(shape: tuple[int, int]) -> tuple[int, int]:
+    """Shape of the block grid over an image of `shape` (rows, columns)."""
+    return math.ceil(shape[0] / BLOCK_PX), math.ceil(shape[1] / BLOCK_PX)
+
+
+@kernel
+def _pool_blocks(band, ratio, rows, cols):
+    """Blocks of `ratio` × `ratio` band pixels that hold any band pixel."""
+    out = np.zeros((rows, cols), np.bool_)
+    for r in range(band.shape[0]):
+        for c in range(band.shape[1]):
+            if band[r, c]:
+                out[min(r // ratio, rows - 1), min(c // ratio, cols - 1)] = True
+    return out
+
+
+def locate_band(
+    seed_response: np.ndarray, seed_level: int, level_shapes: tuple[tuple[int, int], ...]
+) -> StripeBand:
+    """The stripe band from the coarsest scale's ridge response.
+
+    Parameters
+    ----------
+    seed_response : ndarray of shape (H, W), float32
+        V of the coarsest scale on its pyramid level's grid.
+    seed_level : int
+        That pyramid level (stride 2^seed_level, ≥ 1).
+    level_shapes : tuple of (rows, cols)
+        Grid shape of every pyramid level, level 0 (the frame) first.
+
+    Returns
+    -------
+    StripeBand
+    """
+    stride = 2**seed_level
+    seeds = (seed_response > BAND_SEED_RESPONSE).astype(np.uint8)
+    reach = max(1, math.ceil(BAND_MARGIN_PX / stride))
+    disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
+    band = cv2.dilate(seeds, disc).astype(bool)
+    blocks = []
+    for level, shape in enumerate(level_shapes):
+        ratio = BLOCK_PX * 2**level // stride
+        blocks.append(_pool_blocks(band, max(ratio, 1), *block_grid(shape)))
+    frame_blocks = blocks[0]
+    return StripeBand(blocks=tuple(blocks), fraction=float(frame_blocks.mean()))
+
+
+@kernel
+def band_pixels(flags, blocks):
+    """Rows and columns of the True pixels of `flags` inside the band's blocks, raster order."""
+    height, width = flags.shape
+    most = int(blocks.sum()) * BLOCK_PX * BLOCK_PX
+    rows = np.empty(most, np.int64)
+    cols = np.empty(most, np.int64)
+    count = 0
+    for r in range(height):
+        br = r // BLOCK_PX
+        for bc in range(blocks.shape[1]):
+            if not blocks[br, bc]:
+                continue
+            for c in range(bc * BLOCK_PX, min(bc * BLOCK_PX + BLOCK_PX, width)):
+                if flags[r, c]:
+                    rows[count] = r
+                    cols[count] = c
+                    count += 1
+    return rows[:count].copy(), cols[:count].copy()

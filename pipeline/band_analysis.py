@@ -1,0 +1,253 @@
+"""The multi-scale analysis inside the stripe band: per scale V, C, its ridge-peak value and
+the centre hints on the band's blocks only (as `analyse_level`), and the stripe mask.
+
+The camera-rate path of the adaptive method. The coarsest scale is analysed over its whole
+(16× decimated) grid and locates the band; the finer scales are filtered on the band's
+blocks only. Inside the band every figure equals the full-frame analysis (the same kernels,
+summed in another order); a stripe component reaching the band's edge sends the frame to
+the full-frame path, which stays the reference.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.adaptive import HINT_REACH, LevelResponse
+from pipeline.band import MAX_BAND_FRACTION, StripeBand, block_grid, locate_band
+from pipeline.band_filters import BLOCK_PX, band_derivatives
+from pipeline.band_segmentation import segment_band
+from pipeline.hessian import eigen2
+from pipeline.jit import kernel
+from pipeline.ridges import min_structure_squared, ridge_value
+from pipeline.scalespace import (
+    MAX_LEVEL,
+    ScaleLevel,
+    build_pyramid,
+    decimated_variance,
+    level_for,
+    level_shapes,
+)
+
+
+@kernel
+def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_grey, hints):
+    """V and C on the band's pixels of one level; sets the frame pixels hinted at (3×3)."""
+    height, width = ix.shape
+    frame_rows, frame_cols = hints.shape
+    response = np.zeros((height, width), np.float32)
+    strength = np.zeros((height, width), np.float32)
+    norm = sigma_px * sigma_px / (stride * stride)  # σ² and level → frame units of ∂²
+    sigma2 = sigma_px * sigma_px
+    first = 1.0 / stride
+    second = first * first
+    origin = 0.5 * (stride - 1)
+    for br in range(blocks.shape[0]):
+        for bc in range(blocks.shape[1]):
+            if not blocks[br, bc]:
+                continue
+            for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+                for c in range(bc * BLOCK_PX, min(bc * BLOCK_PX + BLOCK_PX, width)):
+                    dxx, dxy, dyy = ixx[r, c], ixy[r, c], iyy[r, c]
+                    # As analyse_level: only λ1 < 0 candidates strong enough can matter.
+                    if not dxx + dyy < 0:
+                        continue
+                    s2 = (dxx * dxx + dyy * dyy + 2 * dxy * dxy) * (norm * norm)
+                    if not s2 > 0.25 * min_s2:
+                        continue
+                    lambda1, lambda2, nx, ny = eigen2(dxx * second, dxy * second, dyy * second)
+                    response[r, c] = ridge_value(lambda1 * sigma2, lambda2 * sigma2, c_grey)
+                    strength[r, c] = -sigma2 * min(lambda1, 0.0)
+                    if lambda1 == 0:
+                        continue
+                    offset = -(nx * ix[r, c] * first + ny * iy[r, c] * first) / lambda1
+                    if abs(offset) > HINT_REACH * stride:
+                        continue
+                    x = c * stride + origin + offset * nx
+                    y = r * stride + origin + offset * ny
+                    hr = min(max(int(np.rint(y)), 0), frame_rows - 1)
+                    hc = min(max(int(np.rint(x)), 0), frame_cols - 1)
+                    hints[max(hr - 1, 0) : hr + 2, max(hc - 1, 0) : hc + 2] = True
+    return response, strength
+
+
+@kernel
+def _max_filter_blocks(field, blocks, half):
+    """Max over the (2·half+1)² square around each band pixel (outside the band: 0).
+
+    Separable: a running max along rows on the rows within `half` of the band, then along
+    columns on the band's pixels. Each loop reads one array and writes one, so it vectorises.
+    """
+    height, width = field.shape
+    along_rows = np.zeros((height, width), np.float32)
+    out = np.zeros((height, width), np.float32)
+    reach = (half + BLOCK_PX - 1) // BLOCK_PX
+    for br in range(blocks.shape[0]):
+        for bc in range(blocks.shape[1]):
+            if not blocks[br, bc]:
+                continue
+            c0, c1 = bc * BLOCK_PX, min(bc * BLOCK_PX + BLOCK_PX, width)
+            lo = max((br - reach) * BLOCK_PX, 0)
+            hi = min((br + 1 + reach) * BLOCK_PX, height)
+            for r in range(lo, hi):
+                target = along_rows[r, c0:c1]
+                for k in range(-half, half + 1):
+                    a, b = max(c0 + k, 0), min(c1 + k, width)
+                    source = field[r, a:b]
+                    shift = a - (c0 + k)
+                    for i in range(b - a):
+                        target[i + shift] = max(target[i + shift], source[i])
+    for br in range(blocks.shape[0]):
+        for bc in range(blocks.shape[1]):
+            if not blocks[br, bc]:
+                continue
+            c0, c1 = bc * BLOCK_PX, min(bc * BLOCK_PX + BLOCK_PX, width)
+            for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+                target = out[r, c0:c1]
+                for k in range(max(r - half, 0), min(r + half + 1, height)):
+                    source = along_rows[k, c0:c1]
+                    for i in range(c1 - c0):
+                        target[i] = max(target[i], source[i])
+    return out
+
+
+def analyse_band_level(
+    level: ScaleLevel,
+    blocks: np.ndarray,
+    *,
+    c_grey: float,
+    frame_shape: tuple[int, int],
+    peak_reach_px: float,
+) -> LevelResponse:
+    """`pipeline.adaptive.analyse_level` on the band's blocks of one level.
+
+    Parameters
+    ----------
+    level : ScaleLevel
+        Derivatives of the scale (valid on the band's blocks).
+    blocks : ndarray of bool
+        The band's blocks of that level.
+    c_grey : float
+        Structure constant of the ridge response [grey levels].
+    frame_shape : tuple of int
+        Frame shape (M, N).
+    peak_reach_px : float
+        Half-size [px of the frame] of the max filter of C.
+
+    Returns
+    -------
+    LevelResponse
+        V, the ridge-peak C and the hints; 0 (False) outside the band.
+    """
+    d = level.derivatives
+    hints = np.zeros(frame_shape, np.bool_)
+    response, strength = _analyse_blocks(
+        d.ix,
+        d.iy,
+        d.ixx,
+        d.ixy,
+        d.iyy,
+        blocks,
+        level.stride,
+        level.sigma_px,
+        min_structure_squared(c_grey),
+        c_grey,
+        hints,
+    )
+    half = max(1, round(peak_reach_px / level.stride))
+    peak = _max_filter_blocks(strength, blocks, half)
+    return LevelResponse(level=level, response=response, peak_strength=peak, hints=hints)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class BandAnalysis:
+    """The multi-scale analysis of a frame inside its stripe band.
+
+    `scales` as `MultiScaleAnalysis.scales` (fields valid on the band, 0 elsewhere); `mask`
+    (M, N) bool the stripe mask, None when the band cannot be trusted; `reason` says why not
+    (empty when it can).
+    """
+
+    sigmas_px: tuple[float, ...]
+    scales: tuple[LevelResponse, ...]
+    band: StripeBand | None
+    mask: np.ndarray | None
+    reason: str
+
+
+def analyse_band(
+    image: np.ndarray,
+    sigmas_px: tuple[float, ...],
+    *,
+    c_grey: float,
+    peak_reach_px: float,
+    max_level: int = MAX_LEVEL,
+) -> BandAnalysis:
+    """Multi-scale analysis and stripe mask of a frame, computed inside its stripe band.
+
+    Parameters
+    ----------
+    image : ndarray of shape (M, N), uint8, uint16 or float
+        Grey frame [grey levels], validated.
+    sigmas_px : tuple of float
+        Scales [px], ascending; the last sits on the coarsest pyramid level and locates
+        the band.
+    c_grey : float
+        Structure constant of the ridge response [grey levels].
+    peak_reach_px : float
+        Half-size of the max filter of C [px].
+    max_level : int
+        Coarsest pyramid level.
+
+    Returns
+    -------
+    BandAnalysis
+        With `mask` None (and the reason) when the coarsest scale is on the frame grid, the
+        band covers most of the frame, or a stripe component reaches the band's edge.
+    """
+    levels = [level_for(s, max_level) for s in sigmas_px]
+    coarsest = max(levels)
+    if coarsest == 0:
+        return BandAnalysis(tuple(sigmas_px), (), None, None, "no scale on a decimated grid")
+    pyramid = build_pyramid(image, coarsest)
+    pyramid[0] = image
+    shapes = level_shapes(image.shape, coarsest)
+
+    def derivatives(index: int, blocks: np.ndarray) -> ScaleLevel:
+        sigma, level = sigmas_px[index], levels[index]
+        residual = math.sqrt(sigma**2 - decimated_variance(level)) / 2**level
+        return ScaleLevel(float(sigma), level, band_derivatives(pyramid[level], residual, blocks))
+
+    def analysed(level: ScaleLevel, blocks: np.ndarray) -> LevelResponse:
+        return analyse_band_level(
+            level, blocks, c_grey=c_grey, frame_shape=image.shape, peak_reach_px=peak_reach_px
+        )
+
+    seed_index = max(range(len(levels)), key=lambda i: (levels[i], sigmas_px[i]))
+    seed_blocks = np.ones(block_grid(shapes[coarsest]), np.bool_)
+    seed = analysed(derivatives(seed_index, seed_blocks), seed_blocks)
+    band = locate_band(seed.response, coarsest, shapes)
+    if band.fraction > MAX_BAND_FRACTION:
+        reason = f"the band covers {100 * band.fraction:.0f} % of the frame"
+        return BandAnalysis(tuple(sigmas_px), (), band, None, reason)
+    scales = []
+    for i, level in enumerate(levels):
+        if i == seed_index:
+            scales.append(seed)
+        else:
+            blocks = band.level_blocks(level)
+            scales.append(analysed(derivatives(i, blocks), blocks))
+    strides = tuple(2**lv for lv in levels)
+    found = segment_band(
+        tuple(sc.response for sc in scales), strides, band.level_blocks(0), image.shape
+    )
+    reason = "" if found.inside else "a stripe component reaches the band's edge"
+    return BandAnalysis(
+        tuple(float(s) for s in sigmas_px),
+        tuple(scales),
+        band,
+        found.mask if found.inside else None,
+        reason,
+    )
