@@ -206,7 +206,9 @@ def test_a_backup_taken_while_passes_are_written_restores_whole_passes(tmp_path)
     assert {f"{sha[:2]}/{sha}.png" for sha in column(rows, "frame", "sha256")} == set(frames)
 
 
-def test_a_backup_of_an_older_schema_restores_at_its_revision(tmp_path):
+@pytest.mark.parametrize("target_revision", [None, "head"])
+def test_a_backup_of_an_older_schema_restores_at_its_revision(target_revision, tmp_path):
+    """Into a database never migrated, or one migrated to the newest schema but empty."""
     source = Settings(data_dir=tmp_path / "old")
     engine = make_engine(source.resolved_database_url)
     upgrade_database(engine, "0003")
@@ -218,6 +220,10 @@ def test_a_backup_of_an_older_schema_restores_at_its_revision(tmp_path):
     summary = create_backup(source, tmp_path / "old.tar")
     assert summary.manifest.revision == "0003"
     restored = Settings(data_dir=tmp_path / "restored")
+    if target_revision is not None:
+        engine = make_engine(restored.resolved_database_url)
+        upgrade_database(engine, target_revision)
+        engine.dispose()
     restore_backup(restored, summary.path)
     for settings in (source, restored):
         engine = make_engine(settings.resolved_database_url)
