@@ -17,6 +17,7 @@ from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse
 from sqlalchemy.exc import InterfaceError, OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeoutError
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from backend.errors import error_response
 
@@ -39,6 +40,15 @@ def is_disk_full(exc: BaseException) -> bool:
     return False
 
 
+def _caused_by_full_disk(exc: BaseException) -> bool:
+    cause = exc.__cause__ or exc.__context__
+    while cause is not None:
+        if is_disk_full(cause):
+            return True
+        cause = cause.__cause__ or cause.__context__
+    return False
+
+
 def _disk_full(request: Request) -> JSONResponse:
     logger.warning("disk full on %s %s", request.method, request.url.path)
     return error_response(
@@ -50,7 +60,8 @@ def _disk_full(request: Request) -> JSONResponse:
 
 
 def install_outage_handlers(app: FastAPI) -> None:
-    """Answer 503 while the database is unavailable and 507 while the disk is full."""
+    """Answer 503 while the database is unavailable and 507 while the disk is full
+    (after `backend.errors.install_error_handlers`, whose HTTP-error answer it wraps)."""
 
     @app.exception_handler(OSError)
     async def _os_error(request: Request, exc: OSError) -> JSONResponse:
@@ -77,3 +88,13 @@ def install_outage_handlers(app: FastAPI) -> None:
 
     for error in DATABASE_ERRORS:
         app.add_exception_handler(error, _database_error)
+
+    answer_http_error = app.exception_handlers[StarletteHTTPException]
+
+    @app.exception_handler(StarletteHTTPException)
+    async def _http_error(request: Request, exc: StarletteHTTPException) -> JSONResponse:
+        # FastAPI answers 400 "error parsing the body" when spooling a multipart body
+        # to TMPDIR fails; on a full disk that is the disk's fault, not the client's.
+        if _caused_by_full_disk(exc):
+            return _disk_full(request)
+        return await answer_http_error(request, exc)  # type: ignore[misc,no-any-return]

@@ -81,7 +81,9 @@ def other_axle_archive(tmp_path_factory: pytest.TempPathFactory) -> bytes:
 
 
 @pytest.mark.parametrize(
-    "free_mib", [1, 4], ids=["no room for the upload", "room for the upload, not its frames"]
+    ("free_mib", "spool_on_data_disk"),
+    [(1, False), (4, False), (1, True)],
+    ids=["no room for the upload", "room for the upload not its frames", "no room to spool"],
 )
 def test_a_nearly_full_disk_refuses_uploads_with_507_and_keeps_serving_reads(
     small_disk: Path,
@@ -90,9 +92,11 @@ def test_a_nearly_full_disk_refuses_uploads_with_507_and_keeps_serving_reads(
     other_axle_archive: bytes,
     tmp_path: Path,
     free_mib: int,
+    spool_on_data_disk: bool,
 ) -> None:
-    # TMPDIR (where the multipart body is spooled) on another disk, as a container's /tmp.
-    server = make_server(small_disk / "data", tmp_dir=tmp_path / "server-tmp")
+    # TMPDIR, where the multipart body is spooled: a container's /tmp, or the full disk too.
+    spool = small_disk / "tmp" if spool_on_data_disk else tmp_path / "server-tmp"
+    server = make_server(small_disk / "data", tmp_dir=spool)
     with server.client() as client:
         first = upload(client, axle_archive).raise_for_status().json()
         wait_for_job(client, first["job_id"], JOB_TIMEOUT_S)
