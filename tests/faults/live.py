@@ -26,6 +26,7 @@ from backend.cli.serve import issue_token
 from backend.config import Settings
 from db.engine import make_engine, make_session_factory
 from db.models import Frame, Job, Measurement, MeasurementFrame, Pass, PassWheel
+from pipeline.archive import decode_frame, encode_frame
 from tests.scale.topology import free_port, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -176,9 +177,11 @@ def wheels_of(client: httpx.Client, pass_id: int) -> list[dict[str, Any]]:
     return client.get(f"/api/passes/{pass_id}/wheels").raise_for_status().json()
 
 
-def vary_archive(archive: bytes, index: int) -> bytes:
+def vary_archive(archive: bytes, index: int, *, distinct_frames: bool = False) -> bytes:
     """The archive as another train: vehicle ids suffixed with `index`, started `index`
-    minutes later, so every copy is a new pass with wheels of its own."""
+    minutes later, so every copy is a new pass with wheels of its own; `distinct_frames`:
+    each frame's corner pixel set to `index` too, so the frames are new blobs to store
+    (a corner far from the stripe: the measurement does not change)."""
     source = zipfile.ZipFile(io.BytesIO(archive))
     manifest = json.loads(source.read("manifest.json"))
     rename = {v: f"{v}-{index}" for v in manifest["vehicles"]}
@@ -192,6 +195,10 @@ def vary_archive(archive: bytes, index: int) -> bytes:
         for info in source.infolist():
             if info.filename == "manifest.json":
                 target.writestr(info.filename, json.dumps(manifest))
+            elif distinct_frames and info.filename.endswith(".png"):
+                frame = decode_frame(source.read(info), info.filename).copy()
+                frame[0, 0] = index % 256
+                target.writestr(info, encode_frame(frame))
             else:
                 target.writestr(info, source.read(info))
     return out.getvalue()
