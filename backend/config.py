@@ -34,6 +34,15 @@ class Settings(BaseSettings):
     max_compression_ratio: float = Field(default=200.0, gt=1.0)
     viewer_host: str = Field(default="127.0.0.1", description="viser 3D viewer interface")
     viewer_port: int = Field(default=8081, ge=1, le=65535, description="viser 3D viewer port")
+    frame_retention_days: float | None = Field(
+        default=None,
+        gt=0,
+        description="remove raw frames of passes started longer ago (results are kept); "
+        "default: keep forever",
+    )
+    retention_sweep_interval_s: float = Field(
+        default=3600.0, gt=0, description="how often the server applies frame retention"
+    )
     frontend_dir: Path = Field(default=Path(__file__).resolve().parent.parent / "frontend")
 
     @property

@@ -61,6 +61,11 @@ class ConflictError(ServiceError):
     code = "conflict"
 
 
+class GoneError(ServiceError):
+    status_code = 410
+    code = "gone"
+
+
 class InvalidInputError(ServiceError):
     status_code = 422
     code = "invalid_input"

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import asyncio
+import contextlib
 import logging
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
@@ -15,6 +17,7 @@ from backend.errors import MULTIPART_OVERHEAD_BYTES, BodySizeLimit, install_erro
 from backend.ingest import incoming_dir
 from backend.limits import ensure_default_limits
 from backend.outages import install_outage_handlers
+from backend.retention import sweep_periodically
 from backend.routes import ROUTERS
 from backend.runner import TaskRunner
 from backend.security import (
@@ -57,13 +60,28 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
         ensure_default_limits(session)
         session.commit()
     task_runner = runner or make_task_runner(settings, session_factory)
+    store = BlobStore(settings.frames_dir)
 
     @asynccontextmanager
     async def lifespan(_app: FastAPI) -> AsyncIterator[None]:
         resumed = task_runner.resume()
         if resumed:
             logger.info("resumed %d interrupted wheel measurement(s)", resumed)
+        retention = None
+        if settings.frame_retention_days is not None:
+            retention = asyncio.create_task(
+                sweep_periodically(
+                    session_factory,
+                    store,
+                    settings.frame_retention_days,
+                    settings.retention_sweep_interval_s,
+                )
+            )
         yield
+        if retention is not None:
+            retention.cancel()  # waits for a sweep under way: its thread is not interrupted
+            with contextlib.suppress(asyncio.CancelledError):
+                await retention
         task_runner.shutdown()
         engine.dispose()
 
@@ -76,7 +94,7 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     app.state.settings = settings
     app.state.engine = engine
     app.state.session_factory = session_factory
-    app.state.store = BlobStore(settings.frames_dir)
+    app.state.store = store
     app.state.runner = task_runner
     install_error_handlers(app)
     install_outage_handlers(app)

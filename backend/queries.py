@@ -83,6 +83,7 @@ def pass_summary(session: Session, train_pass: Pass) -> PassSummary:
             "wheels_not_measured": states.get("not_measured", 0) + states.get("failed", 0),
             "alarm_count": _alarm_count(session, train_pass.id),
             "job": job_progress(job) if job else None,
+            "frames_removed_at": train_pass.frames_removed_at,
         }
     )
 
@@ -160,6 +161,7 @@ def pass_wheels(session: Session, train_pass: Pass) -> list[PassWheelRead]:
                 },
                 results=results,
                 alarm_count=len(primary[0].alarms) if primary else 0,
+                frames_removed_at=train_pass.frames_removed_at,
             )
         )
     return result

@@ -191,6 +191,9 @@ class PassSummary(BaseModel):
     wheels_not_measured: int
     alarm_count: int
     job: JobProgress | None
+    frames_removed_at: datetime | None = Field(
+        default=None, description="when frame retention removed the raw frames (results kept)"
+    )
 
 
 ItemT = TypeVar("ItemT")
@@ -233,6 +236,9 @@ class PassWheelRead(BaseModel):
     frames: dict[str, int] = Field(description="frame count per sensor")
     results: list[MethodResult]
     alarm_count: int
+    frames_removed_at: datetime | None = Field(
+        default=None, description="when frame retention removed the raw frames (results kept)"
+    )
 
 
 class CentresRead(BaseModel):

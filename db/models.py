@@ -110,6 +110,8 @@ class Pass(Base):
     vehicles: Mapped[list[Any] | None]
     created_at: Mapped[datetime] = mapped_column(default=utc_now)
     closed_at: Mapped[datetime | None]
+    frames_removed_at: Mapped[datetime | None]
+    """When frame retention removed the raw frames (measurement results are kept)."""
 
     site: Mapped[Site] = relationship()
     calibration: Mapped[Calibration] = relationship()

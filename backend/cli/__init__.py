@@ -18,6 +18,7 @@ VERB_MODULES: list[str] = [
     "backend.cli.worker",
     "backend.cli.serve",
     "backend.cli.backup",
+    "backend.cli.retention",
 ]
 
 

@@ -29,6 +29,9 @@ FILES: dict[int | str, dict[str, Any]] = {
 
 
 def _frames_of(session: Session, train_pass: Pass, wheel: PassWheelRead) -> list[Frame]:
+    """The wheel's frames for the PDF thumbnails; none once retention removed them."""
+    if train_pass.frames_removed_at is not None:
+        return []
     return list(
         session.scalars(
             select(Frame)

@@ -14,11 +14,12 @@ from sqlalchemy import select
 
 from backend.artefacts import FrameArtefacts
 from backend.deps import PassWheelDep, SessionDep, StoreDep, ViewerDep, WheelDep
-from backend.errors import ERROR_RESPONSES, NotFoundError
+from backend.errors import ERROR_RESPONSES, GoneError, NotFoundError
 from backend.images import SIGMA_COLORMAP, LayerPng, cached_artefacts, frame_png, layer_png
 from backend.queries import METHODS, method_result, pass_wheels
 from backend.schemas import (
     CentresRead,
+    ErrorRead,
     PassWheelRead,
     ProfileRead,
     Sensor,
@@ -36,6 +37,10 @@ Method = Literal["adaptive", "steger"]
 WHEEL = "/passes/{pass_id}/wheels/{wheel_id}"
 PNG: dict[int | str, dict[str, Any]] = {
     200: {"content": {"image/png": {}}, "description": "PNG image"},
+}
+FRAME_PNG: dict[int | str, dict[str, Any]] = {
+    **PNG,
+    410: {"model": ErrorRead, "description": "the frame was removed by frame retention"},
 }
 MaxWidth = Annotated[int | None, Query(ge=16, le=8192, description="downscale to this width [px]")]
 REVALIDATE = {"Cache-Control": "private, no-cache"}
@@ -120,7 +125,7 @@ def get_pass_wheel(
     return next(row for row in rows if row.wheel_id == pass_wheel.wheel_id)
 
 
-@router.get(WHEEL + "/frames/{position}.png", response_class=Response, responses=PNG)
+@router.get(WHEEL + "/frames/{position}.png", response_class=Response, responses=FRAME_PNG)
 def get_frame_png(
     request: Request,
     position: Position,
@@ -131,8 +136,15 @@ def get_frame_png(
     index: FrameIndex = 0,
     max_width: MaxWidth = None,
 ) -> Response:
-    """A frame of the wheel's inner or outer sensor as PNG (8/16-bit grey as recorded)."""
+    """A frame of the wheel's inner or outer sensor as PNG (8/16-bit grey as recorded);
+    410 once frame retention removed the pass's frames."""
     frame = _frame(session, pass_wheel, position, index)
+    removed_at = pass_wheel.train_pass.frames_removed_at
+    if removed_at is not None:
+        raise GoneError(
+            f"frames of pass {pass_wheel.pass_id} were removed by retention on "
+            f"{removed_at:%Y-%m-%d}; the measurement results are kept"
+        )
     etag = f'"{frame.sha256[:24]}-{max_width}"'
     if (cached := _revalidated(request, etag)) is not None:
         return cached
