@@ -152,7 +152,7 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
     store.get().limits ?? api.getLimits(),
     Promise.all(METHODS.map((m) => api.profile(passId, wheelId, m).catch((err) => ({ error: err.message })))),
     api.trend(wheelId).catch((err) => ({ error: err.message })),
-    api.frameImage(passId, wheelId, s, i),
+    record.frames_removed_at ? null : api.frameImage(passId, wheelId, s, i),
     ...METHODS.map((m) => api.centres(passId, wheelId, s, i, m).catch((err) => ({ error: err.message }))),
   ]);
   const sideLayers = new AbortController();
@@ -162,7 +162,7 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
     wheel: {
       ...store.get().wheel,
       passId, wheelId, frames, sensor: s, index: i, loading: false, record: byId(wheels) ?? record, sideLayers,
-      layers: { image, mask: null, sigma: null },
+      layers: { image: image ?? await blankFrame(adaptive, steger), mask: null, sigma: null },
       sigmaScale: null,
       centres: { adaptive, steger },
       profiles: { adaptive: profiles[0], steger: profiles[1] },
@@ -202,6 +202,17 @@ async function loadSideLayers(api, store, passId, wheelId, sensor, index, signal
       layerErrors: { mask: 'error' in mask ? mask.error : null, sigma: sigmaOk ? null : sigma.error },
     },
   });
+}
+
+/**
+ * A transparent frame of the recorded size in place of a camera frame removed by retention,
+ * so the centres, mask and σ map keep their positions (the wheel page says why).
+ * @param {...any} centres CentresRead responses (or {error}), which carry width_px, height_px
+ * @returns {Promise<ImageBitmap>}
+ */
+function blankFrame(...centres) {
+  const size = centres.find((c) => c?.width_px > 0) ?? { width_px: 1, height_px: 1 };
+  return createImageBitmap(new ImageData(size.width_px, size.height_px));
 }
 
 /**

@@ -3,7 +3,8 @@ import assert from 'node:assert/strict';
 import { test } from 'node:test';
 
 import {
-  hasAlarmOn, limitStem, limitsFor, passFilterQuery, passStatus, resultOf, trendColumns,
+  framesRemovedNote, hasAlarmOn, limitStem, limitsFor, passFilterQuery, passStatus, resultOf,
+  trendColumns,
 } from '../../frontend/js/lib/records.js';
 
 const LIMITS = [{ wheel_profile: 'EN', flange_height_min_mm: 27.5 }, { wheel_profile: 'LM', flange_height_min_mm: 25 }];
@@ -55,4 +56,13 @@ test('trendColumns aligns both methods on pass time, ascending', () => {
   assert.deepEqual(x, [Date.parse('2026-11-01T00:00:00Z') / 1000, Date.parse('2026-11-02T00:00:00Z') / 1000]);
   assert.deepEqual(columns['adaptive:flange_height_mm'], [28.4, 29]);
   assert.deepEqual(columns['steger:flange_height_mm'], [28.5, null]);
+});
+
+test('framesRemovedNote says when retention removed the frames, and nothing otherwise', () => {
+  assert.equal(
+    framesRemovedNote({ frames_removed_at: '2026-12-01T12:00:00Z' }),
+    'camera frames removed by retention on 2026-12-01; results, centres, mask and σ map are kept',
+  );
+  assert.equal(framesRemovedNote({ frames_removed_at: null }), null);
+  assert.equal(framesRemovedNote(undefined), null);
 });

@@ -107,3 +107,15 @@ export function trendColumns(trend, methods, keys) {
   }
   return { x: passes.map((p) => p.t), columns };
 }
+
+/**
+ * What a wheel page says when frame retention removed the pass's camera frames, else null.
+ * @param {any} wheel a PassWheelRead (its frames_removed_at is an ISO-8601 time or null)
+ * @returns {string|null}
+ */
+export function framesRemovedNote(wheel) {
+  const removedAt = wheel?.frames_removed_at;
+  if (!removedAt) return null;
+  return `camera frames removed by retention on ${String(removedAt).slice(0, 10)}; `
+    + 'results, centres, mask and σ map are kept';
+}

@@ -7,7 +7,7 @@
 import { differenceAlongStripe } from '../lib/method-difference.js';
 import { nearestOnScreen } from '../lib/plot-scale.js';
 import { fmtNumber, fmtSensor, fmtSigned, METHODS, PARAMETERS } from '../lib/format.js';
-import { hasAlarmOn, limitStem, limitsFor, resultOf } from '../lib/records.js';
+import { framesRemovedNote, hasAlarmOn, limitStem, limitsFor, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { alarmClass, h } from './dom.js';
 import { FrameView } from './frame-view.js';
@@ -238,13 +238,15 @@ export class WheelView {
 }
 
 /**
- * Why a layer that is switched on is not drawn yet: still loading, or the service's words.
+ * Why a layer that is switched on is not drawn yet: still loading, or the service's words;
+ * first, that the camera frame itself was removed by retention.
  * @param {Record<string, boolean>} show
  * @param {any} w the wheel state
  * @returns {string}
  */
 function layerNote(show, w) {
-  const notes = [];
+  const removed = framesRemovedNote(w.record);
+  const notes = removed ? [removed] : [];
   for (const [key, label] of [['mask', 'stripe mask'], ['sigma', 'σ map']]) {
     if (!show[key] || w.layers?.[key]) continue;
     const error = w.layerErrors?.[key];
