@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from pipeline.adaptive import HINT_REACH, LevelResponse
@@ -74,42 +75,63 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
 
 
 @kernel
-def _max_filter_blocks(field, blocks, half):
-    """Max over the (2·half+1)² square around each band pixel (outside the band: 0).
+def _max_along_rows(field, need, half, out) -> None:
+    """out[r, c] = max of field[r, c − half .. c + half] (clipped) on the needed blocks."""
+    width = field.shape[1]
+    for r in range(field.shape[0]):
+        br = r // BLOCK_PX
+        bc = 0
+        while bc < need.shape[1]:
+            if not need[br, bc]:
+                bc += 1
+                continue
+            start = bc
+            while bc < need.shape[1] and need[br, bc]:
+                bc += 1
+            c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
+            for k in range(-half, half + 1):
+                lo, hi = max(c0 + k, 0), min(c1 + k, width)
+                source = field[r, lo:hi]
+                target = out[r, lo - k : hi - k]
+                for i in range(hi - lo):
+                    target[i] = max(target[i], source[i])
 
-    Separable: a running max along rows on the rows within `half` of the band, then along
-    columns on the band's pixels. Each loop reads one array and writes one, so it vectorises.
-    """
+
+@kernel
+def _max_along_columns(field, blocks, half, out) -> None:
+    """out[r, c] = max of field[r − half .. r + half, c] (clipped) on the band's blocks."""
     height, width = field.shape
-    along_rows = np.zeros((height, width), np.float32)
-    out = np.zeros((height, width), np.float32)
-    reach = (half + BLOCK_PX - 1) // BLOCK_PX
-    for br in range(blocks.shape[0]):
-        for bc in range(blocks.shape[1]):
+    for r in range(height):
+        br = r // BLOCK_PX
+        bc = 0
+        while bc < blocks.shape[1]:
             if not blocks[br, bc]:
+                bc += 1
                 continue
-            c0, c1 = bc * BLOCK_PX, min(bc * BLOCK_PX + BLOCK_PX, width)
-            lo = max((br - reach) * BLOCK_PX, 0)
-            hi = min((br + 1 + reach) * BLOCK_PX, height)
-            for r in range(lo, hi):
-                target = along_rows[r, c0:c1]
-                for k in range(-half, half + 1):
-                    a, b = max(c0 + k, 0), min(c1 + k, width)
-                    source = field[r, a:b]
-                    shift = a - (c0 + k)
-                    for i in range(b - a):
-                        target[i + shift] = max(target[i + shift], source[i])
-    for br in range(blocks.shape[0]):
-        for bc in range(blocks.shape[1]):
-            if not blocks[br, bc]:
-                continue
-            c0, c1 = bc * BLOCK_PX, min(bc * BLOCK_PX + BLOCK_PX, width)
-            for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-                target = out[r, c0:c1]
-                for k in range(max(r - half, 0), min(r + half + 1, height)):
-                    source = along_rows[k, c0:c1]
-                    for i in range(c1 - c0):
-                        target[i] = max(target[i], source[i])
+            start = bc
+            while bc < blocks.shape[1] and blocks[br, bc]:
+                bc += 1
+            c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
+            target = out[r, c0:c1]
+            for k in range(max(r - half, 0), min(r + half + 1, height)):
+                source = field[k, c0:c1]
+                for i in range(c1 - c0):
+                    target[i] = max(target[i], source[i])
+
+
+def _max_filter_blocks(field: np.ndarray, blocks: np.ndarray, half: int) -> np.ndarray:
+    """Max over the (2·half+1)² square around each band pixel (clipped at the grid; C ≥ 0).
+
+    Separable, on whole runs of blocks: along rows on the rows within `half` of the band,
+    then along columns on the band. Each loop reads one array and writes another, so it
+    vectorises.
+    """
+    reach = -(-half // BLOCK_PX)
+    need = cv2.dilate(blocks.astype(np.uint8), np.ones((2 * reach + 1, 1), np.uint8)) > 0
+    along_rows = np.zeros(field.shape, np.float32)
+    _max_along_rows(field, need, half, along_rows)
+    out = np.zeros(field.shape, np.float32)
+    _max_along_columns(along_rows, blocks, half, out)
     return out
 
 

@@ -12,16 +12,21 @@ from pipeline.band import band_pixels
 from pipeline.band_filters import BLOCK_PX
 from pipeline.jit import kernel
 from pipeline.ridges import RIDGE_THRESHOLD
-from pipeline.segmentation import CLOSING_PX, shapes_from_moments, stripe_components
+from pipeline.segmentation import (
+    CLOSING_PX,
+    MIN_COMPONENT_AREA_PX,
+    shapes_from_moments,
+    stripe_components,
+)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
 class BandMask:
     """The stripe mask found inside a band.
 
-    `mask` (M, N) bool is the closed stripe mask; `inside` is False when a stripe component
-    reaches the band's outer blocks, where the band may have cut it (the full-frame path must
-    then decide).
+    `mask` (M, N) bool is the closed stripe mask; `inside` is False when a component that is
+    or could be part of the stripe comes within EDGE_REACH_PX of the band's edge, where the
+    band may have cut it (the full-frame path must then decide).
     """
 
     mask: np.ndarray
@@ -158,10 +163,29 @@ def _erode_pixels(dilated, rows, cols, element):
     return out
 
 
-def _interior_blocks(blocks: np.ndarray) -> np.ndarray:
-    """Band blocks whose 8 neighbours are in the band too (beyond the grid counts as band)."""
-    grid = np.pad(blocks, 1, constant_values=True).astype(np.uint8)
-    return cv2.erode(grid, np.ones((3, 3), np.uint8))[1:-1, 1:-1].astype(bool) & blocks
+EDGE_REACH_PX = 5
+"""A stripe pixel closer than this to the band's edge may be cut by it [px]: the closing
+reaches 4 px, a centre hint 4 px (one stride of level 2)."""
+
+
+@kernel
+def _near_band_edge(rows, cols, blocks, reach):
+    """Whether each pixel has a pixel outside the band within `reach` (beyond the frame: band).
+
+    `reach` < BLOCK_PX, so the square of side 2·reach + 1 meets at most 2 × 2 blocks and its
+    corners tell.
+    """
+    out = np.zeros(rows.size, np.bool_)
+    last_r, last_c = blocks.shape[0] - 1, blocks.shape[1] - 1
+    for k in range(rows.size):
+        for dr in (-reach, reach):
+            for dc in (-reach, reach):
+                r, c = rows[k] + dr, cols[k] + dc
+                br = min(max(r, 0) // BLOCK_PX, last_r)
+                bc = min(max(c, 0) // BLOCK_PX, last_c)
+                if not blocks[br, bc]:
+                    out[k] = True
+    return out
 
 
 def segment_band(
@@ -187,11 +211,14 @@ def segment_band(
     binary = _stripe_binary(responses, strides, blocks, shape)
     rows, cols = band_pixels(binary, blocks)
     label, moments = _label_components(shape[1], rows, cols, shape[0])
-    keep = stripe_components(shapes_from_moments(*moments.T))
+    shapes = shapes_from_moments(*moments.T)
+    keep = stripe_components(shapes)
+    # A component the band may have cut: kept, or large enough to be kept whole.
+    touching = np.zeros(keep.size, bool)
+    touching[label[_near_band_edge(rows, cols, blocks, EDGE_REACH_PX)]] = True
+    inside = not (touching & (keep | (shapes.area_px >= MIN_COMPONENT_AREA_PX))).any()
     kept = keep[label]
     rows, cols = rows[kept], cols[kept]
-    interior = _interior_blocks(blocks)
-    inside = bool(interior[rows // BLOCK_PX, cols // BLOCK_PX].all())
     element = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (CLOSING_PX, CLOSING_PX))
     dilated = _dilate_pixels(rows, cols, element, shape)
     rows, cols = band_pixels(dilated, blocks)
