@@ -242,18 +242,31 @@ def sample_derivatives(
     )
 
 
+@kernel
+def _bilinear_clamped(field, stride, rows, cols, out) -> None:
+    height, width = field.shape
+    origin = 0.5 * (stride - 1)
+    for k in range(rows.size):
+        u = min(max((cols[k] - origin) / stride, 0.0), width - 1.0)
+        v = min(max((rows[k] - origin) / stride, 0.0), height - 1.0)
+        u0 = min(int(u), width - 2)
+        v0 = min(int(v), height - 2)
+        fu, fv = u - u0, v - v0
+        top = field[v0, u0] * (1 - fu) + field[v0, u0 + 1] * fu
+        bottom = field[v0 + 1, u0] * (1 - fu) + field[v0 + 1, u0 + 1] * fu
+        out[k] = top * (1 - fv) + bottom * fv
+
+
 def sample_bilinear(level: ScaleLevel, field: np.ndarray, rows, cols) -> np.ndarray:
-    """Bilinear values of a level-grid field at frame pixels (for display maps), shape (K,)."""
+    """Bilinear values of a level-grid field at frame pixels (for display maps), shape (K,).
+
+    Coordinates are clamped to the grid (no extrapolation beyond its edge pixels).
+    """
     if level.level == 0:
         return field[rows, cols]
-    u = np.clip(level.to_level(cols.astype(np.float64)), 0, field.shape[1] - 1)
-    v = np.clip(level.to_level(rows.astype(np.float64)), 0, field.shape[0] - 1)
-    u0 = np.minimum(u.astype(np.int64), field.shape[1] - 2)
-    v0 = np.minimum(v.astype(np.int64), field.shape[0] - 2)
-    fu, fv = u - u0, v - v0
-    top = field[v0, u0] * (1 - fu) + field[v0, u0 + 1] * fu
-    bottom = field[v0 + 1, u0] * (1 - fu) + field[v0 + 1, u0 + 1] * fu
-    return top * (1 - fv) + bottom * fv
+    out = np.empty(np.size(rows), np.float32)
+    _bilinear_clamped(field, level.stride, np.asarray(rows), np.asarray(cols), out)
+    return out
 
 
 def upsample_to_frame(field: np.ndarray, level: int, shape: tuple[int, int]) -> np.ndarray:

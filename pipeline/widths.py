@@ -7,30 +7,34 @@ import numpy as np
 from pipeline.jit import kernel
 from pipeline.scalespace import ScaleLevel, cubic_value, reflect_index
 
-STEP_PX = 0.25
-"""Sampling step of the coarse search along the normal [px]."""
+STEP_PX = 1.0
+"""Sampling step of the coarse search along the normal [px]. The refinement spans ±1 px
+around the coarse maximum, so a 1 px step still finds the maximum of a smooth profile,
+with a quarter of the samples of a 0.25 px step (the search is memory-bound)."""
 
 REFINE_STEP_PX = 0.5
 """Spacing of the cubic samples that refine each edge [px]."""
 
 
 @kernel
-def _gradient_bilinear(ix, iy, u: float, v: float) -> float:
-    """|∇I| from bilinear Ix, Iy at level-grid coordinates (u, v), reflect border."""
+def _gradient_squared(ix, iy, u: float, v: float) -> float:
+    """|∇I|² from bilinear Ix, Iy at level-grid coordinates (u, v), reflect border."""
     height, width = ix.shape
     u0 = np.floor(u)
     v0 = np.floor(v)
     fu = u - u0
     fv = v - v0
-    c0 = reflect_index(int(u0), width)
-    c1 = reflect_index(int(u0) + 1, width)
-    r0 = reflect_index(int(v0), height)
-    r1 = reflect_index(int(v0) + 1, height)
+    c0, r0 = int(u0), int(v0)
+    if 0 <= c0 < width - 1 and 0 <= r0 < height - 1:
+        c1, r1 = c0 + 1, r0 + 1
+    else:
+        c1, r1 = reflect_index(c0 + 1, width), reflect_index(r0 + 1, height)
+        c0, r0 = reflect_index(c0, width), reflect_index(r0, height)
     gx = (ix[r0, c0] * (1 - fu) + ix[r0, c1] * fu) * (1 - fv)
     gx += (ix[r1, c0] * (1 - fu) + ix[r1, c1] * fu) * fv
     gy = (iy[r0, c0] * (1 - fu) + iy[r0, c1] * fu) * (1 - fv)
     gy += (iy[r1, c0] * (1 - fu) + iy[r1, c1] * fu) * fv
-    return np.hypot(gx, gy)
+    return gx * gx + gy * gy
 
 
 @kernel
@@ -50,7 +54,7 @@ def _edge_distances(ix, iy, stride, x, y, dx, dy, steps, out) -> None:
         for i in range(steps.size):
             u = (x[k] + steps[i] * dx[k] - origin) / stride
             v = (y[k] + steps[i] * dy[k] - origin) / stride
-            value = _gradient_bilinear(ix, iy, u, v)
+            value = _gradient_squared(ix, iy, u, v)
             if value > best:
                 best = value
                 at = i
