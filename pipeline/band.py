@@ -14,8 +14,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.band_filters import BLOCK_PX
 from pipeline.jit import kernel
+
+BLOCK_PX = 8
+"""Side of a band block [px of its level]."""
 
 BAND_SEED_RESPONSE = 0.1
 """Coarsest-scale V above which a pixel may belong to a stripe (the mask needs V > 0.5 at
@@ -28,6 +30,12 @@ inside the band, with room for the max filter of C and the width search. Measure
 issue-3 cases and 1600×1200 frames: 12 px keeps every frame on the band path with the same
 mask and centres as the full frame, 8 px sends some to the full frame."""
 
+RING_BLOCKS = 2
+"""The band path's fields hold their values on the band and 0 on this many blocks around
+it, and nothing reads further: the width search (13 px at σ1), the bilinear and cubic reads
+and the max filter of C (10 px) all stay within 2 blocks of a mask EDGE_REACH_PX inside the
+band. The rest of each field is left unwritten (no frame-sized memset)."""
+
 MAX_BAND_FRACTION = 0.4
 """A band covering more of the frame than this saves nothing: the full-frame path runs."""
 
@@ -36,19 +44,31 @@ MAX_BAND_FRACTION = 0.4
 class StripeBand:
     """Blocks (BLOCK_PX × BLOCK_PX of each level's grid) that may hold the stripe.
 
-    `blocks[L]` is the bool block grid of pyramid level L (None for levels not used);
-    `fraction` the share of the frame's level-0 blocks in the band.
+    `blocks[L]` is the bool block grid of pyramid level L, `rings[L]` the RING_BLOCKS
+    blocks around it; `fraction` the share of the frame's level-0 blocks in the band.
     """
 
-    blocks: tuple[np.ndarray | None, ...]
+    blocks: tuple[np.ndarray, ...]
+    rings: tuple[np.ndarray, ...]
     fraction: float
 
-    def level_blocks(self, level: int) -> np.ndarray:
-        """The block grid of one pyramid level."""
-        grid = self.blocks[level]
-        if grid is None:
-            raise ValueError(f"the band has no blocks on level {level}")
-        return grid
+
+def band_ring(blocks: np.ndarray) -> np.ndarray:
+    """The blocks within RING_BLOCKS of the band's blocks, not in it."""
+    size = 2 * RING_BLOCKS + 1
+    near = cv2.dilate(blocks.astype(np.uint8), np.ones((size, size), np.uint8)) > 0
+    return near & ~blocks
+
+
+@kernel
+def zero_blocks(field, blocks) -> None:
+    """Set the pixels of the given blocks to 0."""
+    height, width = field.shape
+    for br in range(blocks.shape[0]):
+        for bc in range(blocks.shape[1]):
+            if blocks[br, bc]:
+                r1, c1 = min(br * BLOCK_PX + BLOCK_PX, height), min(bc * BLOCK_PX + BLOCK_PX, width)
+                field[br * BLOCK_PX : r1, bc * BLOCK_PX : c1] = 0
 
 
 def block_grid(shape: tuple[int, int]) -> tuple[int, int]:
@@ -94,8 +114,8 @@ def locate_band(
     for level, shape in enumerate(level_shapes):
         ratio = BLOCK_PX * 2**level // stride
         blocks.append(_pool_blocks(band, max(ratio, 1), *block_grid(shape)))
-    frame_blocks = blocks[0]
-    return StripeBand(blocks=tuple(blocks), fraction=float(frame_blocks.mean()))
+    rings = tuple(band_ring(grid) for grid in blocks)
+    return StripeBand(blocks=tuple(blocks), rings=rings, fraction=float(blocks[0].mean()))
 
 
 @kernel

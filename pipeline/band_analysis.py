@@ -17,8 +17,15 @@ import cv2
 import numpy as np
 
 from pipeline.adaptive import HINT_REACH, LevelResponse
-from pipeline.band import MAX_BAND_FRACTION, StripeBand, block_grid, locate_band
-from pipeline.band_filters import BLOCK_PX, band_derivatives
+from pipeline.band import (
+    BLOCK_PX,
+    MAX_BAND_FRACTION,
+    StripeBand,
+    block_grid,
+    locate_band,
+    zero_blocks,
+)
+from pipeline.band_filters import band_derivatives
 from pipeline.band_segmentation import segment_band
 from pipeline.hessian import eigen2
 from pipeline.jit import kernel
@@ -38,8 +45,8 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
     """V and C on the band's pixels of one level; sets the frame pixels hinted at (3×3)."""
     height, width = ix.shape
     frame_rows, frame_cols = hints.shape
-    response = np.zeros((height, width), np.float32)
-    strength = np.zeros((height, width), np.float32)
+    response = np.empty((height, width), np.float32)
+    strength = np.empty((height, width), np.float32)
     norm = sigma_px * sigma_px / (stride * stride)  # σ² and level → frame units of ∂²
     sigma2 = sigma_px * sigma_px
     first = 1.0 / stride
@@ -51,6 +58,8 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
                 continue
             for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
                 for c in range(bc * BLOCK_PX, min(bc * BLOCK_PX + BLOCK_PX, width)):
+                    response[r, c] = 0.0
+                    strength[r, c] = 0.0
                     dxx, dxy, dyy = ixx[r, c], ixy[r, c], iyy[r, c]
                     # As analyse_level: only λ1 < 0 candidates strong enough can matter.
                     if not dxx + dyy < 0:
@@ -89,6 +98,7 @@ def _max_along_rows(field, need, half, out) -> None:
             while bc < need.shape[1] and need[br, bc]:
                 bc += 1
             c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
+            out[r, c0:c1] = 0.0
             for k in range(-half, half + 1):
                 lo, hi = max(c0 + k, 0), min(c1 + k, width)
                 source = field[r, lo:hi]
@@ -113,13 +123,16 @@ def _max_along_columns(field, blocks, half, out) -> None:
                 bc += 1
             c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
             target = out[r, c0:c1]
+            target[:] = 0.0
             for k in range(max(r - half, 0), min(r + half + 1, height)):
                 source = field[k, c0:c1]
                 for i in range(c1 - c0):
                     target[i] = max(target[i], source[i])
 
 
-def _max_filter_blocks(field: np.ndarray, blocks: np.ndarray, half: int) -> np.ndarray:
+def _max_filter_blocks(
+    field: np.ndarray, blocks: np.ndarray, ring: np.ndarray, half: int
+) -> np.ndarray:
     """Max over the (2·half+1)² square around each band pixel (clipped at the grid; C ≥ 0).
 
     Separable, on whole runs of blocks: along rows on the rows within `half` of the band,
@@ -128,16 +141,18 @@ def _max_filter_blocks(field: np.ndarray, blocks: np.ndarray, half: int) -> np.n
     """
     reach = -(-half // BLOCK_PX)
     need = cv2.dilate(blocks.astype(np.uint8), np.ones((2 * reach + 1, 1), np.uint8)) > 0
-    along_rows = np.zeros(field.shape, np.float32)
+    along_rows = np.empty(field.shape, np.float32)
     _max_along_rows(field, need, half, along_rows)
-    out = np.zeros(field.shape, np.float32)
+    out = np.empty(field.shape, np.float32)
     _max_along_columns(along_rows, blocks, half, out)
+    zero_blocks(out, ring)
     return out
 
 
 def analyse_band_level(
     level: ScaleLevel,
     blocks: np.ndarray,
+    ring: np.ndarray,
     *,
     c_grey: float,
     frame_shape: tuple[int, int],
@@ -151,6 +166,8 @@ def analyse_band_level(
         Derivatives of the scale (valid on the band's blocks).
     blocks : ndarray of bool
         The band's blocks of that level.
+    ring : ndarray of bool
+        The blocks around them set to 0 (see `pipeline.band.RING_BLOCKS`).
     c_grey : float
         Structure constant of the ridge response [grey levels].
     frame_shape : tuple of int
@@ -161,7 +178,7 @@ def analyse_band_level(
     Returns
     -------
     LevelResponse
-        V, the ridge-peak C and the hints; 0 (False) outside the band.
+        V, the ridge-peak C and the hints, valid on the band and its ring.
     """
     d = level.derivatives
     hints = np.zeros(frame_shape, np.bool_)
@@ -178,8 +195,10 @@ def analyse_band_level(
         c_grey,
         hints,
     )
+    for field in (response, strength):
+        zero_blocks(field, ring)
     half = max(1, round(peak_reach_px / level.stride))
-    peak = _max_filter_blocks(strength, blocks, half)
+    peak = _max_filter_blocks(strength, blocks, ring, half)
     return LevelResponse(level=level, response=response, peak_strength=peak, hints=hints)
 
 
@@ -237,19 +256,22 @@ def analyse_band(
     pyramid[0] = image
     shapes = level_shapes(image.shape, coarsest)
 
-    def derivatives(index: int, blocks: np.ndarray) -> ScaleLevel:
+    def analysed(index: int, blocks: np.ndarray, ring: np.ndarray) -> LevelResponse:
         sigma, level = sigmas_px[index], levels[index]
         residual = math.sqrt(sigma**2 - decimated_variance(level)) / 2**level
-        return ScaleLevel(float(sigma), level, band_derivatives(pyramid[level], residual, blocks))
-
-    def analysed(level: ScaleLevel, blocks: np.ndarray) -> LevelResponse:
+        derivatives = band_derivatives(pyramid[level], residual, blocks, ring)
         return analyse_band_level(
-            level, blocks, c_grey=c_grey, frame_shape=image.shape, peak_reach_px=peak_reach_px
+            ScaleLevel(float(sigma), level, derivatives),
+            blocks,
+            ring,
+            c_grey=c_grey,
+            frame_shape=image.shape,
+            peak_reach_px=peak_reach_px,
         )
 
     seed_index = max(range(len(levels)), key=lambda i: (levels[i], sigmas_px[i]))
     seed_blocks = np.ones(block_grid(shapes[coarsest]), np.bool_)
-    seed = analysed(derivatives(seed_index, seed_blocks), seed_blocks)
+    seed = analysed(seed_index, seed_blocks, ~seed_blocks)
     band = locate_band(seed.response, coarsest, shapes)
     if band.fraction > MAX_BAND_FRACTION:
         reason = f"the band covers {100 * band.fraction:.0f} % of the frame"
@@ -259,12 +281,9 @@ def analyse_band(
         if i == seed_index:
             scales.append(seed)
         else:
-            blocks = band.level_blocks(level)
-            scales.append(analysed(derivatives(i, blocks), blocks))
+            scales.append(analysed(i, band.blocks[level], band.rings[level]))
     strides = tuple(2**lv for lv in levels)
-    found = segment_band(
-        tuple(sc.response for sc in scales), strides, band.level_blocks(0), image.shape
-    )
+    found = segment_band(tuple(sc.response for sc in scales), strides, band.blocks[0], image.shape)
     reason = "" if found.inside else "a stripe component reaches the band's edge"
     return BandAnalysis(
         tuple(float(s) for s in sigmas_px),

@@ -15,11 +15,9 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
+from pipeline.band import BLOCK_PX, zero_blocks
 from pipeline.gaussian import BORDER, GaussianDerivatives, gaussian_kernels
 from pipeline.jit import kernel
-
-BLOCK_PX = 8
-"""Side of a band block [px of its level]."""
 
 
 @kernel
@@ -35,8 +33,8 @@ def _row_needs(blocks, reach_px, padded_rows):
 
 
 @functools.cache
-def _passes(radius: int) -> tuple[Callable[..., None], Callable[..., None]]:
-    """The x and y passes compiled for one kernel radius [px].
+def _passes(radius: int) -> tuple[Callable[..., None], ...]:
+    """The x pass and the two y passes compiled for one kernel radius [px].
 
     The radius is a compile-time constant, so the tap loop unrolls and the loop over the
     columns of a stretch vectorises (about 8× faster than a radius known only at run time).
@@ -109,10 +107,40 @@ def _passes(radius: int) -> tuple[Callable[..., None], Callable[..., None]]:
                             s_odd += g_odd[radius + k] * (up - down)
                         even[i], odd[i] = s_even, s_odd
 
-    return x_pass, y_pass
+    @kernel
+    def y_even(t, g_even, blocks, out_even) -> None:
+        """`y_pass` with the even kernel only."""
+        height, width = out_even.shape
+        flat = t.ravel()
+        row_step = np.uint64(width)
+        for br in range(blocks.shape[0]):
+            bc = 0
+            while bc < blocks.shape[1]:
+                if not blocks[br, bc]:
+                    bc += 1
+                    continue
+                start = bc
+                while bc < blocks.shape[1] and blocks[br, bc]:
+                    bc += 1
+                c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
+                for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+                    first = np.uint64(r + radius) * row_step + np.uint64(c0)
+                    even = out_even[r, c0:c1]
+                    for i in range(c1 - c0):
+                        at = first + np.uint64(i)
+                        s_even = g_even[radius] * flat[at]
+                        for k in range(1, radius + 1):
+                            up = flat[at - np.uint64(k) * row_step]
+                            down = flat[at + np.uint64(k) * row_step]
+                            s_even += g_even[radius + k] * (up + down)
+                        even[i] = s_even
+
+    return x_pass, y_pass, y_even
 
 
-def band_derivatives(image: np.ndarray, sigma_px: float, blocks: np.ndarray) -> GaussianDerivatives:
+def band_derivatives(
+    image: np.ndarray, sigma_px: float, blocks: np.ndarray, ring: np.ndarray
+) -> GaussianDerivatives:
     """Ix, Iy, Ixx, Ixy, Iyy of `image` at scale `sigma_px` on the band's blocks.
 
     Parameters
@@ -123,11 +151,13 @@ def band_derivatives(image: np.ndarray, sigma_px: float, blocks: np.ndarray) -> 
         Gaussian scale [px of that level].
     blocks : ndarray of shape (ceil(M/8), ceil(N/8)), bool
         The band: blocks where the derivatives are wanted.
+    ring : ndarray of bool, the shape of `blocks`
+        Blocks set to 0 around the band (see `pipeline.band.RING_BLOCKS`).
 
     Returns
     -------
     GaussianDerivatives
-        Five float32 (M, N) images, 0 outside the band.
+        Five float32 (M, N) images, valid on the band and its ring only.
     """
     kernels = gaussian_kernels(sigma_px)
     radius = kernels.radius_px
@@ -137,11 +167,13 @@ def band_derivatives(image: np.ndarray, sigma_px: float, blocks: np.ndarray) -> 
     need = _row_needs(blocks, radius, padded.shape[0])
     rows, cols = image.shape
     along_x = [np.empty((padded.shape[0], cols), np.float32) for _ in range(3)]
-    x_pass, y_pass = _passes(radius)
+    x_pass, y_pass, y_even = _passes(radius)
     x_pass(padded, g0, g1, g2, need, *along_x)
-    ix, iy, ixx, ixy, iyy, unused = (np.zeros((rows, cols), np.float32) for _ in range(6))
+    ix, iy, ixx, ixy, iyy = (np.empty((rows, cols), np.float32) for _ in range(5))
     smooth_x, d1_x, d2_x = along_x
     y_pass(d1_x, g0, g1, blocks, ix, ixy)
     y_pass(smooth_x, g2, g1, blocks, iyy, iy)
-    y_pass(d2_x, g0, g1, blocks, ixx, unused)
+    y_even(d2_x, g0, blocks, ixx)
+    for field in (ix, iy, ixx, ixy, iyy):
+        zero_blocks(field, ring)
     return GaussianDerivatives(sigma_px=kernels.sigma_px, ix=ix, iy=iy, ixx=ixx, ixy=ixy, iyy=iyy)

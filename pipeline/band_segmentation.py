@@ -8,8 +8,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.band import band_pixels
-from pipeline.band_filters import BLOCK_PX
+from pipeline.band import BLOCK_PX, band_pixels
 from pipeline.jit import kernel
 from pipeline.ridges import RIDGE_THRESHOLD
 from pipeline.segmentation import (

@@ -383,7 +383,7 @@ def _analyse(image, frame, sigmas, c_grey, width_max, full_frame):
     if not full_frame:
         band = analyse_band(image, sigmas, c_grey=c_grey, peak_reach_px=peak_reach)
         if band.mask is not None and band.band is not None:
-            return band.scales, band.mask, band.band.level_blocks(0), "band"
+            return band.scales, band.mask, band.band.blocks[0], "band"
     analysis = analyse_scales(frame, sigmas, c_grey=c_grey, peak_reach_px=peak_reach)
     return (
         analysis.scales,
