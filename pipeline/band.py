@@ -61,14 +61,32 @@ def band_ring(blocks: np.ndarray) -> np.ndarray:
 
 
 @kernel
+def block_runs(blocks):
+    """Runs of consecutive True blocks along each block row: rows of (block_row, first, stop)."""
+    runs = np.empty((blocks.size // 2 + blocks.shape[0], 3), np.int64)
+    count = 0
+    for br in range(blocks.shape[0]):
+        bc = 0
+        while bc < blocks.shape[1]:
+            if not blocks[br, bc]:
+                bc += 1
+                continue
+            start = bc
+            while bc < blocks.shape[1] and blocks[br, bc]:
+                bc += 1
+            runs[count, 0], runs[count, 1], runs[count, 2] = br, start, bc
+            count += 1
+    return runs[:count]
+
+
+@kernel
 def zero_blocks(field, blocks) -> None:
     """Set the pixels of the given blocks to 0."""
     height, width = field.shape
-    for br in range(blocks.shape[0]):
-        for bc in range(blocks.shape[1]):
-            if blocks[br, bc]:
-                r1, c1 = min(br * BLOCK_PX + BLOCK_PX, height), min(bc * BLOCK_PX + BLOCK_PX, width)
-                field[br * BLOCK_PX : r1, bc * BLOCK_PX : c1] = 0
+    for br, first, stop in block_runs(blocks):
+        c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
+        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+            field[r, c0:c1] = 0
 
 
 def block_grid(shape: tuple[int, int]) -> tuple[int, int]:
@@ -122,18 +140,22 @@ def locate_band(
 def band_pixels(flags, blocks):
     """Rows and columns of the True pixels of `flags` inside the band's blocks, raster order."""
     height, width = flags.shape
+    runs = block_runs(blocks)
     most = int(blocks.sum()) * BLOCK_PX * BLOCK_PX
     rows = np.empty(most, np.int64)
     cols = np.empty(most, np.int64)
     count = 0
-    for r in range(height):
-        br = r // BLOCK_PX
-        for bc in range(blocks.shape[1]):
-            if not blocks[br, bc]:
-                continue
-            for c in range(bc * BLOCK_PX, min(bc * BLOCK_PX + BLOCK_PX, width)):
-                if flags[r, c]:
-                    rows[count] = r
-                    cols[count] = c
-                    count += 1
+    first_run = 0
+    for br in range(blocks.shape[0]):
+        while first_run < runs.shape[0] and runs[first_run, 0] < br:
+            first_run += 1
+        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+            k = first_run
+            while k < runs.shape[0] and runs[k, 0] == br:
+                for c in range(runs[k, 1] * BLOCK_PX, min(runs[k, 2] * BLOCK_PX, width)):
+                    if flags[r, c]:
+                        rows[count] = r
+                        cols[count] = c
+                        count += 1
+                k += 1
     return rows[:count].copy(), cols[:count].copy()

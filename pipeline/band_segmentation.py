@@ -5,15 +5,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
 from pipeline.band import BLOCK_PX, band_pixels
 from pipeline.jit import kernel
 from pipeline.ridges import RIDGE_THRESHOLD
 from pipeline.segmentation import (
-    CLOSING_PX,
     MIN_COMPONENT_AREA_PX,
+    close_holes,
     shapes_from_moments,
     stripe_components,
 )
@@ -130,41 +129,9 @@ def _label_components(width, rows, cols, height):
     return label, moments
 
 
-@kernel
-def _dilate_pixels(rows, cols, element, shape):
-    """The pixels dilated by `element` (centred; outside the frame: nothing)."""
-    height, width = shape
-    out = np.zeros((height, width), np.bool_)
-    half_r, half_c = element.shape[0] // 2, element.shape[1] // 2
-    for k in range(rows.size):
-        for i in range(element.shape[0]):
-            for j in range(element.shape[1]):
-                r, c = rows[k] + i - half_r, cols[k] + j - half_c
-                if element[i, j] and 0 <= r < height and 0 <= c < width:
-                    out[r, c] = True
-    return out
-
-
-@kernel
-def _erode_pixels(dilated, rows, cols, element):
-    """Erosion of `dilated` by `element` at its pixels (rows, cols); outside the frame: set."""
-    height, width = dilated.shape
-    out = np.zeros((height, width), np.bool_)
-    half_r, half_c = element.shape[0] // 2, element.shape[1] // 2
-    for k in range(rows.size):
-        keep = True
-        for i in range(element.shape[0]):
-            for j in range(element.shape[1]):
-                r, c = rows[k] + i - half_r, cols[k] + j - half_c
-                if element[i, j] and 0 <= r < height and 0 <= c < width and not dilated[r, c]:
-                    keep = False
-        out[rows[k], cols[k]] = keep
-    return out
-
-
 EDGE_REACH_PX = 5
-"""A stripe pixel closer than this to the band's edge may be cut by it [px]: the closing
-reaches 4 px, a centre hint 4 px (one stride of level 2)."""
+"""A stripe pixel closer than this to the band's edge may be cut by it [px]: a centre hint
+reaches 4 px (one stride of level 2)."""
 
 
 @kernel
@@ -217,8 +184,6 @@ def segment_band(
     touching[label[_near_band_edge(rows, cols, blocks, EDGE_REACH_PX)]] = True
     inside = not (touching & (keep | (shapes.area_px >= MIN_COMPONENT_AREA_PX))).any()
     kept = keep[label]
-    rows, cols = rows[kept], cols[kept]
-    element = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (CLOSING_PX, CLOSING_PX))
-    dilated = _dilate_pixels(rows, cols, element, shape)
-    rows, cols = band_pixels(dilated, blocks)
-    return BandMask(mask=_erode_pixels(dilated, rows, cols, element), inside=inside)
+    stripe = np.zeros(shape, bool)
+    stripe[rows[kept], cols[kept]] = True
+    return BandMask(mask=close_holes(stripe), inside=inside)

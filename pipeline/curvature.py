@@ -35,29 +35,44 @@ def _solve3(a, b) -> float:
 @kernel
 def _local_curvature(x, y, nx, ny, sigma, out) -> None:
     count = x.size
-    half = np.maximum(WINDOW_SIGMAS * sigma, MIN_HALF_WINDOW_PX)
-    reach = int(np.ceil(half.max() * 1.5)) + 1
     normal = np.empty((3, 3))
     rhs = np.empty(3)
     for i in range(count):
-        normal[:] = 0.0
-        rhs[:] = 0.0
+        half = max(WINDOW_SIGMAS * sigma[i], MIN_HALF_WINDOW_PX)
+        # Centres are at least 1/1.5 px apart along a chain, so the window's points lie
+        # within this many indices.
+        reach = int(np.ceil(half * 1.5)) + 1
+        s0 = s1 = s2 = s3 = s4 = 0.0  # Σw·uᵏ
+        t0 = t1 = t2 = 0.0  # Σw·uᵏ·v
         inside = 0
         for j in range(max(0, i - reach), min(count, i + reach + 1)):
             dx = x[j] - x[i]
             dy = y[j] - y[i]
             u = -ny[i] * dx + nx[i] * dy
-            if abs(u) > half[i]:
+            if abs(u) > half:
                 continue
             v = nx[i] * dx + ny[i] * dy
-            weight = np.exp(-0.5 * (u / sigma[i]) ** 2)
-            basis = (1.0, u, 0.5 * u * u)
-            for a in range(3):
-                rhs[a] += weight * basis[a] * v
-                for b in range(3):
-                    normal[a, b] += weight * basis[a] * basis[b]
+            w = np.exp(-0.5 * (u / sigma[i]) ** 2)
+            wu = w * u
+            wuu = wu * u
+            s0 += w
+            s1 += wu
+            s2 += wuu
+            s3 += wuu * u
+            s4 += wuu * u * u
+            t0 += w * v
+            t1 += wu * v
+            t2 += wuu * v
             inside += 1
-        out[i] = _solve3(normal, rhs) if inside >= 5 else 0.0
+        if inside < 5:
+            out[i] = 0.0
+            continue
+        # Normal equations of v = a + b·u + (κ/2)·u² with the basis (1, u, u²/2).
+        normal[0, 0], normal[0, 1], normal[0, 2] = s0, s1, 0.5 * s2
+        normal[1, 0], normal[1, 1], normal[1, 2] = s1, s2, 0.5 * s3
+        normal[2, 0], normal[2, 1], normal[2, 2] = 0.5 * s2, 0.5 * s3, 0.25 * s4
+        rhs[0], rhs[1], rhs[2] = t0, t1, 0.5 * t2
+        out[i] = _solve3(normal, rhs)
 
 
 def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> np.ndarray:
