@@ -158,30 +158,65 @@ def reflect_index(index: int, size: int) -> int:
 
 
 @kernel
-def cubic_value(field, u: float, v: float) -> float:
-    """Keys cubic convolution of `field` at grid coordinates (u = column, v = row)."""
-    height, width = field.shape
+def cubic_taps(u: float, v: float, height: int, width: int):
+    """Rows, columns (reflected) and Keys weights of the 4 × 4 taps around (u, v)."""
     u0 = np.floor(u)
     v0 = np.floor(v)
+    fu, fv = u - u0, v - v0
+    iu, iv = int(u0), int(v0)
+    wu = (_keys_weight(fu + 1), _keys_weight(fu), _keys_weight(1 - fu), _keys_weight(2 - fu))
+    wv = (_keys_weight(fv + 1), _keys_weight(fv), _keys_weight(1 - fv), _keys_weight(2 - fv))
+    cols = (
+        reflect_index(iu - 1, width),
+        reflect_index(iu, width),
+        reflect_index(iu + 1, width),
+        reflect_index(iu + 2, width),
+    )
+    rows = (
+        reflect_index(iv - 1, height),
+        reflect_index(iv, height),
+        reflect_index(iv + 1, height),
+        reflect_index(iv + 2, height),
+    )
+    return rows, cols, wv, wu
+
+
+@kernel
+def cubic_at(field, rows, cols, wv, wu) -> float:
+    """Keys cubic convolution of `field` from its taps (see `cubic_taps`)."""
     total = 0.0
     for i in range(4):
-        wv = _keys_weight(v - v0 + 1.0 - i)
-        if wv == 0.0:
-            continue
-        row = reflect_index(int(v0) + i - 1, height)
-        along = 0.0
-        for j in range(4):
-            along += (
-                _keys_weight(u - u0 + 1.0 - j) * field[row, reflect_index(int(u0) + j - 1, width)]
-            )
-        total += wv * along
+        r = rows[i]
+        total += wv[i] * (
+            wu[0] * field[r, cols[0]]
+            + wu[1] * field[r, cols[1]]
+            + wu[2] * field[r, cols[2]]
+            + wu[3] * field[r, cols[3]]
+        )
     return total
 
 
 @kernel
-def _interpolate_cubic(field, u, v, out) -> None:
+def _interpolate_cubic(fields, u, v, outs) -> None:
+    height, width = fields[0].shape
     for k in range(u.size):
-        out[k] = cubic_value(field, u[k], v[k])
+        rows, cols, wv, wu = cubic_taps(u[k], v[k], height, width)
+        for f in range(len(fields)):
+            outs[f][k] = cubic_at(fields[f], rows, cols, wv, wu)
+
+
+def interpolate_cubic_fields(
+    fields: tuple[np.ndarray, ...], u: np.ndarray, v: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """`interpolate_cubic` of several fields of one shape at the same coordinates."""
+    outs = tuple(np.empty(np.size(u), np.float32) for _ in fields)
+    _interpolate_cubic(
+        tuple(fields),
+        np.ascontiguousarray(u, np.float64).ravel(),
+        np.ascontiguousarray(v, np.float64).ravel(),
+        outs,
+    )
+    return tuple(out.reshape(np.shape(u)) for out in outs)
 
 
 def interpolate_cubic(field: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
@@ -203,42 +238,33 @@ def interpolate_cubic(field: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.nda
     (third-order accurate); OpenCV's INTER_CUBIC uses a = −3/4, which does not even
     reproduce a linear ramp.
     """
-    out = np.empty(np.shape(u), np.float32)
-    _interpolate_cubic(
-        field,
-        np.ascontiguousarray(u, np.float64).ravel(),
-        np.ascontiguousarray(v, np.float64).ravel(),
-        out.ravel(),
-    )
-    return out
-
-
-def sample_field(level: ScaleLevel, field: np.ndarray, rows, cols) -> np.ndarray:
-    """Values of a level-grid field at frame pixels, shape (K,).
-
-    Level 0 is read directly; coarser levels by Keys cubic convolution, reflect border.
-    """
-    if level.level == 0:
-        return field[rows, cols]
-    return interpolate_cubic(
-        field, level.to_level(cols.astype(np.float64)), level.to_level(rows.astype(np.float64))
-    )
+    return interpolate_cubic_fields((field,), u, v)[0]
 
 
 def sample_derivatives(
     level: ScaleLevel, rows: np.ndarray, cols: np.ndarray
 ) -> GaussianDerivatives:
-    """Ix, Iy, Ixx, Ixy, Iyy at frame pixels, in frame units (float32, shape (K,))."""
+    """Ix, Iy, Ixx, Ixy, Iyy at frame pixels, in frame units (float32, shape (K,)).
+
+    Level 0 is read directly; coarser levels by Keys cubic convolution, reflect border.
+    """
     d = level.derivatives
+    fields = (d.ix, d.iy, d.ixx, d.ixy, d.iyy)
+    if level.level == 0:
+        ix, iy, ixx, ixy, iyy = (f[rows, cols] for f in fields)
+    else:
+        u = level.to_level(cols.astype(np.float64))
+        v = level.to_level(rows.astype(np.float64))
+        ix, iy, ixx, ixy, iyy = interpolate_cubic_fields(fields, u, v)
     first = np.float32(1 / level.stride)
     second = np.float32(1 / level.stride**2)
     return GaussianDerivatives(
         sigma_px=level.sigma_px,
-        ix=sample_field(level, d.ix, rows, cols) * first,
-        iy=sample_field(level, d.iy, rows, cols) * first,
-        ixx=sample_field(level, d.ixx, rows, cols) * second,
-        ixy=sample_field(level, d.ixy, rows, cols) * second,
-        iyy=sample_field(level, d.iyy, rows, cols) * second,
+        ix=ix * first,
+        iy=iy * first,
+        ixx=ixx * second,
+        ixy=ixy * second,
+        iyy=iyy * second,
     )
 
 

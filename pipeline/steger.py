@@ -8,7 +8,7 @@ import numpy as np
 
 from pipeline.gaussian import GaussianDerivatives
 from pipeline.hessian import hessian_eigen
-from pipeline.scalespace import ScaleLevel, interpolate_cubic
+from pipeline.scalespace import ScaleLevel, interpolate_cubic_fields
 
 MAX_OFFSET_PX = 0.5
 """A centre is kept only inside its own pixel: |t·nx| ≤ 0.5 and |t·ny| ≤ 0.5 (paper eq. (10))."""
@@ -136,8 +136,9 @@ def newton_step(level: ScaleLevel, x: np.ndarray, y: np.ndarray, nx, ny) -> np.n
     u, v = level.to_level(x), level.to_level(y)
     first = 1 / level.stride
     second = first * first
-    gx, gy = (interpolate_cubic(f, u, v) * first for f in (d.ix, d.iy))
-    hxx, hxy, hyy = (interpolate_cubic(f, u, v) * second for f in (d.ixx, d.ixy, d.iyy))
+    gx, gy, hxx, hxy, hyy = interpolate_cubic_fields((d.ix, d.iy, d.ixx, d.ixy, d.iyy), u, v)
+    gx, gy = gx * first, gy * first
+    hxx, hxy, hyy = hxx * second, hxy * second, hyy * second
     slope = nx * gx + ny * gy
     curvature = nx * nx * hxx + 2 * nx * ny * hxy + ny * ny * hyy
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from pipeline.jit import kernel
-from pipeline.scalespace import ScaleLevel, cubic_value, reflect_index
+from pipeline.scalespace import ScaleLevel, cubic_at, cubic_taps, reflect_index
 
 STEP_PX = 1.0
 """Sampling step of the coarse search along the normal [px]. The refinement spans ±1 px
@@ -66,7 +66,8 @@ def _edge_distances(ix, iy, stride, x, y, dx, dy, steps, out) -> None:
             step = distance + (i - 2) * REFINE_STEP_PX
             u = (x[k] + step * dx[k] - origin) / stride
             v = (y[k] + step * dy[k] - origin) / stride
-            refined[i] = np.hypot(cubic_value(ix, u, v), cubic_value(iy, u, v))
+            taps = cubic_taps(u, v, ix.shape[0], ix.shape[1])
+            refined[i] = np.hypot(cubic_at(ix, *taps), cubic_at(iy, *taps))
         node = min(max(np.argmax(refined), 1), 3)
         left, mid, right = refined[node - 1], refined[node], refined[node + 1]
         curvature = left - 2 * mid + right
