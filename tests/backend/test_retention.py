@@ -239,3 +239,10 @@ def test_the_cli_verb_without_a_retention_says_what_to_set(tmp_path) -> None:
     )
     assert result.returncode == 2
     assert "set WHEELSCAN_FRAME_RETENTION_DAYS or pass --days" in result.stderr
+
+
+def test_the_openapi_document_lists_410_on_frame_images_only(client) -> None:
+    paths = client.get("/openapi.json").json()["paths"]
+    frame = paths["/api/passes/{pass_id}/wheels/{wheel_id}/frames/{position}.png"]["get"]
+    mask = paths["/api/passes/{pass_id}/wheels/{wheel_id}/mask/{position}.png"]["get"]
+    assert "410" in frame["responses"] and "410" not in mask["responses"]
