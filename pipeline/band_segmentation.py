@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.band import BLOCK_PX, band_pixels
+from pipeline.band import BLOCK_PX, block_runs
 from pipeline.jit import kernel
 from pipeline.ridges import RIDGE_THRESHOLD
 from pipeline.segmentation import (
@@ -85,73 +85,115 @@ def _find(parent, p):
 
 
 @kernel
-def _label_components(width, rows, cols, height):
-    """8-connected components of the pixels (rows, cols), given in raster order.
+def _row_runs(binary, blocks):
+    """Runs of True pixels along the band's rows, raster order: rows of (row, first, stop)."""
+    height, width = binary.shape
+    runs = np.empty((64, 3), np.int64)
+    count = 0
+    band = block_runs(blocks)
+    first_run = 0
+    for br in range(blocks.shape[0]):
+        while first_run < band.shape[0] and band[first_run, 0] < br:
+            first_run += 1
+        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+            k = first_run
+            while k < band.shape[0] and band[k, 0] == br:
+                c, stop = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
+                while c < stop:
+                    if not binary[r, c]:
+                        c += 1
+                        continue
+                    start = c
+                    while c < stop and binary[r, c]:
+                        c += 1
+                    if count == runs.shape[0]:
+                        grown = np.empty((2 * count, 3), np.int64)
+                        grown[:count] = runs
+                        runs = grown
+                    runs[count, 0], runs[count, 1], runs[count, 2] = r, start, c
+                    count += 1
+                k += 1
+    return runs[:count].copy()
 
-    Union-find with the smaller flat index as root, so a component's root is its first pixel.
-    Returns each pixel's label (1..K−1) and `moments[k]`: the area and the sums of r, c, r²,
-    c², r·c of component k (row 0, the background, stays 0).
+
+@kernel
+def _label_runs(runs):
+    """8-connected components of row runs (raster order): each run's label and the moments.
+
+    Runs of consecutive rows touch when their column spans overlap or meet at a corner.
+    Union-find with the earlier run as root, so labels follow the components' first pixels.
+    `moments[k]` holds the area and the sums of r, c, r², c², r·c of component k (row 0, the
+    background, stays 0).
     """
-    parent = np.empty(height * width, np.int64)
-    flat = rows * width + cols
-    for p in flat:
-        parent[p] = p
-    present = np.zeros(height * width, np.bool_)
-    present[flat] = True
-    for k in range(flat.size):
-        r, c, p = rows[k], cols[k], flat[k]
-        for dr, dc in ((-1, -1), (-1, 0), (-1, 1), (0, -1)):
-            rr, cc = r + dr, c + dc
-            if rr >= 0 and 0 <= cc < width and present[rr * width + cc]:
-                a, b = _find(parent, p), _find(parent, rr * width + cc)
+    count = runs.shape[0]
+    parent = np.arange(count)
+    previous = 0  # first run of the previous row
+    for k in range(count):
+        r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2]
+        while previous < k and runs[previous, 0] < r - 1:
+            previous += 1
+        j = previous
+        while j < k and runs[j, 0] == r - 1:
+            if runs[j, 1] <= c1 and c0 <= runs[j, 2]:
+                a, b = _find(parent, k), _find(parent, j)
                 if a != b:
                     parent[max(a, b)] = min(a, b)
-    root = np.empty(flat.size, np.int64)
-    for k in range(flat.size):
-        root[k] = _find(parent, flat[k])
-    label = np.empty(flat.size, np.int64)
-    count = 1
-    for k in range(flat.size):
-        if root[k] == flat[k]:
-            parent[flat[k]] = count  # roots come first in raster order: label them in turn
-            count += 1
-        label[k] = parent[root[k]]
-    moments = np.zeros((count, 6))
-    for k in range(flat.size):
+            j += 1
+    label = np.empty(count, np.int64)
+    components = 1
+    for k in range(count):
+        root = _find(parent, k)
+        if root == k:
+            label[k] = components
+            components += 1
+        else:
+            label[k] = label[root]
+    moments = np.zeros((components, 6))
+    for k in range(count):
+        r, c0, c1 = float(runs[k, 0]), float(runs[k, 1]), float(runs[k, 2])
+        n = c1 - c0
+        sum_c = n * (c0 + c1 - 1) / 2
+        sum_cc = ((c1 - 1) * c1 * (2 * c1 - 1) - (c0 - 1) * c0 * (2 * c0 - 1)) / 6
         lab = label[k]
-        r, c = float(rows[k]), float(cols[k])
-        moments[lab, 0] += 1
-        moments[lab, 1] += r
-        moments[lab, 2] += c
-        moments[lab, 3] += r * r
-        moments[lab, 4] += c * c
-        moments[lab, 5] += r * c
+        moments[lab, 0] += n
+        moments[lab, 1] += r * n
+        moments[lab, 2] += sum_c
+        moments[lab, 3] += r * r * n
+        moments[lab, 4] += sum_cc
+        moments[lab, 5] += r * sum_c
     return label, moments
+
+
+@kernel
+def _runs_near_band_edge(runs, blocks, reach):
+    """Whether a pixel of each run has a pixel outside the band within `reach` (beyond the
+    frame: band). `reach` < BLOCK_PX, so the corners of each pixel's square tell."""
+    out = np.zeros(runs.shape[0], np.bool_)
+    last_r, last_c = blocks.shape[0] - 1, blocks.shape[1] - 1
+    for k in range(runs.shape[0]):
+        for c in range(runs[k, 1], runs[k, 2]):
+            for dr in (-reach, reach):
+                for dc in (-reach, reach):
+                    br = min(max(runs[k, 0] + dr, 0) // BLOCK_PX, last_r)
+                    bc = min(max(c + dc, 0) // BLOCK_PX, last_c)
+                    if not blocks[br, bc]:
+                        out[k] = True
+    return out
+
+
+@kernel
+def _paint_runs(runs, chosen, shape):
+    """A mask with the chosen runs set."""
+    out = np.zeros(shape, np.bool_)
+    for k in range(runs.shape[0]):
+        if chosen[k]:
+            out[runs[k, 0], runs[k, 1] : runs[k, 2]] = True
+    return out
 
 
 EDGE_REACH_PX = 5
 """A stripe pixel closer than this to the band's edge may be cut by it [px]: a centre hint
 reaches 4 px (one stride of level 2)."""
-
-
-@kernel
-def _near_band_edge(rows, cols, blocks, reach):
-    """Whether each pixel has a pixel outside the band within `reach` (beyond the frame: band).
-
-    `reach` < BLOCK_PX, so the square of side 2·reach + 1 meets at most 2 × 2 blocks and its
-    corners tell.
-    """
-    out = np.zeros(rows.size, np.bool_)
-    last_r, last_c = blocks.shape[0] - 1, blocks.shape[1] - 1
-    for k in range(rows.size):
-        for dr in (-reach, reach):
-            for dc in (-reach, reach):
-                r, c = rows[k] + dr, cols[k] + dc
-                br = min(max(r, 0) // BLOCK_PX, last_r)
-                bc = min(max(c, 0) // BLOCK_PX, last_c)
-                if not blocks[br, bc]:
-                    out[k] = True
-    return out
 
 
 def segment_band(
@@ -174,16 +216,13 @@ def segment_band(
     -------
     BandMask
     """
-    binary = _stripe_binary(responses, strides, blocks, shape)
-    rows, cols = band_pixels(binary, blocks)
-    label, moments = _label_components(shape[1], rows, cols, shape[0])
+    runs = _row_runs(_stripe_binary(responses, strides, blocks, shape), blocks)
+    label, moments = _label_runs(runs)
     shapes = shapes_from_moments(*moments.T)
     keep = stripe_components(shapes)
     # A component the band may have cut: kept, or large enough to be kept whole.
     touching = np.zeros(keep.size, bool)
-    touching[label[_near_band_edge(rows, cols, blocks, EDGE_REACH_PX)]] = True
+    touching[label[_runs_near_band_edge(runs, blocks, EDGE_REACH_PX)]] = True
     inside = not (touching & (keep | (shapes.area_px >= MIN_COMPONENT_AREA_PX))).any()
-    kept = keep[label]
-    stripe = np.zeros(shape, bool)
-    stripe[rows[kept], cols[kept]] = True
+    stripe = _paint_runs(runs, keep[label], shape)
     return BandMask(mask=close_holes(stripe), inside=inside)
