@@ -95,13 +95,30 @@ def block_grid(shape: tuple[int, int]) -> tuple[int, int]:
 
 
 @kernel
-def _pool_blocks(band, ratio, rows, cols):
-    """Blocks of `ratio` × `ratio` band pixels that hold any band pixel."""
+def _pool(band, ratio, rows, cols):
     out = np.zeros((rows, cols), np.bool_)
     for r in range(band.shape[0]):
         for c in range(band.shape[1]):
             if band[r, c]:
                 out[min(r // ratio, rows - 1), min(c // ratio, cols - 1)] = True
+    return out
+
+
+def pool_blocks(flags: np.ndarray, ratio: int, grid: tuple[int, int]) -> np.ndarray:
+    """Blocks of `ratio` × `ratio` pixels of `flags` that hold any True pixel (bool `grid`)."""
+    return _pool(flags, ratio, grid[0], grid[1])
+
+
+@kernel
+def blocks_holding(flags, blocks):
+    """Which of the band's blocks hold a True pixel of `flags` (same grid as `blocks`)."""
+    height, width = flags.shape
+    out = np.zeros(blocks.shape, np.bool_)
+    for br, first, stop in block_runs(blocks):
+        for bc in range(first, stop):
+            r1 = min(br * BLOCK_PX + BLOCK_PX, height)
+            c1 = min(bc * BLOCK_PX + BLOCK_PX, width)
+            out[br, bc] = flags[br * BLOCK_PX : r1, bc * BLOCK_PX : c1].any()
     return out
 
 
@@ -131,7 +148,7 @@ def locate_band(
     blocks = []
     for level, shape in enumerate(level_shapes):
         ratio = BLOCK_PX * 2**level // stride
-        blocks.append(_pool_blocks(band, max(ratio, 1), *block_grid(shape)))
+        blocks.append(pool_blocks(band, max(ratio, 1), block_grid(shape)))
     rings = tuple(band_ring(grid) for grid in blocks)
     return StripeBand(blocks=tuple(blocks), rings=rings, fraction=float(blocks[0].mean()))
 

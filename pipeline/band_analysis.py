@@ -11,7 +11,7 @@ the full-frame path, which stays the reference.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -21,8 +21,11 @@ from pipeline.band import (
     BLOCK_PX,
     MAX_BAND_FRACTION,
     StripeBand,
+    band_ring,
     block_grid,
+    blocks_holding,
     locate_band,
+    pool_blocks,
     zero_blocks,
 )
 from pipeline.band_filters import band_derivatives
@@ -156,9 +159,9 @@ def analyse_band_level(
     *,
     c_grey: float,
     frame_shape: tuple[int, int],
-    peak_reach_px: float,
 ) -> LevelResponse:
-    """`pipeline.adaptive.analyse_level` on the band's blocks of one level.
+    """`pipeline.adaptive.analyse_level` on the band's blocks of one level, but for the
+    ridge-peak strength, which `with_peak_strength` adds once the mask is known.
 
     Parameters
     ----------
@@ -172,13 +175,11 @@ def analyse_band_level(
         Structure constant of the ridge response [grey levels].
     frame_shape : tuple of int
         Frame shape (M, N).
-    peak_reach_px : float
-        Half-size [px of the frame] of the max filter of C.
 
     Returns
     -------
     LevelResponse
-        V, the ridge-peak C and the hints, valid on the band and its ring.
+        V and the hints, valid on the band and its ring; `peak_strength` holds C itself.
     """
     d = level.derivatives
     hints = np.zeros(frame_shape, np.bool_)
@@ -197,9 +198,21 @@ def analyse_band_level(
     )
     for field in (response, strength):
         zero_blocks(field, ring)
-    half = max(1, round(peak_reach_px / level.stride))
-    peak = _max_filter_blocks(strength, blocks, ring, half)
-    return LevelResponse(level=level, response=response, peak_strength=peak, hints=hints)
+    return LevelResponse(level=level, response=response, peak_strength=strength, hints=hints)
+
+
+def with_peak_strength(
+    scale: LevelResponse, mask_blocks: np.ndarray, *, peak_reach_px: float
+) -> LevelResponse:
+    """The scale with C max-filtered (its ridge-peak value) on the blocks holding the mask.
+
+    `mask_blocks` are the level's blocks that hold mask pixels, widened by one block for the
+    bilinear reads of coarser levels; only there is the peak strength read.
+    """
+    half = max(1, round(peak_reach_px / scale.level.stride))
+    ring = band_ring(mask_blocks)
+    peak = _max_filter_blocks(scale.peak_strength, mask_blocks, ring, half)
+    return replace(scale, peak_strength=peak)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -266,7 +279,6 @@ def analyse_band(
             ring,
             c_grey=c_grey,
             frame_shape=image.shape,
-            peak_reach_px=peak_reach_px,
         )
 
     seed_index = max(range(len(levels)), key=lambda i: (levels[i], sigmas_px[i]))
@@ -284,11 +296,15 @@ def analyse_band(
             scales.append(analysed(i, band.blocks[level], band.rings[level]))
     strides = tuple(2**lv for lv in levels)
     found = segment_band(tuple(sc.response for sc in scales), strides, band.blocks[0], image.shape)
-    reason = "" if found.inside else "a stripe component reaches the band's edge"
-    return BandAnalysis(
-        tuple(float(s) for s in sigmas_px),
-        tuple(scales),
-        band,
-        found.mask if found.inside else None,
-        reason,
-    )
+    if not found.inside:
+        reason = "a stripe component reaches the band's edge"
+        return BandAnalysis(tuple(sigmas_px), (), band, None, reason)
+    held = blocks_holding(found.mask, band.blocks[0])
+    peaked = []
+    for scale, level in zip(scales, levels, strict=True):
+        grid = block_grid(shapes[level])
+        mask_blocks = pool_blocks(held, 2**level, grid) if level else held
+        if level:
+            mask_blocks = cv2.dilate(mask_blocks.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        peaked.append(with_peak_strength(scale, mask_blocks, peak_reach_px=peak_reach_px))
+    return BandAnalysis(tuple(float(s) for s in sigmas_px), tuple(peaked), band, found.mask, "")
