@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import json
 import subprocess
 import sys
@@ -9,10 +10,13 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
+from fastapi.testclient import TestClient
 from sqlalchemy import select
 
-from backend.retention import remove_expired_frames, retention_cutoff
+from backend.main import create_app
+from backend.retention import remove_expired_frames, retention_cutoff, sweep_periodically
 from db.models import AuditEvent, Frame, MeasurementFrame, Pass
+from db.types import utc_now
 from tests.backend.archives import (
     calibration_document,
     frame_png,
@@ -24,6 +28,8 @@ from tests.backend.test_measurement_e2e import wait_for_job
 
 NOW = datetime(2026, 12, 1, 12, 0, tzinfo=UTC)
 RETENTION_DAYS = 30.0
+SWEEP_BOUND_S = 2.0
+"""How long the periodic sweep runs in its test: its first sweep starts at once."""
 
 
 def upload(client, auth, tokens, data: bytes, started_at: datetime) -> int:
@@ -246,3 +252,31 @@ def test_the_openapi_document_lists_410_on_frame_images_only(client) -> None:
     frame = paths["/api/passes/{pass_id}/wheels/{wheel_id}/frames/{position}.png"]["get"]
     mask = paths["/api/passes/{pass_id}/wheels/{wheel_id}/mask/{position}.png"]["get"]
     assert "410" in frame["responses"] and "410" not in mask["responses"]
+
+
+def test_the_periodic_sweep_applies_retention_at_once_and_keeps_going(
+    client, auth, old_pass
+) -> None:
+    with client.app.state.session_factory() as session:
+        session.get(Pass, old_pass).started_at = utc_now() - timedelta(days=60)
+        session.commit()
+    sweeps = sweep_periodically(
+        client.app.state.session_factory, client.app.state.store, 30.0, interval_s=3600.0
+    )
+    # The loop never ends by itself; cancelling it waits for a sweep under way (its thread
+    # is not interrupted), so after the bound the first sweep has run whatever the load.
+    with pytest.raises(TimeoutError):
+        asyncio.run(asyncio.wait_for(sweeps, timeout=SWEEP_BOUND_S))
+    summary = client.get(f"/api/passes/{old_pass}", headers=auth("viewer")).json()
+    assert summary["frames_removed_at"] is not None
+    with client.app.state.session_factory() as session:
+        actors = session.scalars(
+            select(AuditEvent.actor).where(AuditEvent.action == "retention.remove_frames")
+        ).all()
+    assert actors == ["retention sweep"]
+
+
+def test_the_server_starts_and_stops_its_sweep_when_retention_is_set(client) -> None:
+    settings = client.app.state.settings.model_copy(update={"frame_retention_days": 30.0})
+    with TestClient(create_app(settings)) as server:
+        assert server.get("/healthz").status_code == 200
