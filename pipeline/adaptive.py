@@ -8,11 +8,14 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from pipeline.band import BLOCK_PX, block_runs
 from pipeline.gaussian import GaussianDerivatives
+from pipeline.jit import kernel
 from pipeline.ridges import min_structure_squared, ridge_response
 from pipeline.scalespace import (
     MAX_LEVEL,
     ScaleLevel,
+    bilinear_at,
     sample_bilinear,
     sample_derivatives,
     scale_levels,
@@ -197,7 +200,7 @@ def lines_at(level: ScaleLevel, rows: np.ndarray, cols: np.ndarray) -> LineAnaly
     return analyse_lines(sample_derivatives(level, rows, cols))
 
 
-def _chosen_index(scales: tuple[LevelResponse, ...], rows, cols) -> np.ndarray:
+def chosen_index(scales: tuple[LevelResponse, ...], rows, cols) -> np.ndarray:
     """Index of the scale with the largest ridge-peak strength per pixel, −1 if none > 0."""
     best = np.zeros(rows.size, np.float32)
     index = np.full(rows.size, -1, np.int64)
@@ -210,9 +213,11 @@ def _chosen_index(scales: tuple[LevelResponse, ...], rows, cols) -> np.ndarray:
 
 
 def choose_scales(
-    scales: tuple[LevelResponse, ...], rows: np.ndarray, cols: np.ndarray
+    scales: tuple[LevelResponse, ...], rows: np.ndarray, cols: np.ndarray, index: np.ndarray
 ) -> ScaleChoice:
-    """Per pixel, the scale σB maximising C(σ) = σ²|λ1| at its ridge, and the lines there.
+    """Per pixel, the line analysis at the scale σB maximising C(σ) = σ²|λ1| at its ridge.
+
+    `index` is that scale per pixel (`chosen_index`, or `choose_in_band`), −1 for none.
 
     Notes
     -----
@@ -223,7 +228,6 @@ def choose_scales(
     two scales' centres of a curved stripe differ by (σ2² − σ1²)/(2R), enough to double or
     drop centres.
     """
-    index = _chosen_index(scales, rows, cols)
     fields = [np.zeros(rows.size, np.float32) for _ in range(6)]
     for i, scale in enumerate(scales):
         at = np.flatnonzero(index == i)
@@ -239,6 +243,69 @@ def choose_scales(
     return ScaleChoice(scale_index=index, strength=strength, lines=chosen)
 
 
+@kernel
+def _choose_in_band(mask, hints, peaks, strides, sigmas, blocks):
+    height, width = mask.shape
+    sigma_map = np.zeros((height, width), np.float32)
+    most = int(blocks.sum()) * BLOCK_PX * BLOCK_PX
+    rows = np.empty(most, np.int64)
+    cols = np.empty(most, np.int64)
+    index = np.empty(most, np.int64)
+    count = 0
+    runs = block_runs(blocks)
+    first_run = 0
+    for br in range(blocks.shape[0]):
+        while first_run < runs.shape[0] and runs[first_run, 0] < br:
+            first_run += 1
+        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+            k = first_run
+            while k < runs.shape[0] and runs[k, 0] == br:
+                for c in range(runs[k, 1] * BLOCK_PX, min(runs[k, 2] * BLOCK_PX, width)):
+                    if not mask[r, c]:
+                        continue
+                    best = np.float32(0.0)
+                    chosen = -1
+                    hinted = False
+                    for i in range(len(peaks)):
+                        value = np.float32(bilinear_at(peaks[i], strides[i], r, c))
+                        if value > best:
+                            best = value
+                            chosen = i
+                        hinted = hinted or hints[i][r, c]
+                    if chosen >= 0:
+                        sigma_map[r, c] = sigmas[chosen]
+                    if hinted:
+                        rows[count], cols[count], index[count] = r, c, chosen
+                        count += 1
+                k += 1
+    return sigma_map, rows[:count].copy(), cols[:count].copy(), index[:count].copy()
+
+
+def choose_in_band(
+    scales: tuple[LevelResponse, ...],
+    sigmas_px: tuple[float, ...],
+    mask: np.ndarray,
+    blocks: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """σB over the mask, and the centre candidates (mask pixels some scale hints at).
+
+    Returns
+    -------
+    sigma_map : ndarray of shape (M, N), float32
+        σB per mask pixel (as `scale_map`), 0 elsewhere.
+    rows, cols, index : ndarray of shape (K,), int64
+        Candidates in raster order and their σB index (as `chosen_index`).
+    """
+    return _choose_in_band(
+        mask,
+        tuple(scale.hints for scale in scales),
+        tuple(scale.peak_strength for scale in scales),
+        tuple(scale.level.stride for scale in scales),
+        np.asarray(sigmas_px, np.float32),
+        blocks,
+    )
+
+
 def scale_map(
     scales: tuple[LevelResponse, ...],
     sigmas_px: tuple[float, ...],
@@ -252,7 +319,7 @@ def scale_map(
     -------
     ndarray of shape `shape`, float32
     """
-    index = _chosen_index(scales, rows, cols)
+    index = chosen_index(scales, rows, cols)
     sigmas = np.asarray((0.0, *sigmas_px), np.float32)
     out = np.zeros(shape, np.float32)
     out[rows, cols] = sigmas[index + 1]

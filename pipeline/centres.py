@@ -11,7 +11,9 @@ from pipeline.adaptive import (
     LevelResponse,
     analyse_level,
     analyse_scales,
+    choose_in_band,
     choose_scales,
+    chosen_index,
     lines_at,
     scale_map,
     stripe_scales,
@@ -140,11 +142,6 @@ class _Selected:
     levels: tuple[ScaleLevel, ...]
 
 
-def _pixels(flags: np.ndarray, blocks: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-    """Rows and columns of the True pixels (raster order), searched in the band if given."""
-    return np.nonzero(flags) if blocks is None else band_pixels(flags, blocks)
-
-
 def _select_adaptive(
     scales: tuple[LevelResponse, ...],
     sigmas_px: tuple[float, ...],
@@ -152,9 +149,14 @@ def _select_adaptive(
     blocks: np.ndarray | None,
 ) -> tuple[_Selected, np.ndarray]:
     """Centre pixels at σB, and the σ map (σB per mask pixel, exact at the candidates)."""
-    hinted = np.logical_or.reduce([scale.hints for scale in scales])
-    rows, cols = _pixels(mask & hinted, blocks)
-    choice = choose_scales(scales, rows, cols)
+    if blocks is None:
+        hinted = np.logical_or.reduce([scale.hints for scale in scales])
+        rows, cols = np.nonzero(mask & hinted)
+        index = chosen_index(scales, rows, cols)
+        sigma_map = scale_map(scales, sigmas_px, *np.nonzero(mask), mask.shape)
+    else:
+        sigma_map, rows, cols, index = choose_in_band(scales, sigmas_px, mask, blocks)
+    choice = choose_scales(scales, rows, cols, index)
     lines = choice.lines
     ok = centre_pixels(rows, cols, lines, choice.strength, mask.shape)
     ok &= choice.scale_index >= 0
@@ -170,7 +172,7 @@ def _select_adaptive(
         level_index=index,
         levels=tuple(scale.level for scale in scales),
     )
-    return selected, scale_map(scales, sigmas_px, *_pixels(mask, blocks), mask.shape)
+    return selected, sigma_map
 
 
 def _fixed_scale(frame: np.ndarray, sigma_px: float, c_grey: float) -> LevelResponse:
@@ -179,7 +181,8 @@ def _fixed_scale(frame: np.ndarray, sigma_px: float, c_grey: float) -> LevelResp
 
 
 def _select_fixed(scale: LevelResponse, mask: np.ndarray, blocks: np.ndarray | None) -> _Selected:
-    rows, cols = _pixels(mask & scale.hints, blocks)
+    flags = mask & scale.hints
+    rows, cols = np.nonzero(flags) if blocks is None else band_pixels(flags, blocks)
     level = scale.level
     lines = lines_at(level, rows, cols)
     ok = centre_pixels(rows, cols, lines, -lines.lambda1, mask.shape)

@@ -269,18 +269,27 @@ def sample_derivatives(
 
 
 @kernel
-def _bilinear_clamped(field, stride, rows, cols, out) -> None:
+def bilinear_at(field, stride: int, row: int, col: int) -> float:
+    """Bilinear value of a level field (stride 2^L) at frame pixel (row, col), clamped to
+    the grid; stride 1 reads the pixel itself."""
+    if stride == 1:
+        return field[row, col]
     height, width = field.shape
     origin = 0.5 * (stride - 1)
+    u = min(max((col - origin) / stride, 0.0), width - 1.0)
+    v = min(max((row - origin) / stride, 0.0), height - 1.0)
+    u0 = min(int(u), width - 2)
+    v0 = min(int(v), height - 2)
+    fu, fv = u - u0, v - v0
+    top = field[v0, u0] * (1 - fu) + field[v0, u0 + 1] * fu
+    bottom = field[v0 + 1, u0] * (1 - fu) + field[v0 + 1, u0 + 1] * fu
+    return top * (1 - fv) + bottom * fv
+
+
+@kernel
+def _bilinear_clamped(field, stride, rows, cols, out) -> None:
     for k in range(rows.size):
-        u = min(max((cols[k] - origin) / stride, 0.0), width - 1.0)
-        v = min(max((rows[k] - origin) / stride, 0.0), height - 1.0)
-        u0 = min(int(u), width - 2)
-        v0 = min(int(v), height - 2)
-        fu, fv = u - u0, v - v0
-        top = field[v0, u0] * (1 - fu) + field[v0, u0 + 1] * fu
-        bottom = field[v0 + 1, u0] * (1 - fu) + field[v0 + 1, u0 + 1] * fu
-        out[k] = top * (1 - fv) + bottom * fv
+        out[k] = bilinear_at(field, stride, rows[k], cols[k])
 
 
 def sample_bilinear(level: ScaleLevel, field: np.ndarray, rows, cols) -> np.ndarray:
