@@ -15,6 +15,11 @@ MIGRATIONS_DIR = Path(__file__).resolve().parent / "migrations"
 
 SQLITE_BUSY_TIMEOUT_S = 30.0
 """How long a SQLite writer waits for another process's write lock before failing."""
+POOL_SIZE, POOL_OVERFLOW = 10, 30
+"""Connections an engine keeps, and may open beyond them: 40 in all, one for each of the
+server's request threads (anyio's default), so under load a request never waits for a
+connection (30 s, then 503) while others hold theirs through slow work (uploads being
+validated, PDF reports). An in-memory SQLite database keeps its single connection."""
 
 
 def make_engine(database_url: str) -> Engine:
@@ -26,11 +31,16 @@ def make_engine(database_url: str) -> Engine:
     """
     url = make_url(database_url)
     if url.get_backend_name() != "sqlite":
-        return create_engine(url, pool_pre_ping=True)
-    if url.database and url.database != ":memory:":
-        Path(url.database).parent.mkdir(parents=True, exist_ok=True)
+        return create_engine(
+            url, pool_pre_ping=True, pool_size=POOL_SIZE, max_overflow=POOL_OVERFLOW
+        )
+    in_memory = not url.database or url.database == ":memory:"
+    if not in_memory:
+        Path(str(url.database)).parent.mkdir(parents=True, exist_ok=True)
     engine = create_engine(
-        url, connect_args={"check_same_thread": False, "timeout": SQLITE_BUSY_TIMEOUT_S}
+        url,
+        connect_args={"check_same_thread": False, "timeout": SQLITE_BUSY_TIMEOUT_S},
+        **({} if in_memory else {"pool_size": POOL_SIZE, "max_overflow": POOL_OVERFLOW}),
     )
     event.listen(engine, "connect", _configure_sqlite_connection)
     return engine
