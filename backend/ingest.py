@@ -27,7 +27,7 @@ from db.models import ApiToken, Calibration, Frame, Job, Pass, PassWheel, Site
 from pipeline.archive import ArchiveLimits, PassArchive, read_pass_archive
 from pipeline.calibration import StationCalibration, parse_calibration
 from pipeline.errors import ArchiveError
-from pipeline.manifest import WheelEntry
+from pipeline.manifest import POSITIONS, WheelEntry
 
 COPY_CHUNK_BYTES = 1024 * 1024
 
@@ -129,6 +129,14 @@ def store_archive(
     station = archive.calibration
     if station is None:
         raise InvalidInputError("pass archive: no calibration (validate_archive first)")
+    # The frames go to the store before the first row: a SQLite writer holds the database's
+    # write lock from its first INSERT to its commit, and concurrent uploads queue behind it.
+    frame_sha256 = {
+        path: store.put(archive.frame_bytes(path), ".png")
+        for entry in manifest.wheels
+        for position in POSITIONS
+        for path in entry.frames(position)
+    }
     site = get_or_create_site(session, manifest.site)
     calibration: Calibration | None
     if archive.has_own_calibration:
@@ -166,7 +174,7 @@ def store_archive(
             sensor = entry.sensor_name(position)
             for path in entry.frames(position):
                 _add_frame(
-                    session, store, archive, station, train_pass, entry, sensor, path, next_seq
+                    session, station, train_pass, entry, sensor, frame_sha256[path], next_seq
                 )
         session.flush()
         pass_wheel_ids.append(pass_wheel.id)
@@ -185,17 +193,13 @@ def store_archive(
 
 def _add_frame(
     session: Session,
-    store: BlobStore,
-    archive: PassArchive,
     station: StationCalibration,
     train_pass: Pass,
     entry: WheelEntry,
     sensor: str,
-    path: str,
+    sha256: str,
     next_seq: dict[str, int],
 ) -> None:
-    data = archive.frame_bytes(path)
-    sha256 = store.put(data, ".png")
     sensor_calibration = station.sensor(sensor)
     seq = next_seq.get(sensor, 0)
     next_seq[sensor] = seq + 1
