@@ -10,34 +10,18 @@ every other error goes on to the one handler of unexpected errors (`backend.erro
 
 from __future__ import annotations
 
-import errno
 import logging
 
 from fastapi import FastAPI, Request
 from fastapi.responses import JSONResponse
-from sqlalchemy.exc import InterfaceError, OperationalError
-from sqlalchemy.exc import TimeoutError as PoolTimeoutError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from backend.errors import error_response
+from backend.transient import DATABASE_ERRORS, is_disk_full
 
 logger = logging.getLogger(__name__)
 
-DATABASE_ERRORS: tuple[type[Exception], ...] = (OperationalError, InterfaceError, PoolTimeoutError)
-"""Errors of a database that is unreachable, restarting or busy: they pass, so a request
-gets 503 and a measurement is tried again (`backend.runner`)."""
-DISK_FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT})
 RETRY_AFTER_S = 5
-
-
-def is_disk_full(exc: BaseException) -> bool:
-    """Whether `exc` says the disk (or the quota) is full: an OSError, or SQLite's
-    "database or disk is full" (SQLITE_FULL)."""
-    if isinstance(exc, OSError):
-        return exc.errno in DISK_FULL_ERRNOS
-    if isinstance(exc, OperationalError):
-        return "database or disk is full" in str(exc.orig)
-    return False
 
 
 def _caused_by_full_disk(exc: BaseException) -> bool:

@@ -22,8 +22,8 @@ from sqlalchemy import select, update
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.config import Settings
-from backend.outages import DATABASE_ERRORS
 from backend.tasks import measure_pass_wheel, record_wheel_crash, update_back_to_back
+from backend.transient import is_transient
 from backend.wheels import refresh_job
 from db.models import TERMINAL_WHEEL_STATES, Job, PassWheel
 
@@ -32,9 +32,6 @@ logger = logging.getLogger(__name__)
 
 PARENT_CHECK_INTERVAL_S = 2.0
 """How often a pool worker checks that the server that started it is still alive."""
-TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (*DATABASE_ERRORS, ConnectionError)
-"""Faults that pass (database restarting, frame store unreachable): the wheel is measured
-again later instead of failing."""
 RETRY_BACKOFF_MAX_S = 30.0
 """Longest wait between two tries of a wheel that met a passing fault (1, 2, 4, … s)."""
 
@@ -73,8 +70,8 @@ class ProcessPoolRunner:
     Workers are started with "spawn" (no fork of a threaded server) and only when the
     first task arrives. A worker that dies hard (segfault, out of memory) breaks the
     pool: its wheel is recorded as failed and a new pool takes over. A task that meets a
-    passing fault (the database restarting) is tried again 1, 2, 4, … s later (at most
-    RETRY_BACKOFF_MAX_S apart) until it goes through.
+    passing fault (the database restarting, the disk full: `backend.transient`) is tried
+    again 1, 2, 4, … s later (at most RETRY_BACKOFF_MAX_S apart) until it goes through.
     """
 
     def __init__(self, settings: Settings, session_factory: sessionmaker[Session]) -> None:
@@ -126,7 +123,7 @@ class ProcessPoolRunner:
         error = future.exception()
         if error is None:
             return
-        if isinstance(error, TRANSIENT_ERRORS):
+        if is_transient(error):
             self._retry_later(pass_wheel_id, 0, error)
             return
         if isinstance(error, BrokenProcessPool):
@@ -161,7 +158,9 @@ class ProcessPoolRunner:
         try:
             with self._session_factory() as session:
                 again = requeue_wheel(session, pass_wheel_id)
-        except TRANSIENT_ERRORS as error:
+        except Exception as error:
+            if not is_transient(error):
+                raise
             self._retry_later(pass_wheel_id, attempt + 1, error)
             return
         if again:

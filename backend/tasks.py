@@ -16,7 +16,6 @@ from pathlib import Path
 
 import numpy as np
 from sqlalchemy import delete, select, update
-from sqlalchemy.exc import InterfaceError, OperationalError
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.artefacts import save_artefacts
@@ -24,6 +23,7 @@ from backend.images import prerender_layers
 from backend.remote_store import make_worker_store
 from backend.results import apply_alarms, measurement_row
 from backend.storage import BlobStore
+from backend.transient import is_transient
 from backend.wheels import refresh_job, rows_changed
 from db.engine import make_engine, make_session_factory
 from db.models import Frame, Measurement, MeasurementFrame, PassWheel, Wheel
@@ -98,9 +98,9 @@ def measure_pass_wheel(pass_wheel_id: int, database_url: str, data_dir: str) -> 
         refresh_job(session, pass_id)
         try:
             state = store_wheel_results(session, store, pass_wheel_id)
-        except (OperationalError, InterfaceError, ConnectionError):
-            raise  # transient (database or frame store unreachable): the runner retries
         except Exception as exc:
+            if is_transient(exc):
+                raise  # database, frame store or disk unavailable: the runner retries
             session.rollback()
             logger.exception("pass wheel %d: measurement crashed", pass_wheel_id)
             record_wheel_crash(session, pass_wheel_id, f"{type(exc).__name__}: {exc}")

@@ -50,13 +50,14 @@ class LiveServer:
         database_url: str | None = None,
         workers: int = 1,
         tmp_dir: Path | None = None,
+        log_dir: Path | None = None,
     ) -> None:
         self.data_dir = data_dir
         self.tmp_dir = tmp_dir or data_dir.parent / f"{data_dir.name}-tmp"
         self.settings = Settings(data_dir=data_dir, database_url=database_url, workers=workers)
         self.port = free_port()
         self.url = f"http://127.0.0.1:{self.port}"
-        self.log = data_dir.parent / f"{data_dir.name}-server.log"
+        self.log = (log_dir or data_dir.parent) / f"{data_dir.name}-server.log"
         self.process: subprocess.Popen[bytes] | None = None
         self._groups: list[int] = []
         self._tokens: dict[str, str] = {}

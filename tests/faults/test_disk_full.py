@@ -20,7 +20,7 @@ from tests.faults.live import (
     wait_for_job,
     wheels_of,
 )
-from tests.scale.topology import synthetic_pass_zip
+from tests.scale.topology import synthetic_pass_zip, wait_until
 
 DISK_MIB = 24
 """The data disk: a measured axle pass (3.4 MB of frames, the artefacts, SQLite) and room."""
@@ -96,7 +96,7 @@ def test_a_nearly_full_disk_refuses_uploads_with_507_and_keeps_serving_reads(
 ) -> None:
     # TMPDIR, where the multipart body is spooled: a container's /tmp, or the full disk too.
     spool = small_disk / "tmp" if spool_on_data_disk else tmp_path / "server-tmp"
-    server = make_server(small_disk / "data", tmp_dir=spool)
+    server = make_server(small_disk / "data", tmp_dir=spool, log_dir=tmp_path)
     with server.client() as client:
         first = upload(client, axle_archive).raise_for_status().json()
         wait_for_job(client, first["job_id"], JOB_TIMEOUT_S)
@@ -128,3 +128,39 @@ def test_a_nearly_full_disk_refuses_uploads_with_507_and_keeps_serving_reads(
             "measured"
         ] * 2
         assert client.get("/api/passes").json()["total"] == 2
+
+
+def test_a_disk_filled_during_measurement_holds_the_wheels_until_space_is_freed(
+    small_disk: Path,
+    make_server: Callable[..., LiveServer],
+    other_axle_archive: bytes,
+    tmp_path: Path,
+) -> None:
+    server = make_server(
+        small_disk / "data", tmp_dir=tmp_path / "server-tmp", log_dir=tmp_path, workers=1
+    )
+    with server.client() as client:
+        accepted = upload(client, other_axle_archive)
+        assert accepted.status_code == 202, accepted.text
+        pass_id = accepted.json()["pass_id"]
+        wait_until(
+            lambda: "running" in {w["state"] for w in wheels_of(client, pass_id)},
+            JOB_TIMEOUT_S,
+            "a wheel being measured",
+        )
+        filler = fill(small_disk, 0)
+        wait_until(
+            lambda: "full; measuring it again" in server.log_tail(20000),
+            JOB_TIMEOUT_S,
+            "a measurement to meet the full disk",
+        )
+        wheels = wheels_of(client, pass_id)
+        assert {w["state"] for w in wheels} <= {"queued", "running"}, wheels
+        filler.unlink()
+        job = wait_for_job(client, accepted.json()["job_id"], JOB_TIMEOUT_S)
+        assert (job["wheels_done"], job["wheels_total"]) == (2, 2)
+        wheels = wheels_of(client, pass_id)
+        assert [w["state"] for w in wheels] == ["measured"] * 2, wheels
+    problems = check_store(server.data_dir, server.tmp_dir).problems
+    problems += check_database(server.settings.resolved_database_url, server.data_dir).problems
+    assert not problems, "\n".join(problems)
