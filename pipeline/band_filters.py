@@ -152,12 +152,12 @@ def band_derivatives(
     blocks : ndarray of shape (ceil(M/8), ceil(N/8)), bool
         The band: blocks where the derivatives are wanted.
     ring : ndarray of bool, the shape of `blocks`
-        Blocks set to 0 around the band (see `pipeline.band.RING_BLOCKS`).
+        Blocks where Ix and Iy are set to 0 around the band (see `pipeline.band.RING_BLOCKS`).
 
     Returns
     -------
     GaussianDerivatives
-        Five float32 (M, N) images, valid on the band and its ring only.
+        Five float32 (M, N) images, valid on the band (Ix, Iy on its ring too).
     """
     kernels = gaussian_kernels(sigma_px)
     radius = kernels.radius_px
@@ -174,6 +174,7 @@ def band_derivatives(
     y_pass(d1_x, g0, g1, blocks, ix, ixy)
     y_pass(smooth_x, g2, g1, blocks, iyy, iy)
     y_even(d2_x, g0, blocks, ixx)
-    for field in (ix, iy, ixx, ixy, iyy):
+    # Only the width search reads beyond the band, and only the gradient.
+    for field in (ix, iy):
         zero_blocks(field, ring)
     return GaussianDerivatives(sigma_px=kernels.sigma_px, ix=ix, iy=iy, ixx=ixx, ixy=ixy, iyy=iyy)
