@@ -11,6 +11,11 @@ Blobs are content-addressed, so one blob may belong to several passes: a blob is
 only when no pass that keeps its frames refers to it (as a frame or as a layer). The
 database is committed before any file is unlinked: a crash in between leaves unreferenced
 blobs (space), never a pass that claims frames it no longer has.
+
+Not covered: an upload or stream that stores a byte-identical frame while a sweep runs
+(its blob is written before its rows, so for that moment nothing refers to it) can lose
+that blob to the sweep. Identical camera frames across passes come from replayed data,
+not from cameras; closing this needs a lock shared by the store's writers and the sweep.
 """
 
 from __future__ import annotations
