@@ -22,6 +22,7 @@ BENCH_MODULES: list[str] = [
     "benchmarks.repeatability",
     "benchmarks.throughput",
     "benchmarks.agent",
+    "benchmarks.load",
 ]
 
 OUTPUT = Path(__file__).resolve().parent.parent / "BENCHMARKS.md"

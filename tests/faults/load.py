@@ -45,7 +45,8 @@ class LoadResult:
     wall_s: float = 0.0
     upload_wall_s: float = 0.0
     busy_fraction: float = 0.0
-    load_average: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    load_before: float = 0.0
+    load_after: float = 0.0
 
     def latencies(self, kinds: tuple[str, ...] | None = None) -> np.ndarray:
         return np.array([s for k, _, s in self.reads if kinds is None or k in kinds])
@@ -83,9 +84,10 @@ def wheel_page(seed: Seed, wheel_id: int) -> list[tuple[str, str]]:
 
 def _report(seed: Seed, wheel_id: int, round_index: int) -> tuple[str, str]:
     name = REPORTS[round_index % len(REPORTS)]
+    kind = f"report-{name.split('.')[1]}"
     if name == "report.pdf":  # a wheel's PDF: what a depot files
-        return "pdf", f"/api/passes/{seed.pass_id}/wheels/{wheel_id}/{name}"
-    return name.split(".")[1], f"/api/passes/{seed.pass_id}/{name}"
+        return kind, f"/api/passes/{seed.pass_id}/wheels/{wheel_id}/{name}"
+    return kind, f"/api/passes/{seed.pass_id}/{name}"
 
 
 async def _reader(
@@ -175,6 +177,7 @@ def run_load(
 ) -> LoadResult:
     """All uploads at once and `readers` readers of `rounds` rounds each (a round: the pass
     list, one wheel page and one report), concurrently; stops after `deadline_s` at most."""
+    load_before = os.getloadavg()[0]
     busy_before, total_before = _cpu_ticks()
     try:
         result = asyncio.run(
@@ -184,7 +187,7 @@ def run_load(
         raise AssertionError(f"the load did not finish within {deadline_s} s") from None
     busy_after, total_after = _cpu_ticks()
     result.busy_fraction = (busy_after - busy_before) / max(total_after - total_before, 1)
-    result.load_average = os.getloadavg()
+    result.load_before, result.load_after = load_before, os.getloadavg()[0]
     return result
 
 

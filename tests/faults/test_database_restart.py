@@ -26,6 +26,8 @@ from tests.faults.live import (
 )
 from tests.scale.topology import wait_until
 
+pytestmark = pytest.mark.postgres
+
 PG_CTL = "pg_ctlcluster --skip-systemctl-redirect $(ls /etc/postgresql) main"
 PASSES = 4
 REQUEST_TIMEOUT_S = 15.0
