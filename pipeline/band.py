@@ -36,6 +36,10 @@ it, and nothing reads further: the width search (13 px at σ1), the bilinear and
 and the max filter of C (10 px) all stay within 2 blocks of a mask EDGE_REACH_PX inside the
 band. The rest of each field is left unwritten (no frame-sized memset)."""
 
+WIDER_MARGIN_PX = 36.0
+"""Margin of the one wider band tried when a stripe component reaches the first band's
+edge [px]."""
+
 MAX_BAND_FRACTION = 0.4
 """A band covering more of the frame than this saves nothing: the full-frame path runs."""
 
@@ -123,7 +127,11 @@ def blocks_holding(flags, blocks):
 
 
 def locate_band(
-    seed_response: np.ndarray, seed_level: int, level_shapes: tuple[tuple[int, int], ...]
+    seed_response: np.ndarray,
+    seed_level: int,
+    level_shapes: tuple[tuple[int, int], ...],
+    *,
+    margin_px: float = BAND_MARGIN_PX,
 ) -> StripeBand:
     """The stripe band from the coarsest scale's ridge response.
 
@@ -135,6 +143,8 @@ def locate_band(
         That pyramid level (stride 2^seed_level, ≥ 1).
     level_shapes : tuple of (rows, cols)
         Grid shape of every pyramid level, level 0 (the frame) first.
+    margin_px : float
+        Widening of the seeds [px of the frame].
 
     Returns
     -------
@@ -142,7 +152,7 @@ def locate_band(
     """
     stride = 2**seed_level
     seeds = (seed_response > BAND_SEED_RESPONSE).astype(np.uint8)
-    reach = max(1, math.ceil(BAND_MARGIN_PX / stride))
+    reach = max(1, math.ceil(margin_px / stride))
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
     band = cv2.dilate(seeds, disc).astype(bool)
     blocks = []

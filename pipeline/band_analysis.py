@@ -18,8 +18,10 @@ import numpy as np
 
 from pipeline.adaptive import HINT_REACH, LevelResponse
 from pipeline.band import (
+    BAND_MARGIN_PX,
     BLOCK_PX,
     MAX_BAND_FRACTION,
+    WIDER_MARGIN_PX,
     StripeBand,
     band_ring,
     block_grid,
@@ -221,7 +223,7 @@ class BandAnalysis:
 
     `scales` as `MultiScaleAnalysis.scales` (fields valid on the band, 0 elsewhere); `mask`
     (M, N) bool the stripe mask, None when the band cannot be trusted; `reason` says why not
-    (empty when it can).
+    (empty when it can); `widened` whether the wider band was needed.
     """
 
     sigmas_px: tuple[float, ...]
@@ -229,6 +231,7 @@ class BandAnalysis:
     band: StripeBand | None
     mask: np.ndarray | None
     reason: str
+    widened: bool = False
 
 
 def analyse_band(
@@ -284,19 +287,22 @@ def analyse_band(
     seed_index = max(range(len(levels)), key=lambda i: (levels[i], sigmas_px[i]))
     seed_blocks = np.ones(block_grid(shapes[coarsest]), np.bool_)
     seed = analysed(seed_index, seed_blocks, ~seed_blocks)
-    band = locate_band(seed.response, coarsest, shapes)
-    if band.fraction > MAX_BAND_FRACTION:
-        reason = f"the band covers {100 * band.fraction:.0f} % of the frame"
-        return BandAnalysis(tuple(sigmas_px), (), band, None, reason)
-    scales = []
-    for i, level in enumerate(levels):
-        if i == seed_index:
-            scales.append(seed)
-        else:
-            scales.append(analysed(i, band.blocks[level], band.rings[level]))
-    strides = tuple(2**lv for lv in levels)
-    found = segment_band(tuple(sc.response for sc in scales), strides, band.blocks[0], image.shape)
-    if not found.inside:
+    # A stripe the band cuts (a spot fused to its edge, a faint end) gets one wider band.
+    for margin in (BAND_MARGIN_PX, WIDER_MARGIN_PX):
+        band = locate_band(seed.response, coarsest, shapes, margin_px=margin)
+        if band.fraction > MAX_BAND_FRACTION:
+            reason = f"the band covers {100 * band.fraction:.0f} % of the frame"
+            return BandAnalysis(tuple(sigmas_px), (), band, None, reason)
+        scales = [
+            seed if i == seed_index else analysed(i, band.blocks[lv], band.rings[lv])
+            for i, lv in enumerate(levels)
+        ]
+        strides = tuple(2**lv for lv in levels)
+        responses = tuple(sc.response for sc in scales)
+        found = segment_band(responses, strides, band.blocks[0], image.shape)
+        if found.inside:
+            break
+    else:
         reason = "a stripe component reaches the band's edge"
         return BandAnalysis(tuple(sigmas_px), (), band, None, reason)
     held = blocks_holding(found.mask, band.blocks[0])
@@ -307,4 +313,11 @@ def analyse_band(
         if level:
             mask_blocks = cv2.dilate(mask_blocks.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
         peaked.append(with_peak_strength(scale, mask_blocks, peak_reach_px=peak_reach_px))
-    return BandAnalysis(tuple(float(s) for s in sigmas_px), tuple(peaked), band, found.mask, "")
+    return BandAnalysis(
+        tuple(float(s) for s in sigmas_px),
+        tuple(peaked),
+        band,
+        found.mask,
+        "",
+        widened=margin != BAND_MARGIN_PX,
+    )

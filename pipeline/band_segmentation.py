@@ -12,6 +12,7 @@ from pipeline.jit import kernel
 from pipeline.ridges import RIDGE_THRESHOLD
 from pipeline.segmentation import (
     MIN_COMPONENT_AREA_PX,
+    MIN_ELONGATION,
     close_holes,
     shapes_from_moments,
     stripe_components,
@@ -23,7 +24,7 @@ class BandMask:
     """The stripe mask found inside a band.
 
     `mask` (M, N) bool is the closed stripe mask; `inside` is False when a component that is
-    or could be part of the stripe comes within EDGE_REACH_PX of the band's edge, where the
+    or looks like part of the stripe comes within EDGE_REACH_PX of the band's edge, where the
     band may have cut it (the full-frame path must then decide).
     """
 
@@ -220,9 +221,12 @@ def segment_band(
     label, moments = _label_runs(runs)
     shapes = shapes_from_moments(*moments.T)
     keep = stripe_components(shapes)
-    # A component the band may have cut: kept, or large enough to be kept whole.
+    # A component the band may have cut: one kept, or one shaped like a stripe piece. A round
+    # spot (a specular reflection beside the stripe) is neither, whole or cut: the band was
+    # grown from the coarsest scale's ridges, which see every stripe piece and no spot.
     touching = np.zeros(keep.size, bool)
     touching[label[_runs_near_band_edge(runs, blocks, EDGE_REACH_PX)]] = True
-    inside = not (touching & (keep | (shapes.area_px >= MIN_COMPONENT_AREA_PX))).any()
+    piece = (shapes.area_px >= MIN_COMPONENT_AREA_PX) & (shapes.elongation >= MIN_ELONGATION)
+    inside = not (touching & (keep | piece)).any()
     stripe = _paint_runs(runs, keep[label], shape)
     return BandMask(mask=close_holes(stripe), inside=inside)

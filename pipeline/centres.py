@@ -66,8 +66,9 @@ class Centres:
         Scales used: (σ1, σ2, σ3) for "adaptive", (σ,) for "steger" and "classic".
     path : str
         How the frame was analysed: "band" (inside the stripe band located on the coarsest
-        scale, the camera-rate path), "full" (the whole frame, the reference), or "fallback"
-        (the whole frame because the band could not be trusted for this frame).
+        scale, the camera-rate path), "wide band" (the same in a wider band, because a stripe
+        component reached the first one's edge), "full" (the whole frame, the reference), or
+        "fallback" (the whole frame because no band could be trusted for this frame).
 
     All arrays are read-only.
     """
@@ -386,7 +387,12 @@ def _analyse(image, frame, sigmas, c_grey, width_max, full_frame):
     if not full_frame:
         band = analyse_band(image, sigmas, c_grey=c_grey, peak_reach_px=peak_reach)
         if band.mask is not None and band.band is not None:
-            return band.scales, band.mask, band.band.blocks[0], "band"
+            return (
+                band.scales,
+                band.mask,
+                band.band.blocks[0],
+                "wide band" if band.widened else "band",
+            )
     analysis = analyse_scales(frame, sigmas, c_grey=c_grey, peak_reach_px=peak_reach)
     return (
         analysis.scales,
