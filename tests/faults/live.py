@@ -254,7 +254,8 @@ def check_database(database_url: str, data_dir: Path) -> Damage:
         with make_session_factory(engine)() as session:
             for train_pass in session.scalars(select(Pass)):
                 _check_pass(session, train_pass, damage)
-            for frame in session.scalars(select(Frame)):
+            kept = select(Pass.id).where(Pass.frames_removed_at.is_(None))  # not by retention
+            for frame in session.scalars(select(Frame).where(Frame.pass_id.in_(kept))):
                 if not (store / frame.sha256[:2] / f"{frame.sha256}.png").exists():
                     damage.add(f"frame {frame.id} of pass {frame.pass_id}: blob missing")
             for row in session.scalars(select(MeasurementFrame)):
