@@ -30,9 +30,21 @@ CASES = [
         shape=FULL_FRAME,
     ),
 ]
-SEAM_TOLERANCE_PX = 0.05
-"""Largest move of a centre between the paths: a seam pixel whose two scales' predictions
-tie may settle the other way (seen once, 0.035 px, on the 5 px stripe)."""
+ACROSS_TOLERANCE_PX = 1e-3
+"""Largest move of a centre across the stripe between the paths (float rounding)."""
+
+ALONG_TOLERANCE_PX = 0.5
+"""Largest move along it: where the line passes a pixel boundary two pixels tie for one
+centre (|t·n| = 0.5) and rounding may give it to the other (seen: 0.087 px)."""
+
+
+def _assert_same_points(band, full) -> None:
+    assert len(band) == len(full)
+    dx, dy = band.x - full.x, band.y - full.y
+    across = np.abs(dx * full.nx + dy * full.ny)
+    along = np.abs(-dx * full.ny + dy * full.nx)
+    assert across.max(initial=0) <= ACROSS_TOLERANCE_PX
+    assert along.max(initial=0) <= ALONG_TOLERANCE_PX
 
 
 @functools.cache
@@ -48,8 +60,7 @@ def test_band_path_gives_the_full_frame_result(case: StripeCase, method: str) ->
     assert band.path == "band"
     assert full.path == "full"
     np.testing.assert_array_equal(band.mask, full.mask)
-    assert len(band) == len(full)
-    assert np.hypot(band.x - full.x, band.y - full.y).max() <= SEAM_TOLERANCE_PX
+    _assert_same_points(band, full)
     np.testing.assert_array_equal(band.sigma, full.sigma)
     if method == "adaptive":
         np.testing.assert_array_equal(band.sigma_map, full.sigma_map)
@@ -90,8 +101,7 @@ def test_band_path_equals_full_frame_on_straight_stripes(angle_deg, offset_px, w
     full = extract_centres(image, full_frame=True)
     assert band.path == "band"
     np.testing.assert_array_equal(band.mask, full.mask)
-    assert len(band) == len(full)
-    assert np.hypot(band.x - full.x, band.y - full.y).max(initial=0) <= SEAM_TOLERANCE_PX
+    _assert_same_points(band, full)
 
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
