@@ -154,7 +154,8 @@ def _select_adaptive(
         hinted = np.logical_or.reduce([scale.hints for scale in scales])
         rows, cols = np.nonzero(mask & hinted)
         index = chosen_index(scales, rows, cols)
-        sigma_map = scale_map(scales, sigmas_px, *np.nonzero(mask), mask.shape)
+        mask_rows, mask_cols = np.nonzero(mask)
+        sigma_map = scale_map(scales, sigmas_px, mask_rows, mask_cols, mask.shape)
     else:
         sigma_map, rows, cols, index = choose_in_band(scales, sigmas_px, mask, blocks)
     choice = choose_scales(scales, rows, cols, index)

@@ -95,8 +95,8 @@ def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> 
         frame; 0 where fewer than 5 points are in the window.
     """
     out = np.empty(np.size(x))
-    arrays = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny, sigma))
-    _local_curvature(*arrays, out)
+    fx, fy, fnx, fny, fsigma = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny, sigma))
+    _local_curvature(fx, fy, fnx, fny, fsigma, out)
     return out
 
 

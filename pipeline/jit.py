@@ -8,7 +8,7 @@ one worker's work, and the service scales with processes.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TypeVar
+from typing import TypeVar, cast
 
 import numba
 
@@ -22,4 +22,5 @@ def kernel(func: F) -> F:
     checks in the loops); `fastmath={"contract"}` only lets a multiply and an add fuse (FMA),
     which changes results in the last bit, never their order of summation.
     """
-    return numba.njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})(func)  # type: ignore[no-any-return]
+    compiled = numba.njit(cache=True, nogil=True, error_model="numpy", fastmath={"contract"})
+    return cast(F, compiled(func))

@@ -151,8 +151,8 @@ def link_points(
     row_start = np.searchsorted(rows[order], np.arange(shape[0] + 1))
     ahead = np.empty(rows.size, np.int64)
     behind = np.empty(rows.size, np.int64)
-    floats = [np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny)]
-    _best_neighbours(rows, cols, *floats, order, row_start, ahead, behind)
+    fx, fy, fnx, fny = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny))
+    _best_neighbours(rows, cols, fx, fy, fnx, fny, order, row_start, ahead, behind)
     chain_of = np.empty(rows.size, np.int64)
     position = np.empty(rows.size, np.int64)
     _walk_chains(ahead, behind, chain_of, position)

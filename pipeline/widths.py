@@ -68,7 +68,7 @@ def _edge_distances(ix, iy, stride, x, y, dx, dy, steps, out) -> None:
             v = (y[k] + step * dy[k] - origin) / stride
             taps = cubic_taps(u, v, ix.shape[0], ix.shape[1])
             refined[i] = np.hypot(cubic_at(ix, *taps), cubic_at(iy, *taps))
-        node = min(max(np.argmax(refined), 1), 3)
+        node = min(max(int(np.argmax(refined)), 1), 3)
         left, mid, right = refined[node - 1], refined[node], refined[node + 1]
         curvature = left - 2 * mid + right
         shift = 0.5 * (left - right) / curvature if curvature < 0 else 0.0
