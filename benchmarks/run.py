@@ -19,6 +19,7 @@ from pathlib import Path
 
 BENCH_MODULES: list[str] = [
     "benchmarks.extraction",
+    "benchmarks.camera_rate",
     "benchmarks.repeatability",
     "benchmarks.throughput",
     "benchmarks.agent",

@@ -1,0 +1,178 @@
+"""Frames per second of 2 worker processes on a simulated pass, and their memory.
+
+A simulated pass (2 vehicles, 16 wheels, 32 frames of 1600×1200 px) is written to a
+folder; two spawned worker processes (the service's pool uses spawn too), each on its own
+core with one OpenCV thread, read it and then:
+
+- extract the adaptive centres (band path) of FRAMES_PER_WORKER frames each, cycling
+  through the pass: frames per second of the pair, and each worker's resident memory after
+  the first 100 frames and after the last (growth across 1,000 frames);
+- measure every wheel of the pass (`measure_wheel`, adaptive: both sensors' centres, the
+  fusion and the flange parameters), the pass split between the two: frames per second of
+  the pair and each worker's peak resident memory.
+
+Run alone with `python -m benchmarks.run camera_rate`.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import resource
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+FRAMES_PER_WORKER = 1000
+WORKERS = 2
+WARM_UP_FRAMES = 4
+MEMORY_FIRST_FRAMES = 100
+
+
+@dataclass(frozen=True)
+class WorkerRun:
+    """What one worker measured."""
+
+    started: float
+    finished: float
+    frames: int
+    rss_after_first_mib: float
+    rss_after_last_mib: float
+    peak_rss_mib: float
+    paths: dict[str, int]
+
+
+def _rss_mib() -> float:
+    pages = int(Path("/proc/self/statm").read_text().split()[1])
+    return pages * resource.getpagesize() / 2**20
+
+
+def _peak_rss_mib() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def _extract_frames(folder: str, offset: int) -> WorkerRun:
+    """Worker: adaptive centres of FRAMES_PER_WORKER frames of the pass, cycling."""
+    from pipeline import extract_centres
+
+    cv2.setNumThreads(1)
+    images = [cv2.imread(str(p), cv2.IMREAD_UNCHANGED) for p in sorted(Path(folder).rglob("*.png"))]
+    for image in images[:WARM_UP_FRAMES]:
+        extract_centres(image)
+    paths: dict[str, int] = {}
+    started = time.time()
+    rss_first = 0.0
+    for k in range(FRAMES_PER_WORKER):
+        centres = extract_centres(images[(offset + k) % len(images)])
+        paths[centres.path] = paths.get(centres.path, 0) + 1
+        if k + 1 == MEMORY_FIRST_FRAMES:
+            rss_first = _rss_mib()
+    finished = time.time()
+    return WorkerRun(
+        started, finished, FRAMES_PER_WORKER, rss_first, _rss_mib(), _peak_rss_mib(), paths
+    )
+
+
+def _measure_wheels(folder: str, share: int) -> WorkerRun:
+    """Worker: measure_wheel (adaptive) of every WORKERS-th wheel of the pass."""
+    from pipeline.archive import read_pass_archive
+    from pipeline.measurement import measure_wheel
+
+    cv2.setNumThreads(1)
+    archive = read_pass_archive(folder)
+    calibration = archive.calibration
+    if calibration is None:
+        raise ValueError(f"{folder} has no calibration")
+    wheels = archive.manifest.wheels[share::WORKERS]
+
+    def measured(entry) -> int:
+        inner = [archive.load_frame(p) for p in entry.frames_inner]
+        outer = [archive.load_frame(p) for p in entry.frames_outer]
+        measure_wheel(inner, outer, calibration, side=entry.side, method="adaptive")
+        return len(inner) + len(outer)
+
+    measured(wheels[0])
+    started = time.time()
+    frames = sum(measured(entry) for entry in wheels)
+    finished = time.time()
+    return WorkerRun(started, finished, frames, 0.0, _rss_mib(), _peak_rss_mib(), {})
+
+
+def _run_pair(function, folder: Path) -> list[WorkerRun]:
+    context = multiprocessing.get_context("spawn")
+    with context.Pool(WORKERS) as pool:
+        return pool.starmap(function, [(str(folder), k) for k in range(WORKERS)])
+
+
+def _rate(runs: list[WorkerRun]) -> tuple[float, float]:
+    wall = max(r.finished for r in runs) - min(r.started for r in runs)
+    frames = sum(r.frames for r in runs)
+    return frames / wall, wall
+
+
+def run() -> str:
+    """Markdown section: frames per second of 2 workers, and their memory."""
+    from pipeline.archive import write_pass_archive
+    from pipeline.simulator import build_station, build_train, pass_start_time, simulate_pass
+
+    station = build_station()
+    train_rng, pass_rng = np.random.default_rng(8).spawn(2)
+    simulated = simulate_pass(
+        build_train(2, train_rng), station, pass_rng, started_at=pass_start_time(0)
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp) / "pass"
+        write_pass_archive(
+            folder, simulated.manifest, simulated.frames, calibration=station.calibration
+        )
+        extraction = _run_pair(_extract_frames, folder)
+        measuring = _run_pair(_measure_wheels, folder)
+    extract_fps, extract_wall = _rate(extraction)
+    measure_fps, measure_wall = _rate(measuring)
+    paths: dict[str, int] = {}
+    for r in extraction:
+        for name, count in r.paths.items():
+            paths[name] = paths.get(name, 0) + count
+    taken = ", ".join(f"{count} {name}" for name, count in sorted(paths.items()))
+    rows = [
+        f"| worker {k + 1} | {r.rss_after_first_mib:.0f} | {r.rss_after_last_mib:.0f} | "
+        f"{r.rss_after_last_mib - r.rss_after_first_mib:+.1f} | {r.peak_rss_mib:.0f} | "
+        f"{m.peak_rss_mib:.0f} |"
+        for k, (r, m) in enumerate(zip(extraction, measuring, strict=True))
+    ]
+    return (
+        "\n".join(
+            [
+                "## Camera rate: 2 worker processes on a simulated pass (benchmarks/camera_rate.py)",
+                "",
+                f"A simulated pass of {len(simulated.frames)} frames (1600×1200 px, 8-bit, 2 "
+                f"vehicles, 16 wheels); {WORKERS} spawned worker processes, one OpenCV thread "
+                "each, on this 2-core machine. The camera delivers 60 frames per second.",
+                "",
+                "| what | frames | wall s | frames per second |",
+                "|---|---|---|---|",
+                f"| adaptive centres, band path ({taken}) | {sum(r.frames for r in extraction)} | "
+                f"{extract_wall:.1f} | {extract_fps:.1f} |",
+                f"| measure every wheel (adaptive: centres of both sensors, fusion, parameters) | "
+                f"{sum(r.frames for r in measuring)} | {measure_wall:.1f} | {measure_fps:.1f} |",
+                "",
+                f"Resident memory per worker [MiB]: after the first {MEMORY_FIRST_FRAMES} and "
+                f"after all {FRAMES_PER_WORKER} frames of extraction (the growth between), the "
+                "peak of that run, and the peak while measuring the pass's wheels.",
+                "",
+                "| worker | after 100 | after 1000 | growth | peak (extraction) | peak (measuring) |",
+                "|---|---|---|---|---|---|",
+                *rows,
+            ]
+        )
+        + "\n"
+    )
+
+
+if __name__ == "__main__":
+    import sys
+
+    sys.stdout.write(run())
