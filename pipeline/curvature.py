@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from pipeline.jit import kernel
+from pipeline.normal_equations import solve_symmetric3
 
 WINDOW_SIGMAS = 2.0
 """Half-width of the fitting window along the polyline, in units of the point's σ."""
@@ -17,26 +18,8 @@ MIN_HALF_WINDOW_PX = 4.0
 
 
 @kernel
-def _solve3(a, b) -> float:
-    """Third unknown of the symmetric 3×3 system a·s = b (Cramer's rule), NaN if singular."""
-    det = (
-        a[0, 0] * (a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1])
-        - a[0, 1] * (a[1, 0] * a[2, 2] - a[1, 2] * a[2, 0])
-        + a[0, 2] * (a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0])
-    )
-    top = (
-        a[0, 0] * (a[1, 1] * b[2] - b[1] * a[2, 1])
-        - a[0, 1] * (a[1, 0] * b[2] - b[1] * a[2, 0])
-        + b[0] * (a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0])
-    )
-    return top / det
-
-
-@kernel
 def _local_curvature(x, y, nx, ny, sigma, out) -> None:
     count = x.size
-    normal = np.empty((3, 3))
-    rhs = np.empty(3)
     for i in range(count):
         half = max(WINDOW_SIGMAS * sigma[i], MIN_HALF_WINDOW_PX)
         # Centres are at least 1/1.5 px apart along a chain, so the window's points lie
@@ -68,11 +51,7 @@ def _local_curvature(x, y, nx, ny, sigma, out) -> None:
             out[i] = 0.0
             continue
         # Normal equations of v = a + b·u + (κ/2)·u² with the basis (1, u, u²/2).
-        normal[0, 0], normal[0, 1], normal[0, 2] = s0, s1, 0.5 * s2
-        normal[1, 0], normal[1, 1], normal[1, 2] = s1, s2, 0.5 * s3
-        normal[2, 0], normal[2, 1], normal[2, 2] = 0.5 * s2, 0.5 * s3, 0.25 * s4
-        rhs[0], rhs[1], rhs[2] = t0, t1, 0.5 * t2
-        out[i] = _solve3(normal, rhs)
+        _, _, out[i] = solve_symmetric3(s0, s1, 0.5 * s2, s2, 0.5 * s3, 0.25 * s4, t0, t1, 0.5 * t2)
 
 
 def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> np.ndarray:

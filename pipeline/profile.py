@@ -17,7 +17,10 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from pipeline.errors import PipelineError
+from pipeline.hessian import eigen2
 from pipeline.imaging import GEOMETRY_FLOAT
+from pipeline.jit import kernel
+from pipeline.normal_equations import solve_symmetric3
 
 REFERENCE_X_MM = 70.0
 WHEEL_REACH_MM = (-8.0, 145.0)
@@ -149,6 +152,77 @@ def overlap_residual(inner_xz: np.ndarray, outer_xz: np.ndarray) -> tuple[float 
     return float(np.sqrt(np.mean(residual**2))), int(np.count_nonzero(in_overlap))
 
 
+@kernel
+def _residuals_kernel(points, other, order, radius_mm, min_points, out) -> None:
+    """Per point: offset from the quadratic v(u) through `other`'s points within the radius.
+
+    `order` sorts `other` by x. (u, v) are the principal axes of the local points, v the
+    minor one oriented upwards (z ≥ 0) so that offsets of neighbouring points share a sign.
+    Fewer than 2·radius − 1 mm of extent along u (ptp(u) ≤ 0.5 mm) fits a line instead.
+    """
+    xs = other[order, 0]
+    r2 = radius_mm * radius_mm
+    for i in range(points.shape[0]):
+        px, pz = points[i, 0], points[i, 1]
+        lo = np.searchsorted(xs, px - radius_mm)
+        hi = np.searchsorted(xs, px + radius_mm, side="right")
+        n = 0
+        sx = sz = 0.0
+        for k in range(lo, hi):
+            j = order[k]
+            dx, dz = other[j, 0] - px, other[j, 1] - pz
+            if dx * dx + dz * dz <= r2:
+                n += 1
+                sx += other[j, 0]
+                sz += other[j, 1]
+        if n < min_points:
+            out[i] = np.nan
+            continue
+        cx, cz = sx / n, sz / n
+        cxx = cxz = czz = 0.0
+        for k in range(lo, hi):
+            j = order[k]
+            dx, dz = other[j, 0] - px, other[j, 1] - pz
+            if dx * dx + dz * dz <= r2:
+                ex, ez = other[j, 0] - cx, other[j, 1] - cz
+                cxx += ex * ex
+                cxz += ex * ez
+                czz += ez * ez
+        _, _, ax, az = eigen2(cxx, cxz, czz)  # major axis (λ1 of the covariance ≥ 0)
+        nx, nz = -az, ax
+        if nz < 0 or (nz == 0 and nx < 0):
+            nx, nz = -nx, -nz
+        ux, uz = nz, -nx
+        s0 = s1 = s2 = s3 = s4 = t0 = t1 = t2 = 0.0
+        u_min, u_max = np.inf, -np.inf
+        for k in range(lo, hi):
+            j = order[k]
+            dx, dz = other[j, 0] - px, other[j, 1] - pz
+            if dx * dx + dz * dz <= r2:
+                ex, ez = other[j, 0] - cx, other[j, 1] - cz
+                u = ex * ux + ez * uz
+                v = ex * nx + ez * nz
+                u_min, u_max = min(u_min, u), max(u_max, u)
+                s0 += 1.0
+                s1 += u
+                s2 += u * u
+                s3 += u * u * u
+                s4 += u * u * u * u
+                t0 += v
+                t1 += u * v
+                t2 += u * u * v
+        eu = (px - cx) * ux + (pz - cz) * uz
+        ev = (px - cx) * nx + (pz - cz) * nz
+        if u_max - u_min > 0.5:  # least squares v = a + b·u + c·u²
+            a, b, c = solve_symmetric3(s0, s1, s2, s2, s3, s4, t0, t1, t2)
+            out[i] = ev - (a + b * eu + c * eu * eu)
+        else:  # a line v = a + b·u
+            det = s0 * s2 - s1 * s1
+            a = (t0 * s2 - s1 * t1) / det
+            b = (s0 * t1 - s1 * t0) / det
+            out[i] = ev - (a + b * eu)
+
+
 def _local_residuals(points: np.ndarray, other: np.ndarray, radius_mm: float) -> np.ndarray:
     """Offset of each point from the local curve of `other` (NaN where it has no say).
 
@@ -158,17 +232,10 @@ def _local_residuals(points: np.ndarray, other: np.ndarray, radius_mm: float) ->
     residual = np.full(points.shape[0], np.nan)
     if points.shape[0] == 0 or other.shape[0] < CONSENSUS_MIN_POINTS:
         return residual
-    tree = cKDTree(other)
-    for i, near in enumerate(tree.query_ball_point(points, radius_mm)):
-        if len(near) < CONSENSUS_MIN_POINTS:
-            continue
-        local = other[near]
-        centre = local.mean(axis=0)
-        _, _, vt = np.linalg.svd(local - centre, full_matrices=False)
-        u, v = (local - centre) @ vt[0], (local - centre) @ vt[1]
-        coefficients = np.polyfit(u, v, 2) if np.ptp(u) > 0.5 else np.polyfit(u, v, 1)
-        p = points[i] - centre
-        residual[i] = p @ vt[1] - np.polyval(coefficients, p @ vt[0])
+    points = np.ascontiguousarray(points, np.float64)
+    other = np.ascontiguousarray(other, np.float64)
+    order = np.argsort(other[:, 0], kind="stable")
+    _residuals_kernel(points, other, order, radius_mm, CONSENSUS_MIN_POINTS, residual)
     return residual
 
 
