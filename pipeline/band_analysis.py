@@ -25,6 +25,7 @@ from pipeline.band import (
     StripeBand,
     band_ring,
     block_grid,
+    block_runs,
     blocks_holding,
     locate_band,
     pool_blocks,
@@ -54,37 +55,35 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
     strength = np.empty((height, width), np.float32)
     norm = sigma_px * sigma_px / (stride * stride)  # σ² and level → frame units of ∂²
     sigma2 = sigma_px * sigma_px
-    first = 1.0 / stride
-    second = first * first
+    to_frame = 1.0 / stride
+    second = to_frame * to_frame
     origin = 0.5 * (stride - 1)
-    for br in range(blocks.shape[0]):
-        for bc in range(blocks.shape[1]):
-            if not blocks[br, bc]:
-                continue
-            for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-                for c in range(bc * BLOCK_PX, min(bc * BLOCK_PX + BLOCK_PX, width)):
-                    response[r, c] = 0.0
-                    strength[r, c] = 0.0
-                    dxx, dxy, dyy = ixx[r, c], ixy[r, c], iyy[r, c]
-                    # As analyse_level: only λ1 < 0 candidates strong enough can matter.
-                    if not dxx + dyy < 0:
-                        continue
-                    s2 = (dxx * dxx + dyy * dyy + 2 * dxy * dxy) * (norm * norm)
-                    if not s2 > 0.25 * min_s2:
-                        continue
-                    lambda1, lambda2, nx, ny = eigen2(dxx * second, dxy * second, dyy * second)
-                    response[r, c] = ridge_value(lambda1 * sigma2, lambda2 * sigma2, c_grey)
-                    strength[r, c] = -sigma2 * min(lambda1, 0.0)
-                    if lambda1 == 0:
-                        continue
-                    offset = -(nx * ix[r, c] * first + ny * iy[r, c] * first) / lambda1
-                    if abs(offset) > HINT_REACH * stride:
-                        continue
-                    x = c * stride + origin + offset * nx
-                    y = r * stride + origin + offset * ny
-                    hr = min(max(int(np.rint(y)), 0), frame_rows - 1)
-                    hc = min(max(int(np.rint(x)), 0), frame_cols - 1)
-                    hints[max(hr - 1, 0) : hr + 2, max(hc - 1, 0) : hc + 2] = True
+    for br, bc0, bc1 in block_runs(blocks):
+        c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
+        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+            response[r, c0:c1] = 0.0
+            strength[r, c0:c1] = 0.0
+            for c in range(c0, c1):
+                dxx, dxy, dyy = ixx[r, c], ixy[r, c], iyy[r, c]
+                # As analyse_level: only λ1 < 0 candidates strong enough can matter.
+                if not dxx + dyy < 0:
+                    continue
+                s2 = (dxx * dxx + dyy * dyy + 2 * dxy * dxy) * (norm * norm)
+                if not s2 > 0.25 * min_s2:
+                    continue
+                lambda1, lambda2, nx, ny = eigen2(dxx * second, dxy * second, dyy * second)
+                response[r, c] = ridge_value(lambda1 * sigma2, lambda2 * sigma2, c_grey)
+                strength[r, c] = -sigma2 * min(lambda1, 0.0)
+                if lambda1 == 0:
+                    continue
+                offset = -(nx * ix[r, c] + ny * iy[r, c]) * to_frame / lambda1
+                if abs(offset) > HINT_REACH * stride:
+                    continue
+                x = c * stride + origin + offset * nx
+                y = r * stride + origin + offset * ny
+                hr = min(max(int(np.rint(y)), 0), frame_rows - 1)
+                hc = min(max(int(np.rint(x)), 0), frame_cols - 1)
+                hints[max(hr - 1, 0) : hr + 2, max(hc - 1, 0) : hc + 2] = True
     return response, strength
 
 
