@@ -146,7 +146,7 @@ def run() -> str:
     return (
         "\n".join(
             [
-                "## Camera rate: 2 worker processes on a simulated pass (benchmarks/camera_rate.py)",
+                "## Camera rate: 2 workers on a simulated pass (benchmarks/camera_rate.py)",
                 "",
                 f"A simulated pass of {len(simulated.frames)} frames (1600×1200 px, 8-bit, 2 "
                 f"vehicles, 16 wheels); {WORKERS} spawned worker processes, one OpenCV thread "
@@ -163,7 +163,7 @@ def run() -> str:
                 f"after all {FRAMES_PER_WORKER} frames of extraction (the growth between), the "
                 "peak of that run, and the peak while measuring the pass's wheels.",
                 "",
-                "| worker | after 100 | after 1000 | growth | peak (extraction) | peak (measuring) |",
+                "| worker | after 100 | after 1000 | growth | peak, extraction | peak, measuring |",
                 "|---|---|---|---|---|---|",
                 *rows,
             ]

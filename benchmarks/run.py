@@ -24,6 +24,8 @@ BENCH_MODULES: list[str] = [
     "benchmarks.throughput",
     "benchmarks.agent",
     "benchmarks.load",
+    "benchmarks.fuzz",
+    "benchmarks.hardening",
 ]
 
 OUTPUT = Path(__file__).resolve().parent.parent / "BENCHMARKS.md"
