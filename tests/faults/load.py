@@ -12,6 +12,7 @@ import asyncio
 import os
 import random
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -179,10 +180,15 @@ def run_load(
     list, one wheel page and one report), concurrently; stops after `deadline_s` at most."""
     load_before = os.getloadavg()[0]
     busy_before, total_before = _cpu_ticks()
-    try:
-        result = asyncio.run(
-            asyncio.wait_for(_drive(server, archives, seeds, readers, rounds), deadline_s)
+    # On a thread of its own: the caller's thread may already run an event loop (a
+    # session-wide Playwright of the browser tests does), where asyncio.run is refused.
+    with ThreadPoolExecutor(1) as thread:
+        running = thread.submit(
+            asyncio.run,
+            asyncio.wait_for(_drive(server, archives, seeds, readers, rounds), deadline_s),
         )
+    try:
+        result = running.result()
     except TimeoutError:
         raise AssertionError(f"the load did not finish within {deadline_s} s") from None
     busy_after, total_after = _cpu_ticks()
