@@ -20,8 +20,8 @@ SUITES = {
     "faults": ["tests/faults"],
     "backup and restore": ["tests/backend/test_backup.py", "tests/backend/test_backup_errors.py"],
 }
-_OUTCOME = re.compile(r"^(?P<outcome>PASSED|FAILED|SKIPPED|ERROR)\s+(?P<test>\S+)", re.M)
-_DURATION = re.compile(r"^(?P<seconds>[\d.]+)s call\s+(?P<test>\S+)", re.M)
+_OUTCOME = re.compile(r"^(?P<outcome>PASSED|FAILED|SKIPPED|ERROR) (?P<test>.+?)(?: - .*)?$", re.M)
+_DURATION = re.compile(r"^(?P<seconds>[\d.]+)s call\s+(?P<test>.+?)$", re.M)
 
 
 def _run_suite(paths: list[str]) -> tuple[list[tuple[str, str, float]], float]:

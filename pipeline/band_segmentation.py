@@ -33,47 +33,43 @@ class BandMask:
 
 
 @kernel
-def _upsampled(field, stride, r, c) -> float:
-    """Bilinear value of a level field at frame pixel (r, c), as cv2.resize INTER_LINEAR."""
-    height, width = field.shape
-    sy = (r + 0.5) / stride - 0.5
-    sx = (c + 0.5) / stride - 0.5
-    y0 = int(np.floor(sy))
-    x0 = int(np.floor(sx))
-    fy = sy - y0
-    fx = sx - x0
-    if y0 < 0:
-        y0, fy = 0, 0.0
-    if y0 >= height - 1:
-        y0, fy = height - 1, 0.0
-    if x0 < 0:
-        x0, fx = 0, 0.0
-    if x0 >= width - 1:
-        x0, fx = width - 1, 0.0
-    y1 = min(y0 + 1, height - 1)
-    x1 = min(x0 + 1, width - 1)
-    top = field[y0, x0] * (1 - fx) + field[y0, x1] * fx
-    bottom = field[y1, x0] * (1 - fx) + field[y1, x1] * fx
-    return top * (1 - fy) + bottom * fy
+def _linear_tap(index: int, stride: int, size: int) -> tuple[int, int, float]:
+    """Source taps and weight of frame index `index` on a grid `stride` times coarser, as
+    cv2.resize INTER_LINEAR (pixel centres aligned, clamped at the edges)."""
+    source = (index + 0.5) / stride - 0.5
+    first = int(np.floor(source))
+    weight = source - first
+    if first < 0:
+        first, weight = 0, 0.0
+    if first >= size - 1:
+        first, weight = size - 1, 0.0
+    return first, min(first + 1, size - 1), weight
 
 
 @kernel
 def _stripe_binary(responses, strides, blocks, shape):
-    """V = max over scales > RIDGE_THRESHOLD on the band's frame pixels."""
+    """V = max over scales > RIDGE_THRESHOLD on the band's frame pixels (coarser scales'
+    V upsampled bilinearly, as cv2.resize INTER_LINEAR)."""
     height, width = shape
     binary = np.zeros((height, width), np.bool_)
-    for br in range(blocks.shape[0]):
-        for bc in range(blocks.shape[1]):
-            if not blocks[br, bc]:
-                continue
-            for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-                for c in range(bc * BLOCK_PX, min(bc * BLOCK_PX + BLOCK_PX, width)):
-                    for i in range(len(responses)):
-                        field = responses[i]
-                        v = field[r, c] if strides[i] == 1 else _upsampled(field, strides[i], r, c)
-                        if v > RIDGE_THRESHOLD:
-                            binary[r, c] = True
-                            break
+    for br, bc0, bc1 in block_runs(blocks):
+        c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
+        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+            for i in range(len(responses)):
+                field, stride = responses[i], strides[i]
+                if stride == 1:
+                    for c in range(c0, c1):
+                        binary[r, c] |= field[r, c] > RIDGE_THRESHOLD
+                    continue
+                y0, y1, fy = _linear_tap(r, stride, field.shape[0])
+                top, bottom = field[y0], field[y1]
+                for c in range(c0, c1):
+                    if binary[r, c]:
+                        continue
+                    x0, x1, fx = _linear_tap(c, stride, field.shape[1])
+                    upper = top[x0] * (1 - fx) + top[x1] * fx
+                    lower = bottom[x0] * (1 - fx) + bottom[x1] * fx
+                    binary[r, c] = upper * (1 - fy) + lower * fy > RIDGE_THRESHOLD
     return binary
 
 

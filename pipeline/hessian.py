@@ -45,7 +45,7 @@ def eigen2(ixx: float, ixy: float, iyy: float) -> tuple[float, float, float, flo
         vx, vy = ax, ay
     else:
         vx, vy = bx, by
-    norm = np.hypot(vx, vy)
+    norm = np.sqrt(vx * vx + vy * vy)  # no overflow: derivatives of grey levels
     if norm == 0:
         return lambda1, lambda2, 1.0, 0.0
     return lambda1, lambda2, vx / norm, vy / norm
