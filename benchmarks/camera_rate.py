@@ -6,10 +6,11 @@ core with one OpenCV thread, read it and then:
 
 - extract the adaptive centres (band path) of FRAMES_PER_WORKER frames each, cycling
   through the pass: frames per second of the pair, and each worker's resident memory after
-  the first 100 frames and after the last (growth across 1,000 frames);
-- measure every wheel of the pass (`measure_wheel`, adaptive: both sensors' centres, the
-  fusion and the flange parameters), the pass split between the two: frames per second of
-  the pair and each worker's peak resident memory.
+  every frame (the largest in the first and in the second half: growth across 1,000
+  frames);
+- measure every wheel of the pass MEASURE_ROUNDS times (`measure_wheel`, adaptive: both
+  sensors' centres, the fusion and the flange parameters), the pass split between the two:
+  frames per second of the pair and each worker's peak resident memory.
 
 Run alone with `python -m benchmarks.run camera_rate`.
 """
@@ -29,7 +30,8 @@ import numpy as np
 FRAMES_PER_WORKER = 1000
 WORKERS = 2
 WARM_UP_FRAMES = 4
-MEMORY_FIRST_FRAMES = 100
+MEASURE_ROUNDS = 10
+"""Times each worker measures its half of the pass's wheels."""
 
 
 @dataclass(frozen=True)
@@ -39,8 +41,8 @@ class WorkerRun:
     started: float
     finished: float
     frames: int
-    rss_after_first_mib: float
-    rss_after_last_mib: float
+    first_half_peak_mib: float
+    second_half_peak_mib: float
     peak_rss_mib: float
     paths: dict[str, int]
 
@@ -63,16 +65,22 @@ def _extract_frames(folder: str, offset: int) -> WorkerRun:
     for image in images[:WARM_UP_FRAMES]:
         extract_centres(image)
     paths: dict[str, int] = {}
+    rss = np.empty(FRAMES_PER_WORKER)
     started = time.time()
-    rss_first = 0.0
     for k in range(FRAMES_PER_WORKER):
         centres = extract_centres(images[(offset + k) % len(images)])
         paths[centres.path] = paths.get(centres.path, 0) + 1
-        if k + 1 == MEMORY_FIRST_FRAMES:
-            rss_first = _rss_mib()
+        rss[k] = _rss_mib()
     finished = time.time()
+    half = FRAMES_PER_WORKER // 2
     return WorkerRun(
-        started, finished, FRAMES_PER_WORKER, rss_first, _rss_mib(), _peak_rss_mib(), paths
+        started,
+        finished,
+        FRAMES_PER_WORKER,
+        float(rss[:half].max()),
+        float(rss[half:].max()),
+        _peak_rss_mib(),
+        paths,
     )
 
 
@@ -96,9 +104,9 @@ def _measure_wheels(folder: str, share: int) -> WorkerRun:
 
     measured(wheels[0])
     started = time.time()
-    frames = sum(measured(entry) for entry in wheels)
+    frames = sum(measured(entry) for _ in range(MEASURE_ROUNDS) for entry in wheels)
     finished = time.time()
-    return WorkerRun(started, finished, frames, 0.0, _rss_mib(), _peak_rss_mib(), {})
+    return WorkerRun(started, finished, frames, 0.0, 0.0, _peak_rss_mib(), {})
 
 
 def _run_pair(function, folder: Path) -> list[WorkerRun]:
@@ -138,9 +146,8 @@ def run() -> str:
             paths[name] = paths.get(name, 0) + count
     taken = ", ".join(f"{count} {name}" for name, count in sorted(paths.items()))
     rows = [
-        f"| worker {k + 1} | {r.rss_after_first_mib:.0f} | {r.rss_after_last_mib:.0f} | "
-        f"{r.rss_after_last_mib - r.rss_after_first_mib:+.1f} | {r.peak_rss_mib:.0f} | "
-        f"{m.peak_rss_mib:.0f} |"
+        f"| worker {k + 1} | {r.first_half_peak_mib:.0f} | {r.second_half_peak_mib:.0f} | "
+        f"{r.second_half_peak_mib - r.first_half_peak_mib:+.1f} | {m.peak_rss_mib:.0f} |"
         for k, (r, m) in enumerate(zip(extraction, measuring, strict=True))
     ]
     return (
@@ -156,15 +163,16 @@ def run() -> str:
                 "|---|---|---|---|",
                 f"| adaptive centres, band path ({taken}) | {sum(r.frames for r in extraction)} | "
                 f"{extract_wall:.1f} | {extract_fps:.1f} |",
-                f"| measure every wheel (adaptive: centres of both sensors, fusion, parameters) | "
-                f"{sum(r.frames for r in measuring)} | {measure_wall:.1f} | {measure_fps:.1f} |",
+                f"| measure every wheel {MEASURE_ROUNDS}× (adaptive: centres of both sensors, "
+                f"fusion, parameters) | {sum(r.frames for r in measuring)} | {measure_wall:.1f} | "
+                f"{measure_fps:.1f} |",
                 "",
-                f"Resident memory per worker [MiB]: after the first {MEMORY_FIRST_FRAMES} and "
-                f"after all {FRAMES_PER_WORKER} frames of extraction (the growth between), the "
-                "peak of that run, and the peak while measuring the pass's wheels.",
+                "Resident memory per worker [MiB], read after every frame: the largest in the "
+                f"first and in the second half of the {FRAMES_PER_WORKER} frames of extraction "
+                "(growth: the difference), and the peak while measuring the pass's wheels.",
                 "",
-                "| worker | after 100 | after 1000 | growth | peak, extraction | peak, measuring |",
-                "|---|---|---|---|---|---|",
+                "| worker | frames 1–500 | frames 501–1000 | growth | peak, measuring |",
+                "|---|---|---|---|---|",
                 *rows,
             ]
         )
