@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.band import BLOCK_PX, block_runs
+from pipeline.band import BLOCK_PX, block_runs, run_starts
 from pipeline.gaussian import GaussianDerivatives
 from pipeline.jit import kernel
 from pipeline.ridges import min_structure_squared, ridge_response
@@ -253,31 +253,27 @@ def _choose_in_band(mask, hints, peaks, strides, sigmas, blocks):
     index = np.empty(most, np.int64)
     count = 0
     runs = block_runs(blocks)
-    first_run = 0
-    for br in range(blocks.shape[0]):
-        while first_run < runs.shape[0] and runs[first_run, 0] < br:
-            first_run += 1
-        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-            k = first_run
-            while k < runs.shape[0] and runs[k, 0] == br:
-                for c in range(runs[k, 1] * BLOCK_PX, min(runs[k, 2] * BLOCK_PX, width)):
-                    if not mask[r, c]:
-                        continue
-                    best = np.float32(0.0)
-                    chosen = -1
-                    hinted = False
-                    for i in range(len(peaks)):
-                        value = np.float32(bilinear_at(peaks[i], strides[i], r, c))
-                        if value > best:
-                            best = value
-                            chosen = i
-                        hinted = hinted or hints[i][r, c]
-                    if chosen >= 0:
-                        sigma_map[r, c] = sigmas[chosen]
-                    if hinted:
-                        rows[count], cols[count], index[count] = r, c, chosen
-                        count += 1
-                k += 1
+    starts = run_starts(runs, blocks.shape[0])
+    for r in range(height):
+        br = r // BLOCK_PX
+        for k in range(starts[br], starts[br + 1]):
+            for c in range(runs[k, 1] * BLOCK_PX, min(runs[k, 2] * BLOCK_PX, width)):
+                if not mask[r, c]:
+                    continue
+                best = np.float32(0.0)
+                chosen = -1
+                hinted = False
+                for i in range(len(peaks)):
+                    value = np.float32(bilinear_at(peaks[i], strides[i], r, c))
+                    if value > best:
+                        best = value
+                        chosen = i
+                    hinted = hinted or hints[i][r, c]
+                if chosen >= 0:
+                    sigma_map[r, c] = sigmas[chosen]
+                if hinted:
+                    rows[count], cols[count], index[count] = r, c, chosen
+                    count += 1
     return sigma_map, rows[:count].copy(), cols[:count].copy(), index[:count].copy()
 
 

@@ -84,6 +84,13 @@ def block_runs(blocks):
 
 
 @kernel
+def run_starts(runs, rows):
+    """Where each of `rows` block rows begins in `runs` (sorted by row): (rows + 1,) int64,
+    so the runs of block row br are runs[starts[br]:starts[br + 1]]."""
+    return np.searchsorted(runs[:, 0], np.arange(rows + 1))
+
+
+@kernel
 def zero_blocks(field, blocks) -> None:
     """Set the pixels of the given blocks to 0."""
     height, width = field.shape
@@ -168,21 +175,17 @@ def band_pixels(flags, blocks):
     """Rows and columns of the True pixels of `flags` inside the band's blocks, raster order."""
     height, width = flags.shape
     runs = block_runs(blocks)
+    starts = run_starts(runs, blocks.shape[0])
     most = int(blocks.sum()) * BLOCK_PX * BLOCK_PX
     rows = np.empty(most, np.int64)
     cols = np.empty(most, np.int64)
     count = 0
-    first_run = 0
-    for br in range(blocks.shape[0]):
-        while first_run < runs.shape[0] and runs[first_run, 0] < br:
-            first_run += 1
-        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-            k = first_run
-            while k < runs.shape[0] and runs[k, 0] == br:
-                for c in range(runs[k, 1] * BLOCK_PX, min(runs[k, 2] * BLOCK_PX, width)):
-                    if flags[r, c]:
-                        rows[count] = r
-                        cols[count] = c
-                        count += 1
-                k += 1
+    for r in range(height):
+        br = r // BLOCK_PX
+        for k in range(starts[br], starts[br + 1]):
+            for c in range(runs[k, 1] * BLOCK_PX, min(runs[k, 2] * BLOCK_PX, width)):
+                if flags[r, c]:
+                    rows[count] = r
+                    cols[count] = c
+                    count += 1
     return rows[:count].copy(), cols[:count].copy()

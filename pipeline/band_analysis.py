@@ -90,18 +90,10 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
 @kernel
 def _max_along_rows(field, need, half, out) -> None:
     """out[r, c] = max of field[r, c − half .. c + half] (clipped) on the needed blocks."""
-    width = field.shape[1]
-    for r in range(field.shape[0]):
-        br = r // BLOCK_PX
-        bc = 0
-        while bc < need.shape[1]:
-            if not need[br, bc]:
-                bc += 1
-                continue
-            start = bc
-            while bc < need.shape[1] and need[br, bc]:
-                bc += 1
-            c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
+    height, width = field.shape
+    for br, first, stop in block_runs(need):
+        c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
+        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
             out[r, c0:c1] = 0.0
             for k in range(-half, half + 1):
                 lo, hi = max(c0 + k, 0), min(c1 + k, width)
@@ -115,17 +107,9 @@ def _max_along_rows(field, need, half, out) -> None:
 def _max_along_columns(field, blocks, half, out) -> None:
     """out[r, c] = max of field[r − half .. r + half, c] (clipped) on the band's blocks."""
     height, width = field.shape
-    for r in range(height):
-        br = r // BLOCK_PX
-        bc = 0
-        while bc < blocks.shape[1]:
-            if not blocks[br, bc]:
-                bc += 1
-                continue
-            start = bc
-            while bc < blocks.shape[1] and blocks[br, bc]:
-                bc += 1
-            c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
+    for br, first, stop in block_runs(blocks):
+        c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
+        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
             target = out[r, c0:c1]
             target[:] = 0.0
             for k in range(max(r - half, 0), min(r + half + 1, height)):

@@ -15,7 +15,7 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from pipeline.band import BLOCK_PX, zero_blocks
+from pipeline.band import BLOCK_PX, block_runs, zero_blocks
 from pipeline.gaussian import BORDER, GaussianDerivatives, gaussian_kernels
 from pipeline.jit import kernel
 
@@ -44,32 +44,24 @@ def _passes(radius: int) -> tuple[Callable[..., None], ...]:
     def x_pass(src, g0, g1, g2, need, out0, out1, out2) -> None:
         """Convolve the needed stretches of each padded row with G, G', G'' along x."""
         width = out0.shape[1]
-        for rp in range(src.shape[0]):
-            bc = 0
-            while bc < need.shape[1]:
-                if not need[rp, bc]:
-                    bc += 1
-                    continue
-                start = bc
-                while bc < need.shape[1] and need[rp, bc]:
-                    bc += 1
-                c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
-                # Views starting at 0 keep every index provably ≥ 0: no wrap-around test
-                # in the loop, which would stop it vectorising.
-                seg = src[rp, c0 : c1 + 2 * radius]
-                a0, a1, a2 = out0[rp, c0:c1], out1[rp, c0:c1], out2[rp, c0:c1]
-                for i in range(c1 - c0):
-                    centre = np.float32(seg[i + radius])
-                    s0 = g0[radius] * centre
-                    s1 = np.float32(0.0)
-                    s2 = g2[radius] * centre
-                    for k in range(1, radius + 1):
-                        left = np.float32(seg[i + radius - k])
-                        right = np.float32(seg[i + radius + k])
-                        s0 += g0[radius + k] * (left + right)
-                        s1 += g1[radius + k] * (left - right)  # convolution: G'(k) meets I(c − k)
-                        s2 += g2[radius + k] * (left + right)
-                    a0[i], a1[i], a2[i] = s0, s1, s2
+        for rp, bc0, bc1 in block_runs(need):  # need: one row of blocks per padded row
+            c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
+            # Views starting at 0 keep every index provably ≥ 0: no wrap-around test
+            # in the loop, which would stop it vectorising.
+            seg = src[rp, c0 : c1 + 2 * radius]
+            a0, a1, a2 = out0[rp, c0:c1], out1[rp, c0:c1], out2[rp, c0:c1]
+            for i in range(c1 - c0):
+                centre = np.float32(seg[i + radius])
+                s0 = g0[radius] * centre
+                s1 = np.float32(0.0)
+                s2 = g2[radius] * centre
+                for k in range(1, radius + 1):
+                    left = np.float32(seg[i + radius - k])
+                    right = np.float32(seg[i + radius + k])
+                    s0 += g0[radius + k] * (left + right)
+                    s1 += g1[radius + k] * (left - right)  # convolution: G'(k) meets I(c − k)
+                    s2 += g2[radius + k] * (left + right)
+                a0[i], a1[i], a2[i] = s0, s1, s2
 
     @kernel
     def y_pass(t, g_even, g_odd, blocks, out_even, out_odd) -> None:
@@ -82,30 +74,22 @@ def _passes(radius: int) -> tuple[Callable[..., None], ...]:
         height, width = out_even.shape
         flat = t.ravel()
         row_step = np.uint64(width)
-        for br in range(blocks.shape[0]):
-            bc = 0
-            while bc < blocks.shape[1]:
-                if not blocks[br, bc]:
-                    bc += 1
-                    continue
-                start = bc
-                while bc < blocks.shape[1] and blocks[br, bc]:
-                    bc += 1
-                c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
-                for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-                    # Row r sits at r + radius of the x-pass rows.
-                    first = np.uint64(r + radius) * row_step + np.uint64(c0)
-                    even, odd = out_even[r, c0:c1], out_odd[r, c0:c1]
-                    for i in range(c1 - c0):
-                        at = first + np.uint64(i)
-                        s_even = g_even[radius] * flat[at]
-                        s_odd = np.float32(0.0)
-                        for k in range(1, radius + 1):
-                            up = flat[at - np.uint64(k) * row_step]
-                            down = flat[at + np.uint64(k) * row_step]
-                            s_even += g_even[radius + k] * (up + down)
-                            s_odd += g_odd[radius + k] * (up - down)
-                        even[i], odd[i] = s_even, s_odd
+        for br, bc0, bc1 in block_runs(blocks):
+            c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
+            for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+                # Row r sits at r + radius of the x-pass rows.
+                first = np.uint64(r + radius) * row_step + np.uint64(c0)
+                even, odd = out_even[r, c0:c1], out_odd[r, c0:c1]
+                for i in range(c1 - c0):
+                    at = first + np.uint64(i)
+                    s_even = g_even[radius] * flat[at]
+                    s_odd = np.float32(0.0)
+                    for k in range(1, radius + 1):
+                        up = flat[at - np.uint64(k) * row_step]
+                        down = flat[at + np.uint64(k) * row_step]
+                        s_even += g_even[radius + k] * (up + down)
+                        s_odd += g_odd[radius + k] * (up - down)
+                    even[i], odd[i] = s_even, s_odd
 
     @kernel
     def y_even(t, g_even, blocks, out_even) -> None:
@@ -113,27 +97,19 @@ def _passes(radius: int) -> tuple[Callable[..., None], ...]:
         height, width = out_even.shape
         flat = t.ravel()
         row_step = np.uint64(width)
-        for br in range(blocks.shape[0]):
-            bc = 0
-            while bc < blocks.shape[1]:
-                if not blocks[br, bc]:
-                    bc += 1
-                    continue
-                start = bc
-                while bc < blocks.shape[1] and blocks[br, bc]:
-                    bc += 1
-                c0, c1 = start * BLOCK_PX, min(bc * BLOCK_PX, width)
-                for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-                    first = np.uint64(r + radius) * row_step + np.uint64(c0)
-                    even = out_even[r, c0:c1]
-                    for i in range(c1 - c0):
-                        at = first + np.uint64(i)
-                        s_even = g_even[radius] * flat[at]
-                        for k in range(1, radius + 1):
-                            up = flat[at - np.uint64(k) * row_step]
-                            down = flat[at + np.uint64(k) * row_step]
-                            s_even += g_even[radius + k] * (up + down)
-                        even[i] = s_even
+        for br, bc0, bc1 in block_runs(blocks):
+            c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
+            for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+                first = np.uint64(r + radius) * row_step + np.uint64(c0)
+                even = out_even[r, c0:c1]
+                for i in range(c1 - c0):
+                    at = first + np.uint64(i)
+                    s_even = g_even[radius] * flat[at]
+                    for k in range(1, radius + 1):
+                        up = flat[at - np.uint64(k) * row_step]
+                        down = flat[at + np.uint64(k) * row_step]
+                        s_even += g_even[radius + k] * (up + down)
+                    even[i] = s_even
 
     return x_pass, y_pass, y_even
 

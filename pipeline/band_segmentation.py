@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.band import BLOCK_PX, block_runs
+from pipeline.band import BLOCK_PX, block_runs, run_starts
 from pipeline.jit import kernel
 from pipeline.ridges import RIDGE_THRESHOLD
 from pipeline.segmentation import (
@@ -88,28 +88,24 @@ def _row_runs(binary, blocks):
     runs = np.empty((64, 3), np.int64)
     count = 0
     band = block_runs(blocks)
-    first_run = 0
-    for br in range(blocks.shape[0]):
-        while first_run < band.shape[0] and band[first_run, 0] < br:
-            first_run += 1
-        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-            k = first_run
-            while k < band.shape[0] and band[k, 0] == br:
-                c, stop = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
-                while c < stop:
-                    if not binary[r, c]:
-                        c += 1
-                        continue
-                    start = c
-                    while c < stop and binary[r, c]:
-                        c += 1
-                    if count == runs.shape[0]:
-                        grown = np.empty((2 * count, 3), np.int64)
-                        grown[:count] = runs
-                        runs = grown
-                    runs[count, 0], runs[count, 1], runs[count, 2] = r, start, c
-                    count += 1
-                k += 1
+    starts = run_starts(band, blocks.shape[0])
+    for r in range(height):
+        br = r // BLOCK_PX
+        for k in range(starts[br], starts[br + 1]):
+            c, stop = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
+            while c < stop:
+                if not binary[r, c]:
+                    c += 1
+                    continue
+                start = c
+                while c < stop and binary[r, c]:
+                    c += 1
+                if count == runs.shape[0]:
+                    grown = np.empty((2 * count, 3), np.int64)
+                    grown[:count] = runs
+                    runs = grown
+                runs[count, 0], runs[count, 1], runs[count, 2] = r, start, c
+                count += 1
     return runs[:count].copy()
 
 
