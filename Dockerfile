@@ -18,7 +18,8 @@ COPY pyproject.toml requirements.lock README.md ./
 COPY pipeline ./pipeline
 COPY db ./db
 COPY backend ./backend
-RUN pip install -c requirements.lock .
+RUN pip install -c requirements.lock . \
+    && cd / && python -m pipeline.precompile  # the installed package, as the CLI imports it
 COPY frontend ./frontend
 
 RUN useradd --system --uid 10001 --home-dir /data wheelscan \

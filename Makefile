@@ -15,6 +15,7 @@ $(STAMP): pyproject.toml requirements.lock
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -c requirements.lock -e '.[dev]'
+	$(PY) -m pipeline.precompile
 	touch $(STAMP)
 
 # Debian packages the browser tests and report checks need (headless Chromium, pdftoppm).
