@@ -53,6 +53,7 @@ def summarise(centres: Centres, image_path: Path, csv_path: Path) -> dict[str, o
         "image": str(image_path),
         "output": str(csv_path),
         "method": centres.method,
+        "path": centres.path,
         "sigmas_px": list(centres.sigmas_px),
         "points": len(centres),
         "polylines": len(centres.polylines),
@@ -95,6 +96,7 @@ def run_extract(args: argparse.Namespace) -> int:
                 width_min=args.width_min,
                 width_max=args.width_max,
                 sigma=args.sigma,
+                full_frame=args.full_frame,
             )
         except (ValueError, TypeError) as exc:
             raise ValueError(f"{image_path}: {exc}") from exc
@@ -120,6 +122,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--width-max", type=float, default=21.0, help="widest stripe [px]")
     parser.add_argument(
         "-o", "--output", required=True, metavar="OUT", help="CSV file (a folder for a folder)"
+    )
+    parser.add_argument(
+        "--full-frame",
+        action="store_true",
+        help="analyse the whole frame (the reference) instead of the stripe band",
     )
     parser.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     parser.set_defaults(func=run_extract)

@@ -21,8 +21,8 @@ def run_cli(*args: str) -> subprocess.CompletedProcess[str]:
     )
 
 
-def stripe_png(path: Path, *, dtype=np.uint8) -> Path:
-    rows = np.arange(60.0)[:, None] * np.ones((1, 90))
+def stripe_png(path: Path, *, dtype=np.uint8, shape=(60, 90)) -> Path:
+    rows = np.arange(float(shape[0]))[:, None] * np.ones((1, shape[1]))
     grey = 12 + 170 * np.exp(-8 * (rows - 30.4) ** 2 / 9**2)
     scale = 257 if dtype == np.uint16 else 1
     cv2.imwrite(str(path), np.rint(grey * scale).astype(dtype))
@@ -51,6 +51,19 @@ def test_json_summary_and_steger_sigma(tmp_path: Path) -> None:
     assert summary["method"] == "steger"
     assert summary["sigmas_px"] == [3.0]
     assert summary["points"] > 40
+
+
+def test_the_summary_says_which_path_the_frame_took(tmp_path: Path) -> None:
+    image = stripe_png(tmp_path / "frame.png", shape=(240, 320))  # a band smaller than the frame
+    band = run_cli(str(image), "-o", str(tmp_path / "band.csv"), "--json")
+    full = run_cli(str(image), "-o", str(tmp_path / "full.csv"), "--json", "--full-frame")
+    assert band.returncode == full.returncode == 0, band.stderr + full.stderr
+    assert json.loads(band.stdout)["path"] == "band"
+    assert json.loads(full.stdout)["path"] == "full"
+    band_rows, full_rows = (
+        np.loadtxt(tmp_path / f"{n}.csv", delimiter=",", skiprows=1) for n in ("band", "full")
+    )
+    np.testing.assert_allclose(band_rows, full_rows, atol=1e-4)
 
 
 def test_folder_of_frames_writes_one_csv_each(tmp_path: Path) -> None:
