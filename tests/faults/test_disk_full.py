@@ -4,6 +4,7 @@ half-written; reads go on; once space is freed the same upload goes through."""
 
 from __future__ import annotations
 
+import errno
 import os
 import shutil
 import subprocess
@@ -51,13 +52,22 @@ def small_disk(tmp_path: Path) -> Iterator[Path]:
 
 
 def fill(disk: Path, leave_bytes: int) -> Path:
-    """A file that takes all the disk's free space but `leave_bytes`."""
+    """A file that takes all the disk's free space but `leave_bytes`.
+
+    A server writing to the same disk meanwhile may take the last bytes first: ENOSPC on
+    the way means the disk is full, which is the point.
+    """
     filler = disk / "filler"
     size_bytes = shutil.disk_usage(disk).free - leave_bytes
     with filler.open("wb") as out:
-        for _ in range(size_bytes // MIB):
-            out.write(bytes(MIB))
-        out.write(bytes(size_bytes % MIB))
+        try:
+            for _ in range(size_bytes // MIB):
+                out.write(bytes(MIB))
+            out.write(bytes(size_bytes % MIB))
+            out.flush()
+        except OSError as exc:
+            if exc.errno != errno.ENOSPC:
+                raise
     return filler
 
 
