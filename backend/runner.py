@@ -21,6 +21,7 @@ from typing import Protocol
 from sqlalchemy import select, update
 from sqlalchemy.orm import Session, sessionmaker
 
+from backend.allocator import keep_freed_memory
 from backend.config import Settings
 from backend.tasks import measure_pass_wheel, record_wheel_crash, update_back_to_back
 from backend.transient import is_transient
@@ -37,11 +38,13 @@ RETRY_BACKOFF_MAX_S = 30.0
 
 
 def exit_with_parent(parent_pid: int) -> None:
-    """Pool-worker initializer: end the worker when its server is gone.
+    """Pool-worker initializer: end the worker when its server is gone; keep freed memory.
 
     A killed server leaves its spawned workers behind otherwise (they wait on a queue whose
     other end nobody closes); their unfinished wheels are resumed by the next start.
+    A spawned worker starts with the C library's allocator defaults (see backend.allocator).
     """
+    keep_freed_memory()
 
     def watch() -> None:
         while os.getppid() == parent_pid:

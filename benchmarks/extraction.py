@@ -14,7 +14,8 @@ Three tables, each one run with every method side by side:
 3. The frames of a simulated pass (pipeline.simulator): which path each frame took, the
    time per frame, and the mean time of the pass's frames extracted one after another.
 
-Single thread: OpenCV is set to one thread, the numba kernels never start threads.
+Single thread: OpenCV is set to one thread, the numba kernels never start threads. The
+process keeps freed memory as the service's workers do (backend.allocator).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
+from backend.allocator import keep_freed_memory
 from pipeline import extract_centres
 from pipeline.simulator import build_station, build_train, pass_start_time, simulate_pass
 from tests.pipeline.stripe_images import StripeCase, make_stripe, score_centres
@@ -188,6 +190,7 @@ def _simulated_pass_rows() -> list[str]:
 
 def run() -> str:
     """Markdown section: accuracy per case, speed per 1600×1200 frame, a simulated pass."""
+    keep_freed_memory()  # as the service's workers run
     threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
     try:

@@ -11,6 +11,8 @@ import argparse
 import importlib
 import sys
 
+from backend.allocator import keep_freed_memory
+
 VERB_MODULES: list[str] = [
     "backend.cli.extract",
     "backend.cli.agent",
@@ -38,6 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns the process exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    keep_freed_memory()  # every verb measures, serves or forks workers that do
     try:
         return int(args.func(args) or 0)
     except KeyboardInterrupt:
