@@ -177,7 +177,8 @@ def _select_adaptive(
     return selected, sigma_map
 
 
-def _fixed_scale(frame: np.ndarray, sigma_px: float, c_grey: float) -> LevelResponse:
+def _fixed_scale(image: np.ndarray, sigma_px: float, c_grey: float) -> LevelResponse:
+    frame = to_float_image(image)
     level = scale_levels(frame, (sigma_px,))[0]
     return analyse_level(level, c_grey=c_grey, shape=frame.shape, peak_reach_px=0)
 
@@ -351,7 +352,6 @@ def extract_centres(
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     _check_widths(width_min, width_max)
     _check_sigma(sigma, method)
-    frame = to_float_image(image)
     sigmas = stripe_scales(float(width_min), float(width_max))
     fixed_sigma = float(sigma) if sigma is not None else sigmas[1]
     c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
@@ -361,12 +361,12 @@ def extract_centres(
     path = "full"
     if method == "classic":
         mask = segment_classic(image)
-        selected = _select_fixed(_fixed_scale(frame, fixed_sigma, c_grey), mask, None)
+        selected = _select_fixed(_fixed_scale(image, fixed_sigma, c_grey), mask, None)
     else:
-        scales, mask, blocks, path = _analyse(image, frame, sigmas, c_grey, width_max, full_frame)
+        scales, mask, blocks, path = _analyse(image, sigmas, c_grey, width_max, full_frame)
         if method == "steger":
             reuse = [sc for sc in scales if sc.level.sigma_px == fixed_sigma]
-            scale = reuse[0] if reuse else _fixed_scale(frame, fixed_sigma, c_grey)
+            scale = reuse[0] if reuse else _fixed_scale(image, fixed_sigma, c_grey)
             selected = _select_fixed(scale, mask, blocks if reuse else None)
         else:
             selected, sigma_map = _select_adaptive(scales, sigmas, mask, blocks)
@@ -382,8 +382,12 @@ def extract_centres(
     )
 
 
-def _analyse(image, frame, sigmas, c_grey, width_max, full_frame):
-    """Scales, stripe mask, band blocks (None: whole frame) and the path taken."""
+def _analyse(image, sigmas, c_grey, width_max, full_frame):
+    """Scales, stripe mask, band blocks (None: whole frame) and the path taken.
+
+    The band path reads the frame in its own dtype; only the full frame is converted to
+    float32 (a frame-sized pass the band path does without).
+    """
     peak_reach = width_max / 2
     if not full_frame:
         band = analyse_band(image, sigmas, c_grey=c_grey, peak_reach_px=peak_reach)
@@ -394,7 +398,9 @@ def _analyse(image, frame, sigmas, c_grey, width_max, full_frame):
                 band.band.blocks[0],
                 "wide band" if band.widened else "band",
             )
-    analysis = analyse_scales(frame, sigmas, c_grey=c_grey, peak_reach_px=peak_reach)
+    analysis = analyse_scales(
+        to_float_image(image), sigmas, c_grey=c_grey, peak_reach_px=peak_reach
+    )
     return (
         analysis.scales,
         segment_ridges(analysis.response),

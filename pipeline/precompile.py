@@ -31,7 +31,7 @@ def precompile_kernels() -> None:
     x = np.linspace(0.0, 40.0, 200)
     inner = np.stack([x, 0.01 * x**2], axis=1)
     outer = inner + np.array([0.0, 0.02])
-    clean_profile_points(np.concatenate([inner, outer]), np.repeat(np.int8([0, 1]), 200))
+    clean_profile_points(np.concatenate([inner, outer]), np.repeat(np.array([0, 1], np.int8), 200))
 
 
 if __name__ == "__main__":
