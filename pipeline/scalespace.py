@@ -269,21 +269,32 @@ def sample_derivatives(
 
 
 @kernel
+def clamped_tap(index: int, stride: int, size: int) -> tuple[int, float]:
+    """First grid index and weight of frame index `index` on a level grid of `size` nodes
+    (stride 2^L > 1), clamped to the grid: the value is g[i0]·(1 − w) + g[i0 + 1]·w."""
+    origin = 0.5 * (stride - 1)
+    u = min(max((index - origin) / stride, 0.0), size - 1.0)
+    first = min(int(u), size - 2)
+    return first, u - first
+
+
+@kernel
+def blend(field, v0: int, fv: float, u0: int, fu: float) -> float:
+    """Bilinear value of `field` between rows v0, v0 + 1 and columns u0, u0 + 1."""
+    top = field[v0, u0] * (1 - fu) + field[v0, u0 + 1] * fu
+    bottom = field[v0 + 1, u0] * (1 - fu) + field[v0 + 1, u0 + 1] * fu
+    return top * (1 - fv) + bottom * fv
+
+
+@kernel
 def bilinear_at(field, stride: int, row: int, col: int) -> float:
     """Bilinear value of a level field (stride 2^L) at frame pixel (row, col), clamped to
     the grid; stride 1 reads the pixel itself."""
     if stride == 1:
         return field[row, col]
-    height, width = field.shape
-    origin = 0.5 * (stride - 1)
-    u = min(max((col - origin) / stride, 0.0), width - 1.0)
-    v = min(max((row - origin) / stride, 0.0), height - 1.0)
-    u0 = min(int(u), width - 2)
-    v0 = min(int(v), height - 2)
-    fu, fv = u - u0, v - v0
-    top = field[v0, u0] * (1 - fu) + field[v0, u0 + 1] * fu
-    bottom = field[v0 + 1, u0] * (1 - fu) + field[v0 + 1, u0 + 1] * fu
-    return top * (1 - fv) + bottom * fv
+    v0, fv = clamped_tap(row, stride, field.shape[0])
+    u0, fu = clamped_tap(col, stride, field.shape[1])
+    return blend(field, v0, fv, u0, fu)
 
 
 @kernel
