@@ -47,30 +47,68 @@ def _linear_tap(index: int, stride: int, size: int) -> tuple[int, int, float]:
 
 
 @kernel
-def _stripe_binary(responses, strides, blocks, shape):
-    """V = max over scales > RIDGE_THRESHOLD on the band's frame pixels (coarser scales'
-    V upsampled bilinearly, as cv2.resize INTER_LINEAR)."""
+def _append_runs(line, row, first, stop, runs, count):
+    """Append the runs of True in line[first:stop] as (row, first, stop); grows `runs`.
+    Returns the runs array and the new count."""
+    c = first
+    while c < stop:
+        if not line[c]:
+            c += 1
+            continue
+        start = c
+        while c < stop and line[c]:
+            c += 1
+        if count == runs.shape[0]:
+            grown = np.empty((2 * count, 3), np.int64)
+            grown[:count] = runs
+            runs = grown
+        runs[count, 0], runs[count, 1], runs[count, 2] = row, start, c
+        count += 1
+    return runs, count
+
+
+@kernel
+def _stripe_runs(responses, strides, blocks, shape):
+    """Runs of V = max over scales > RIDGE_THRESHOLD along the band's frame rows, raster
+    order: rows of (row, first, stop). Coarser scales' V is upsampled bilinearly, as
+    cv2.resize INTER_LINEAR; their taps are computed once per column and per row."""
     height, width = shape
-    binary = np.zeros((height, width), np.bool_)
-    for br, bc0, bc1 in block_runs(blocks):
-        c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
-        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-            for i in range(len(responses)):
+    levels = len(responses)
+    x0 = np.zeros((levels, width), np.int64)
+    x1 = np.zeros((levels, width), np.int64)
+    fx = np.zeros((levels, width))
+    for i in range(levels):
+        if strides[i] > 1:
+            for c in range(width):
+                x0[i, c], x1[i, c], fx[i, c] = _linear_tap(c, strides[i], responses[i].shape[1])
+    line = np.zeros(width, np.bool_)
+    runs = np.empty((64, 3), np.int64)
+    count = 0
+    band = block_runs(blocks)
+    starts = run_starts(band, blocks.shape[0])
+    for r in range(height):
+        br = r // BLOCK_PX
+        for k in range(starts[br], starts[br + 1]):
+            c0, c1 = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
+            line[c0:c1] = False
+            for i in range(levels):
                 field, stride = responses[i], strides[i]
                 if stride == 1:
+                    source = field[r]
                     for c in range(c0, c1):
-                        binary[r, c] |= field[r, c] > RIDGE_THRESHOLD
+                        line[c] |= source[c] > RIDGE_THRESHOLD
                     continue
                 y0, y1, fy = _linear_tap(r, stride, field.shape[0])
                 top, bottom = field[y0], field[y1]
                 for c in range(c0, c1):
-                    if binary[r, c]:
+                    if line[c]:
                         continue
-                    x0, x1, fx = _linear_tap(c, stride, field.shape[1])
-                    upper = top[x0] * (1 - fx) + top[x1] * fx
-                    lower = bottom[x0] * (1 - fx) + bottom[x1] * fx
-                    binary[r, c] = upper * (1 - fy) + lower * fy > RIDGE_THRESHOLD
-    return binary
+                    a, b, w = x0[i, c], x1[i, c], fx[i, c]
+                    upper = top[a] * (1 - w) + top[b] * w
+                    lower = bottom[a] * (1 - w) + bottom[b] * w
+                    line[c] = upper * (1 - fy) + lower * fy > RIDGE_THRESHOLD
+            runs, count = _append_runs(line, r, c0, c1, runs, count)
+    return runs[:count].copy()
 
 
 @kernel
@@ -92,20 +130,8 @@ def _row_runs(binary, blocks):
     for r in range(height):
         br = r // BLOCK_PX
         for k in range(starts[br], starts[br + 1]):
-            c, stop = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
-            while c < stop:
-                if not binary[r, c]:
-                    c += 1
-                    continue
-                start = c
-                while c < stop and binary[r, c]:
-                    c += 1
-                if count == runs.shape[0]:
-                    grown = np.empty((2 * count, 3), np.int64)
-                    grown[:count] = runs
-                    runs = grown
-                runs[count, 0], runs[count, 1], runs[count, 2] = r, start, c
-                count += 1
+            c0, c1 = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
+            runs, count = _append_runs(binary[r], r, c0, c1, runs, count)
     return runs[:count].copy()
 
 
@@ -159,28 +185,31 @@ def _label_runs(runs):
 
 @kernel
 def _runs_near_band_edge(runs, blocks, reach):
-    """Whether a pixel of each run has a pixel outside the band within `reach` (beyond the
-    frame: band). `reach` < BLOCK_PX, so the corners of each pixel's square tell."""
+    """Whether a pixel of each run has a pixel outside the band within `reach` (Chebyshev;
+    beyond the frame counts as band): whether a block the run's square neighbourhood
+    overlaps is not in the band."""
     out = np.zeros(runs.shape[0], np.bool_)
     last_r, last_c = blocks.shape[0] - 1, blocks.shape[1] - 1
     for k in range(runs.shape[0]):
-        for c in range(runs[k, 1], runs[k, 2]):
-            for dr in (-reach, reach):
-                for dc in (-reach, reach):
-                    br = min(max(runs[k, 0] + dr, 0) // BLOCK_PX, last_r)
-                    bc = min(max(c + dc, 0) // BLOCK_PX, last_c)
-                    if not blocks[br, bc]:
-                        out[k] = True
+        r, first, stop = runs[k, 0], runs[k, 1], runs[k, 2]
+        br0 = max(r - reach, 0) // BLOCK_PX
+        br1 = min((r + reach) // BLOCK_PX, last_r)
+        bc0 = max(first - reach, 0) // BLOCK_PX
+        bc1 = min((stop - 1 + reach) // BLOCK_PX, last_c)
+        for br in range(br0, br1 + 1):
+            for bc in range(bc0, bc1 + 1):
+                if not blocks[br, bc]:
+                    out[k] = True
     return out
 
 
 @kernel
 def _paint_runs(runs, chosen, shape):
-    """A mask with the chosen runs set."""
-    out = np.zeros(shape, np.bool_)
+    """A uint8 mask (0/1) with the chosen runs set."""
+    out = np.zeros(shape, np.uint8)
     for k in range(runs.shape[0]):
         if chosen[k]:
-            out[runs[k, 0], runs[k, 1] : runs[k, 2]] = True
+            out[runs[k, 0], runs[k, 1] : runs[k, 2]] = 1
     return out
 
 
@@ -209,7 +238,7 @@ def segment_band(
     -------
     BandMask
     """
-    runs = _row_runs(_stripe_binary(responses, strides, blocks, shape), blocks)
+    runs = _stripe_runs(responses, strides, blocks, shape)
     label, moments = _label_runs(runs)
     shapes = shapes_from_moments(*moments.T)
     keep = stripe_components(shapes)

@@ -96,13 +96,16 @@ def stripe_components(shapes: ComponentShapes) -> np.ndarray:
 
 
 def close_holes(mask: np.ndarray) -> np.ndarray:
-    """Fill small holes and notches of the mask with a morphological closing (paper §3.3).
+    """Fill small holes and notches of the mask (bool, or uint8 0/1) with a morphological
+    closing (paper §3.3); returns a bool mask.
 
     A closing, not a flood fill of every enclosed region: the background enclosed by a bent
     stripe is not part of it.
     """
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (CLOSING_PX, CLOSING_PX))
-    return cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, disc).astype(bool)
+    # 0/1 bytes either way: a bool mask is read, and the result returned, without copies.
+    ones = mask.view(np.uint8) if mask.dtype == np.bool_ else mask
+    return cv2.morphologyEx(ones, cv2.MORPH_CLOSE, disc).view(np.bool_)
 
 
 def segment_ridges(response: np.ndarray) -> np.ndarray:
