@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from pipeline.jit import kernel
@@ -17,41 +19,117 @@ MIN_HALF_WINDOW_PX = 4.0
 """Least half-width of the fitting window [px]: enough points for a stable quadratic."""
 
 
+BLOCK_POINTS = 128
+"""Points fitted together: each window offset is one loop across them (it vectorises), and
+their sums stay in the L1 cache."""
+
+_EXP_TAYLOR = tuple(1.0 / math.factorial(n) for n in range(13, -1, -1))
+"""Taylor coefficients of e^r, highest degree first."""
+
+_ROWS = tuple(np.uint64(k * BLOCK_POINTS) for k in range(9))
+"""Offsets of the rows of `_fit_curvatures`' sums, unsigned (constant, so no alias checks)."""
+
+
 @kernel
-def _local_curvature(x, y, nx, ny, sigma, out) -> None:
-    count = x.size
-    for i in range(count):
-        half = max(WINDOW_SIGMAS * sigma[i], MIN_HALF_WINDOW_PX)
+def _exp(q: float) -> float:
+    """e^q without a library call, so that loops around it vectorise (q ≤ 0 in use).
+
+    2^k·P(r) with r = q − k·ln 2, |r| ≤ ln(2)/2, and P the Taylor polynomial of degree 13:
+    within 1 ulp of libm's exp. q is clamped at −708, about the least normal double.
+    """
+    q = max(q, -708.0)
+    k = np.floor(q * 1.4426950408889634 + 0.5)
+    # ln 2 in two parts; the high part has 32 bits, so k times it is exact.
+    r = (q - k * 0.6931471803691238) - k * 1.9082149292705877e-10
+    p = _EXP_TAYLOR[0]
+    for i in range(1, len(_EXP_TAYLOR)):
+        p = p * r + _EXP_TAYLOR[i]
+    return p * np.int64((int(k) + 1023) << 52).view(np.float64)
+
+
+@kernel
+def _window_offsets(x, y, nx, ny, half, lo, hi, b0, b1, most) -> tuple[int, int]:
+    """Least and greatest offset j − i (within ±most) that any window of points b0…b1 − 1
+    holds, with a 1 µpx margin against rounding: a cheap pass that spares the fit the rest."""
+    first, last = most + 1, -most - 1
+    for offset in range(-most, most + 1):
+        any_inside = False
+        for i in range(max(b0, lo - offset), min(b1, hi - offset)):
+            at, to = np.uint64(i), np.uint64(i + offset)
+            u = -ny[at] * (x[to] - x[at]) + nx[at] * (y[to] - y[at])
+            any_inside |= abs(u) <= half[at] + 1e-6
+        if any_inside:
+            first, last = min(first, offset), offset
+    return first, last
+
+
+@kernel
+def _fit_curvatures(x, y, nx, ny, sigma, bounds, kappa) -> None:
+    """κ of each polyline points[bounds[c]:bounds[c + 1]] (see `local_curvature`).
+
+    Blocks of BLOCK_POINTS points share one loop over the offsets j − i of their window:
+    across the block it vectorises, and each point's sums still run over j in order. Points
+    outside a window add weight 0. Indices are unsigned (no negative-index wrap-around
+    test), and the sums share one array, so the compiler makes few alias checks.
+    """
+    half = np.empty(x.size)
+    reach = np.empty(x.size, np.int64)
+    for i in range(x.size):
+        half[i] = max(WINDOW_SIGMAS * sigma[i], MIN_HALF_WINDOW_PX)
         # Centres are at least 1/1.5 px apart along a chain, so the window's points lie
         # within this many indices.
-        reach = int(np.ceil(half * 1.5)) + 1
-        s0 = s1 = s2 = s3 = s4 = 0.0  # Σw·uᵏ
-        t0 = t1 = t2 = 0.0  # Σw·uᵏ·v
-        inside = 0
-        for j in range(max(0, i - reach), min(count, i + reach + 1)):
-            dx = x[j] - x[i]
-            dy = y[j] - y[i]
-            u = -ny[i] * dx + nx[i] * dy
-            if abs(u) > half:
-                continue
-            v = nx[i] * dx + ny[i] * dy
-            w = np.exp(-0.5 * (u / sigma[i]) ** 2)
-            wu = w * u
-            wuu = wu * u
-            s0 += w
-            s1 += wu
-            s2 += wuu
-            s3 += wuu * u
-            s4 += wuu * u * u
-            t0 += w * v
-            t1 += wu * v
-            t2 += wuu * v
-            inside += 1
-        if inside < 5:
-            out[i] = 0.0
-            continue
-        # Normal equations of v = a + b·u + (κ/2)·u² with the basis (1, u, u²/2).
-        _, _, out[i] = solve_symmetric3(s0, s1, 0.5 * s2, s2, 0.5 * s3, 0.25 * s4, t0, t1, 0.5 * t2)
+        reach[i] = int(np.ceil(half[i] * 1.5)) + 1
+    sums = np.empty(9 * BLOCK_POINTS)  # rows: Σw·uᵏ (k = 0…4), Σw·uᵏ·v (k = 0…2), count
+    for c in range(bounds.size - 1):
+        lo, hi = bounds[c], bounds[c + 1]
+        for b0 in range(lo, hi, BLOCK_POINTS):
+            b1 = min(b0 + BLOCK_POINTS, hi)
+            sums[:] = 0.0
+            most = reach[b0:b1].max()
+            first, last = _window_offsets(x, y, nx, ny, half, lo, hi, b0, b1, most)
+            for offset in range(first, last + 1):
+                for i in range(max(b0, lo - offset), min(b1, hi - offset)):
+                    at, to = np.uint64(i), np.uint64(i + offset)
+                    dx = x[to] - x[at]
+                    dy = y[to] - y[at]
+                    u = -ny[at] * dx + nx[at] * dy
+                    v = nx[at] * dx + ny[at] * dy
+                    inside = (abs(u) <= half[at]) & (abs(offset) <= reach[at])
+                    w = _exp(-0.5 * (u / sigma[at]) ** 2)  # branch-free: weight 0 outside
+                    w = w if inside else 0.0
+                    wu = w * u
+                    wuu = wu * u
+                    m = np.uint64(i - b0)
+                    sums[m] += w
+                    sums[m + _ROWS[1]] += wu
+                    sums[m + _ROWS[2]] += wuu
+                    sums[m + _ROWS[3]] += wuu * u
+                    sums[m + _ROWS[4]] += wuu * u * u
+                    sums[m + _ROWS[5]] += w * v
+                    sums[m + _ROWS[6]] += wu * v
+                    sums[m + _ROWS[7]] += wuu * v
+                    sums[m + _ROWS[8]] += 1.0 if inside else 0.0
+            for i in range(b0, b1):
+                s0, s1, s2, s3, s4, t0, t1, t2, inside = sums[i - b0 :: BLOCK_POINTS]
+                if inside < 5:
+                    kappa[i] = 0.0
+                    continue
+                # Normal equations of v = a + b·u + (κ/2)·u² with the basis (1, u, u²/2).
+                _, _, kappa[i] = solve_symmetric3(
+                    s0, s1, 0.5 * s2, s2, 0.5 * s3, 0.25 * s4, t0, t1, 0.5 * t2
+                )
+
+
+@kernel
+def _remove_bias(x, y, nx, ny, sigma, bounds, x_out, y_out) -> None:
+    """FIT_ROUNDS of κ on (x_out, y_out), each moving the points to (x, y) − σ²κ/2·n."""
+    kappa = np.empty(x.size)
+    for _ in range(FIT_ROUNDS):
+        _fit_curvatures(x_out, y_out, nx, ny, sigma, bounds, kappa)
+        for i in range(x.size):
+            shift = 0.5 * sigma[i] ** 2 * kappa[i]
+            x_out[i] = x[i] - shift * nx[i]
+            y_out[i] = y[i] - shift * ny[i]
 
 
 def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> np.ndarray:
@@ -75,7 +153,7 @@ def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> 
     """
     out = np.empty(np.size(x))
     fx, fy, fnx, fny, fsigma = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny, sigma))
-    _local_curvature(fx, fy, fnx, fny, fsigma, out)
+    _fit_curvatures(fx, fy, fnx, fny, fsigma, np.array([0, out.size]), out)
     return out
 
 
@@ -89,7 +167,7 @@ def remove_curvature_bias(
     x, y, nx, ny, sigma : ndarray of shape (K,)
         Centres [px], unit normals and scales [px].
     polylines : tuple of ndarray of int
-        Ordered index arrays into the points.
+        Disjoint ordered index arrays into the points.
 
     Returns
     -------
@@ -108,12 +186,14 @@ def remove_curvature_bias(
     """
     x_out = x.astype(np.float64, copy=True)
     y_out = y.astype(np.float64, copy=True)
-    for chain in polylines:
-        cx, cy = x_out[chain], y_out[chain]
-        for _ in range(FIT_ROUNDS):
-            kappa = local_curvature(cx, cy, nx[chain], ny[chain], sigma[chain])
-            shift = 0.5 * sigma[chain] ** 2 * kappa
-            cx = x[chain] - shift * nx[chain]
-            cy = y[chain] - shift * ny[chain]
-        x_out[chain], y_out[chain] = cx, cy
+    if not polylines:
+        return x_out, y_out
+    order = np.concatenate(polylines)
+    bounds = np.cumsum([0] + [chain.size for chain in polylines])
+    fx, fy, fnx, fny, fsigma = (
+        np.ascontiguousarray(a[order], np.float64) for a in (x, y, nx, ny, sigma)
+    )
+    cx, cy = fx.copy(), fy.copy()
+    _remove_bias(fx, fy, fnx, fny, fsigma, bounds, cx, cy)
+    x_out[order], y_out[order] = cx, cy
     return x_out, y_out
