@@ -15,13 +15,15 @@ import cv2
 import numpy as np
 
 from pipeline.jit import kernel
+from pipeline.segmentation import KEEP_FRACTION
 
 BLOCK_PX = 8
 """Side of a band block [px of its level]."""
 
 BAND_SEED_RESPONSE = 0.1
 """Coarsest-scale V above which a pixel may belong to a stripe (the mask needs V > 0.5 at
-some scale; a round spot stays below exp(−2) ≈ 0.14 and is mostly left out)."""
+some scale). Stray spots reach it too (up to V ≈ 1 on the 1600×1200 clutter frame); their
+separate, small regions are left out by size (`locate_band`)."""
 
 BAND_MARGIN_PX = 12.0
 """Widening of the seeds [px of the frame]. The seeds already span a stripe's width (σ3's
@@ -49,12 +51,15 @@ class StripeBand:
     """Blocks (BLOCK_PX × BLOCK_PX of each level's grid) that may hold the stripe.
 
     `blocks[L]` is the bool block grid of pyramid level L, `rings[L]` the RING_BLOCKS
-    blocks around it; `fraction` the share of the frame's level-0 blocks in the band.
+    blocks around it; `fraction` the share of the frame's level-0 blocks in the band;
+    `left_out_px` the largest extent (bounding-box diagonal [px]) of the small seed regions
+    left out of it (see `locate_band`), 0 when none were.
     """
 
     blocks: tuple[np.ndarray, ...]
     rings: tuple[np.ndarray, ...]
     fraction: float
+    left_out_px: float = 0.0
 
 
 def band_ring(blocks: np.ndarray) -> np.ndarray:
@@ -133,12 +138,37 @@ def blocks_holding(flags, blocks):
     return out
 
 
+def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, float]:
+    """The separate regions of a widened seed grid too small to hold a stripe piece.
+
+    A component kept as part of the stripe is at least KEEP_FRACTION of the longest one's
+    length L = √(12·λmax) (`pipeline.segmentation.stripe_components`), and any pixel set of
+    diameter D has L ≤ √3·D. A region of extent D with √3·D < KEEP_FRACTION · ½ · the
+    largest region's extent (½: the mask is narrower and shorter than its seeds) can hold
+    no such piece: stray spots, another part's short stripe. Returns the grid without them
+    and the largest extent left out [px of the frame], which the caller checks against the
+    stripe's actual length.
+    """
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(band, connectivity=8)
+    if count <= 2:
+        return band, 0.0
+    extent = stride * np.hypot(
+        stats[1:, cv2.CC_STAT_WIDTH] + 1.0, stats[1:, cv2.CC_STAT_HEIGHT] + 1.0
+    )
+    small = math.sqrt(3.0) * extent < KEEP_FRACTION * 0.5 * extent.max()
+    if not small.any():
+        return band, 0.0
+    keep = np.concatenate(([False], ~small))
+    return keep[labels].astype(np.uint8), float(extent[small].max())
+
+
 def locate_band(
     seed_response: np.ndarray,
     seed_level: int,
     level_shapes: tuple[tuple[int, int], ...],
     *,
     margin_px: float = BAND_MARGIN_PX,
+    leave_out_small: bool = True,
 ) -> StripeBand:
     """The stripe band from the coarsest scale's ridge response.
 
@@ -152,6 +182,9 @@ def locate_band(
         Grid shape of every pyramid level, level 0 (the frame) first.
     margin_px : float
         Widening of the seeds [px of the frame].
+    leave_out_small : bool
+        Leave out separate seed regions too small to hold a piece of the stripe (see
+        `_small_regions`).
 
     Returns
     -------
@@ -161,13 +194,21 @@ def locate_band(
     seeds = (seed_response > BAND_SEED_RESPONSE).astype(np.uint8)
     reach = max(1, math.ceil(margin_px / stride))
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
-    band = cv2.dilate(seeds, disc).astype(bool)
+    band = cv2.dilate(seeds, disc)
+    left_out = 0.0
+    if leave_out_small:
+        band, left_out = _small_regions(band, stride)
     blocks = []
     for level, shape in enumerate(level_shapes):
         ratio = BLOCK_PX * 2**level // stride
-        blocks.append(pool_blocks(band, max(ratio, 1), block_grid(shape)))
+        blocks.append(pool_blocks(band.astype(bool), max(ratio, 1), block_grid(shape)))
     rings = tuple(band_ring(grid) for grid in blocks)
-    return StripeBand(blocks=tuple(blocks), rings=rings, fraction=float(blocks[0].mean()))
+    return StripeBand(
+        blocks=tuple(blocks),
+        rings=rings,
+        fraction=float(blocks[0].mean()),
+        left_out_px=left_out,
+    )
 
 
 @kernel

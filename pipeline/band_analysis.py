@@ -44,6 +44,7 @@ from pipeline.scalespace import (
     level_for,
     level_shapes,
 )
+from pipeline.segmentation import KEEP_FRACTION
 
 
 @kernel
@@ -200,6 +201,14 @@ def with_peak_strength(
     return replace(scale, peak_strength=peak)
 
 
+def _left_out_safely(band: StripeBand, stripe_length_px: float) -> bool:
+    """Whether no region left out of the band could hold a kept stripe component: one of
+    extent D holds none of length ≥ √3·D, and kept ones are ≥ KEEP_FRACTION of the stripe's."""
+    return math.sqrt(3.0) * band.left_out_px < KEEP_FRACTION * stripe_length_px or not (
+        band.left_out_px
+    )
+
+
 @dataclass(frozen=True, slots=True, eq=False)
 class BandAnalysis:
     """The multi-scale analysis of a frame inside its stripe band.
@@ -270,19 +279,30 @@ def analyse_band(
     seed_index = max(range(len(levels)), key=lambda i: (levels[i], sigmas_px[i]))
     seed_blocks = np.ones(block_grid(shapes[coarsest]), np.bool_)
     seed = analysed(seed_index, seed_blocks, ~seed_blocks)
-    # A stripe the band cuts (a spot fused to its edge, a faint end) gets one wider band.
-    for margin in (BAND_MARGIN_PX, WIDER_MARGIN_PX):
-        band = locate_band(seed.response, coarsest, shapes, margin_px=margin)
+    strides = tuple(2**lv for lv in levels)
+
+    def attempt(margin: float, leave_out_small: bool):
+        band = locate_band(
+            seed.response, coarsest, shapes, margin_px=margin, leave_out_small=leave_out_small
+        )
         if band.fraction > MAX_BAND_FRACTION:
-            reason = f"the band covers {100 * band.fraction:.0f} % of the frame"
-            return BandAnalysis(tuple(sigmas_px), (), band, None, reason)
+            return band, [], None
         scales = [
             seed if i == seed_index else analysed(i, band.blocks[lv], band.rings[lv])
             for i, lv in enumerate(levels)
         ]
-        strides = tuple(2**lv for lv in levels)
         responses = tuple(sc.response for sc in scales)
-        found = segment_band(responses, strides, band.blocks[0], image.shape)
+        return band, scales, segment_band(responses, strides, band.blocks[0], image.shape)
+
+    # A stripe the band cuts (a spot fused to its edge, a faint end) gets one wider band.
+    for margin in (BAND_MARGIN_PX, WIDER_MARGIN_PX):
+        band, scales, found = attempt(margin, True)
+        # The regions left out must be too small for a piece of the stripe actually found.
+        if found is not None and not _left_out_safely(band, found.stripe_length_px):
+            band, scales, found = attempt(margin, False)
+        if found is None:
+            reason = f"the band covers {100 * band.fraction:.0f} % of the frame"
+            return BandAnalysis(tuple(sigmas_px), (), band, None, reason)
         if found.inside:
             break
     else:

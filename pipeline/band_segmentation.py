@@ -25,11 +25,13 @@ class BandMask:
 
     `mask` (M, N) bool is the closed stripe mask; `inside` is False when a component that is
     or looks like part of the stripe comes within EDGE_REACH_PX of the band's edge, where the
-    band may have cut it (the full-frame path must then decide).
+    band may have cut it (the full-frame path must then decide); `stripe_length_px` is the
+    length L of the longest stripe component (0 when there is none).
     """
 
     mask: np.ndarray
     inside: bool
+    stripe_length_px: float
 
 
 @kernel
@@ -243,11 +245,11 @@ def segment_band(
     shapes = shapes_from_moments(*moments.T)
     keep = stripe_components(shapes)
     # A component the band may have cut: one kept, or one shaped like a stripe piece. A round
-    # spot (a specular reflection beside the stripe) is neither, whole or cut: the band was
-    # grown from the coarsest scale's ridges, which see every stripe piece and no spot.
+    # spot (a specular reflection beside the stripe) is neither, whole or cut, so it may.
     touching = np.zeros(keep.size, bool)
     touching[label[_runs_near_band_edge(runs, blocks, EDGE_REACH_PX)]] = True
     piece = (shapes.area_px >= MIN_COMPONENT_AREA_PX) & (shapes.elongation >= MIN_ELONGATION)
     inside = not (touching & (keep | piece)).any()
     stripe = _paint_runs(runs, keep[label], shape)
-    return BandMask(mask=close_holes(stripe), inside=inside)
+    length = float(shapes.length_px[keep].max()) if keep.any() else 0.0
+    return BandMask(mask=close_holes(stripe), inside=inside, stripe_length_px=length)

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+import pipeline.band_analysis as band_analysis
 from pipeline import extract_centres
 from pipeline.band import BLOCK_PX
 from pipeline.band_filters import band_derivatives
@@ -150,3 +151,41 @@ def test_run_labelling_matches_opencv_components(seed, density) -> None:
     np.testing.assert_allclose(
         moments[:, 5], np.bincount(ours[binary], weights=rows * cols, minlength=count)
     )
+
+
+def _bands_tried(monkeypatch) -> list:
+    """Record every band the band path locates from now on (a spy on `locate_band`)."""
+    tried = []
+    real = band_analysis.locate_band
+
+    def spy(*args, **kwargs):
+        tried.append(real(*args, **kwargs))
+        return tried[-1]
+
+    monkeypatch.setattr(band_analysis, "locate_band", spy)
+    return tried
+
+
+def test_stray_spots_are_left_out_of_the_band(monkeypatch) -> None:
+    _, full = _both(CASES[-1], "adaptive")  # frame-clutter
+    tried = _bands_tried(monkeypatch)
+    again = extract_centres(make_stripe(CASES[-1]).image)
+    assert len(tried) == 1 and tried[0].left_out_px > 0
+    np.testing.assert_array_equal(again.mask, full.mask)
+    np.testing.assert_array_equal(again.sigma_map, full.sigma_map)
+
+
+def test_a_short_stripe_left_out_beside_a_faint_long_ridge_is_taken_back(monkeypatch) -> None:
+    # The long faint ridge makes the largest seed region but no stripe (V < 0.5); the 75 px
+    # stripe's region looks small beside it, and the band first leaves it out.
+    rows, cols = np.mgrid[0:1200, 0:1600].astype(np.float64)
+    image = 12 + 8 * np.exp(-2 * ((rows - 300) / 6) ** 2)
+    image += 150 * np.exp(-2 * ((rows - 800) / 4.5) ** 2) * ((cols > 700) & (cols < 775))
+    image = image.astype(np.uint8)
+    tried = _bands_tried(monkeypatch)
+    band = extract_centres(image)
+    full = extract_centres(image, full_frame=True)
+    assert [b.left_out_px > 0 for b in tried] == [True, False]
+    assert band.path == "band" and len(full) > 50
+    np.testing.assert_array_equal(band.mask, full.mask)
+    _assert_same_points(band, full)
