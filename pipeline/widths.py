@@ -38,8 +38,9 @@ def _gradient_squared(ix, iy, u: float, v: float) -> float:
 
 
 @kernel
-def _edge_distances(ix, iy, stride, x, y, dx, dy, steps, out) -> None:
-    """Distance [px] from each centre to the gradient maximum along (dx, dy), NaN if none.
+def _edge_distances(ix, iy, stride, x, y, nx, ny, steps, out) -> None:
+    """Distance [px] from each centre to the gradient maximum along ±(nx, ny), NaN if none;
+    out[0] along +n, out[1] along −n.
 
     A coarse maximum of bilinear |∇I| sampled at `steps` is refined with five Keys cubic
     samples REFINE_STEP_PX apart and a parabola through the best one and its neighbours
@@ -47,32 +48,43 @@ def _edge_distances(ix, iy, stride, x, y, dx, dy, steps, out) -> None:
     The maximum must lie strictly inside the searched reach.
     """
     origin = 0.5 * (stride - 1)
+    scale = 1.0 / stride  # exact: the stride is a power of 2
+    height, width = ix.shape
     refined = np.empty(5)
-    for k in range(x.size):
-        best = -1.0
-        at = 0
-        for i in range(steps.size):
-            u = (x[k] + steps[i] * dx[k] - origin) / stride
-            v = (y[k] + steps[i] * dy[k] - origin) / stride
-            value = _gradient_squared(ix, iy, u, v)
-            if value > best:
-                best = value
-                at = i
-        if at == 0 or at == steps.size - 1:
-            out[k] = np.nan
-            continue
-        distance = steps[at]
-        for i in range(5):
-            step = distance + (i - 2) * REFINE_STEP_PX
-            u = (x[k] + step * dx[k] - origin) / stride
-            v = (y[k] + step * dy[k] - origin) / stride
-            taps = cubic_taps(u, v, ix.shape[0], ix.shape[1])
-            refined[i] = np.hypot(cubic_at(ix, *taps), cubic_at(iy, *taps))
-        node = min(max(int(np.argmax(refined)), 1), 3)
-        left, mid, right = refined[node - 1], refined[node], refined[node + 1]
-        curvature = left - 2 * mid + right
-        shift = 0.5 * (left - right) / curvature if curvature < 0 else 0.0
-        out[k] = distance + (node - 2 + min(max(shift, -1.0), 1.0)) * REFINE_STEP_PX
+    for side in range(2):
+        for k in range(x.size):
+            xk, yk = x[k], y[k]
+            dx, dy = (nx[k], ny[k]) if side == 0 else (-nx[k], -ny[k])
+            best = -1.0
+            at = 0
+            for i in range(steps.size):
+                value = _gradient_squared(
+                    ix,
+                    iy,
+                    (xk + steps[i] * dx - origin) * scale,
+                    (yk + steps[i] * dy - origin) * scale,
+                )
+                if value > best:
+                    best = value
+                    at = i
+            if at == 0 or at == steps.size - 1:
+                out[side, k] = np.nan
+                continue
+            distance = steps[at]
+            node = 0
+            for i in range(5):
+                step = distance + (i - 2) * REFINE_STEP_PX
+                u = (xk + step * dx - origin) * scale
+                v = (yk + step * dy - origin) * scale
+                taps = cubic_taps(u, v, height, width)
+                refined[i] = np.hypot(cubic_at(ix, *taps), cubic_at(iy, *taps))
+                if refined[i] > refined[node]:
+                    node = i  # the first maximum, as np.argmax
+            node = min(max(node, 1), 3)
+            left, mid, right = refined[node - 1], refined[node], refined[node + 1]
+            curvature = left - 2 * mid + right
+            shift = 0.5 * (left - right) / curvature if curvature < 0 else 0.0
+            out[side, k] = distance + (node - 2 + min(max(shift, -1.0), 1.0)) * REFINE_STEP_PX
 
 
 def stripe_widths(
@@ -110,10 +122,7 @@ def stripe_widths(
     steps = np.arange(1, int(np.ceil(reach_px / STEP_PX)) + 1) * STEP_PX
     d = level.derivatives
     x, y, nx, ny = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny))
-    distances = []
-    for sign in (1.0, -1.0):
-        out = np.empty(x.size)
-        _edge_distances(d.ix, d.iy, level.stride, x, y, sign * nx, sign * ny, steps, out)
-        distances.append(out)
+    distances = np.empty((2, x.size))
+    _edge_distances(d.ix, d.iy, level.stride, x, y, nx, ny, steps, distances)
     half = 0.5 * (distances[0] + distances[1])
     return 4 * np.sqrt(np.maximum(half**2 - level.sigma_px**2, 0))
