@@ -138,6 +138,32 @@ def blocks_holding(flags, blocks):
     return out
 
 
+@kernel
+def _label_sides(labels, count):
+    """Bounding-box height and width − 1 of each label 1..count − 1: (count, 2) int64, row 0
+    (the background) unset."""
+    low = np.full((count, 2), labels.size, np.int64)
+    high = np.zeros((count, 2), np.int64)
+    for r in range(labels.shape[0]):
+        for c in range(labels.shape[1]):
+            k = labels[r, c]
+            if k:
+                low[k, 0], high[k, 0] = min(low[k, 0], r), max(high[k, 0], r)
+                low[k, 1], high[k, 1] = min(low[k, 1], c), max(high[k, 1], c)
+    return high - low
+
+
+@kernel
+def _without(band, labels, drop):
+    """`band` with the pixels of the labels marked in `drop` cleared."""
+    out = band.copy()
+    for r in range(band.shape[0]):
+        for c in range(band.shape[1]):
+            if drop[labels[r, c]]:
+                out[r, c] = 0
+    return out
+
+
 def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, float]:
     """The separate regions of a widened seed grid too small to hold a stripe piece.
 
@@ -149,17 +175,15 @@ def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, float]:
     and the largest extent left out [px of the frame], which the caller checks against the
     stripe's actual length.
     """
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(band, connectivity=8)
+    count, labels = cv2.connectedComponents(band, connectivity=8)
     if count <= 2:
         return band, 0.0
-    extent = stride * np.hypot(
-        stats[1:, cv2.CC_STAT_WIDTH] + 1.0, stats[1:, cv2.CC_STAT_HEIGHT] + 1.0
-    )
+    sides = _label_sides(labels, count)[1:]
+    extent = stride * np.hypot(sides[:, 0] + 1.0, sides[:, 1] + 1.0)
     small = math.sqrt(3.0) * extent < KEEP_FRACTION * 0.5 * extent.max()
     if not small.any():
         return band, 0.0
-    keep = np.concatenate(([False], ~small))
-    return keep[labels].astype(np.uint8), float(extent[small].max())
+    return _without(band, labels, np.concatenate(([False], small))), float(extent[small].max())
 
 
 def locate_band(
@@ -198,10 +222,11 @@ def locate_band(
     left_out = 0.0
     if leave_out_small:
         band, left_out = _small_regions(band, stride)
+    flags = band.view(np.bool_)
     blocks = []
     for level, shape in enumerate(level_shapes):
         ratio = BLOCK_PX * 2**level // stride
-        blocks.append(pool_blocks(band.astype(bool), max(ratio, 1), block_grid(shape)))
+        blocks.append(pool_blocks(flags, max(ratio, 1), block_grid(shape)))
     rings = tuple(band_ring(grid) for grid in blocks)
     return StripeBand(
         blocks=tuple(blocks),
