@@ -15,7 +15,7 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from pipeline.band import BLOCK_PX, block_runs, zero_blocks
+from pipeline.band import BLOCK_PX, block_runs, run_starts, zero_blocks
 from pipeline.gaussian import BORDER, GaussianDerivatives, gaussian_kernels
 from pipeline.jit import kernel
 
@@ -33,18 +33,20 @@ def _row_needs(blocks, reach_px, padded_rows):
 
 
 @functools.cache
-def _passes(radius: int) -> tuple[Callable[..., None], ...]:
-    """The x pass and the two y passes compiled for one kernel radius [px].
+def _passes(radius: int) -> Callable[..., None]:
+    """The band's separable filtering compiled for one kernel radius [px].
 
     The radius is a compile-time constant, so the tap loop unrolls and the loop over the
     columns of a stretch vectorises (about 8× faster than a radius known only at run time).
     """
 
     @kernel
-    def x_pass(src, g0, g1, g2, need, out0, out1, out2) -> None:
-        """Convolve the needed stretches of each padded row with G, G', G'' along x."""
+    def x_pass(src, g0, g1, g2, runs, first, stop, out0, out1, out2) -> None:
+        """Convolve the stretches runs[first:stop] (padded row, first, stop block) with G,
+        G', G'' along x."""
         width = out0.shape[1]
-        for rp, bc0, bc1 in block_runs(need):  # need: one row of blocks per padded row
+        for k in range(first, stop):
+            rp, bc0, bc1 = runs[k, 0], runs[k, 1], runs[k, 2]
             c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
             # Views starting at 0 keep every index provably ≥ 0: no wrap-around test
             # in the loop, which would stop it vectorising.
@@ -64,8 +66,9 @@ def _passes(radius: int) -> tuple[Callable[..., None], ...]:
                 a0[i], a1[i], a2[i] = s0, s1, s2
 
     @kernel
-    def y_pass(t, g_even, g_odd, blocks, out_even, out_odd) -> None:
-        """Convolve x-pass rows along y with one even and one odd kernel on the band's blocks.
+    def y_pass(t, g_even, g_odd, runs, first, stop, out_even, out_odd) -> None:
+        """Convolve x-pass rows along y with one even and one odd kernel on the band's
+        block runs runs[first:stop].
 
         Two outputs of one input per call: more arrays in one loop exceed the alias checks
         the compiler will make, and the loop stops vectorising. Indices are unsigned flat
@@ -74,14 +77,15 @@ def _passes(radius: int) -> tuple[Callable[..., None], ...]:
         height, width = out_even.shape
         flat = t.ravel()
         row_step = np.uint64(width)
-        for br, bc0, bc1 in block_runs(blocks):
+        for k in range(first, stop):
+            br, bc0, bc1 = runs[k, 0], runs[k, 1], runs[k, 2]
             c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
             for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
                 # Row r sits at r + radius of the x-pass rows.
-                first = np.uint64(r + radius) * row_step + np.uint64(c0)
+                start = np.uint64(r + radius) * row_step + np.uint64(c0)
                 even, odd = out_even[r, c0:c1], out_odd[r, c0:c1]
                 for i in range(c1 - c0):
-                    at = first + np.uint64(i)
+                    at = start + np.uint64(i)
                     s_even = g_even[radius] * flat[at]
                     s_odd = np.float32(0.0)
                     for k in range(1, radius + 1):
@@ -92,18 +96,19 @@ def _passes(radius: int) -> tuple[Callable[..., None], ...]:
                     even[i], odd[i] = s_even, s_odd
 
     @kernel
-    def y_even(t, g_even, blocks, out_even) -> None:
+    def y_even(t, g_even, runs, first, stop, out_even) -> None:
         """`y_pass` with the even kernel only."""
         height, width = out_even.shape
         flat = t.ravel()
         row_step = np.uint64(width)
-        for br, bc0, bc1 in block_runs(blocks):
+        for k in range(first, stop):
+            br, bc0, bc1 = runs[k, 0], runs[k, 1], runs[k, 2]
             c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
             for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-                first = np.uint64(r + radius) * row_step + np.uint64(c0)
+                start = np.uint64(r + radius) * row_step + np.uint64(c0)
                 even = out_even[r, c0:c1]
                 for i in range(c1 - c0):
-                    at = first + np.uint64(i)
+                    at = start + np.uint64(i)
                     s_even = g_even[radius] * flat[at]
                     for k in range(1, radius + 1):
                         up = flat[at - np.uint64(k) * row_step]
@@ -111,7 +116,41 @@ def _passes(radius: int) -> tuple[Callable[..., None], ...]:
                         s_even += g_even[radius + k] * (up + down)
                     even[i] = s_even
 
-    return x_pass, y_pass, y_even
+    @kernel
+    def filter_band(padded, g0, g1, g2, need, blocks, along_x, ix, iy, ixx, ixy, iyy) -> None:
+        """Both passes, one block row of the band at a time: the x pass just ahead of the
+        y pass, so the y pass reads x-pass rows still in cache (same sums, same order)."""
+        smooth_x, d1_x, d2_x = along_x
+        padded_rows = need.shape[0]
+        stretches = block_runs(need)
+        row_first = run_starts(stretches, padded_rows)
+        runs = block_runs(blocks)
+        block_first = run_starts(runs, blocks.shape[0])
+        done = 0  # x-pass rows [0, done) are filtered
+        for br in range(blocks.shape[0]):
+            first, stop = block_first[br], block_first[br + 1]
+            if first == stop:
+                continue
+            upto = min(br * BLOCK_PX + BLOCK_PX + 2 * radius, padded_rows)
+            if upto > done:
+                x_pass(
+                    padded,
+                    g0,
+                    g1,
+                    g2,
+                    stretches,
+                    row_first[done],
+                    row_first[upto],
+                    smooth_x,
+                    d1_x,
+                    d2_x,
+                )
+                done = upto
+            y_pass(d1_x, g0, g1, runs, first, stop, ix, ixy)
+            y_pass(smooth_x, g2, g1, runs, first, stop, iyy, iy)
+            y_even(d2_x, g0, runs, first, stop, ixx)
+
+    return filter_band
 
 
 def band_derivatives(
@@ -142,14 +181,9 @@ def band_derivatives(
     padded = cv2.copyMakeBorder(image, radius, radius, radius, radius, BORDER)
     need = _row_needs(blocks, radius, padded.shape[0])
     rows, cols = image.shape
-    along_x = [np.empty((padded.shape[0], cols), np.float32) for _ in range(3)]
-    x_pass, y_pass, y_even = _passes(radius)
-    x_pass(padded, g0, g1, g2, need, *along_x)
+    along_x = tuple(np.empty((padded.shape[0], cols), np.float32) for _ in range(3))
     ix, iy, ixx, ixy, iyy = (np.empty((rows, cols), np.float32) for _ in range(5))
-    smooth_x, d1_x, d2_x = along_x
-    y_pass(d1_x, g0, g1, blocks, ix, ixy)
-    y_pass(smooth_x, g2, g1, blocks, iyy, iy)
-    y_even(d2_x, g0, blocks, ixx)
+    _passes(radius)(padded, g0, g1, g2, need, blocks, along_x, ix, iy, ixx, ixy, iyy)
     # Only the width search reads beyond the band, and only the gradient.
     for field in (ix, iy):
         zero_blocks(field, ring)
