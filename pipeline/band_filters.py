@@ -45,25 +45,29 @@ def _passes(radius: int) -> Callable[..., None]:
         """Convolve the stretches runs[first:stop] (padded row, first, stop block) with G,
         G', G'' along x."""
         width = out0.shape[1]
+        source, f0, f1, f2 = src.ravel(), out0.ravel(), out1.ravel(), out2.ravel()
         for k in range(first, stop):
             rp, bc0, bc1 = runs[k, 0], runs[k, 1], runs[k, 2]
             c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
-            # Views starting at 0 keep every index provably ≥ 0: no wrap-around test
-            # in the loop, which would stop it vectorising.
-            seg = src[rp, c0 : c1 + 2 * radius]
-            a0, a1, a2 = out0[rp, c0:c1], out1[rp, c0:c1], out2[rp, c0:c1]
+            # Unsigned flat offsets into whole arrays: no wrap-around test and no per-view
+            # alias checks each time the loop starts (band runs are short), so it
+            # vectorises even over a few blocks.
+            centre_at = np.uint64(rp * src.shape[1] + c0 + radius)
+            out_at = np.uint64(rp * width + c0)
             for i in range(c1 - c0):
-                centre = np.float32(seg[i + radius])
+                at = centre_at + np.uint64(i)
+                centre = np.float32(source[at])
                 s0 = g0[radius] * centre
                 s1 = np.float32(0.0)
                 s2 = g2[radius] * centre
                 for k in range(1, radius + 1):
-                    left = np.float32(seg[i + radius - k])
-                    right = np.float32(seg[i + radius + k])
+                    left = np.float32(source[at - np.uint64(k)])
+                    right = np.float32(source[at + np.uint64(k)])
                     s0 += g0[radius + k] * (left + right)
                     s1 += g1[radius + k] * (left - right)  # convolution: G'(k) meets I(c − k)
                     s2 += g2[radius + k] * (left + right)
-                a0[i], a1[i], a2[i] = s0, s1, s2
+                o = out_at + np.uint64(i)
+                f0[o], f1[o], f2[o] = s0, s1, s2
 
     @kernel
     def y_pass(t, g_even, g_odd, runs, first, stop, out_even, out_odd) -> None:
@@ -72,10 +76,10 @@ def _passes(radius: int) -> Callable[..., None]:
 
         Two outputs of one input per call: more arrays in one loop exceed the alias checks
         the compiler will make, and the loop stops vectorising. Indices are unsigned flat
-        offsets (never negative), so there is no wrap-around test either.
+        offsets, as in `x_pass`.
         """
         height, width = out_even.shape
-        flat = t.ravel()
+        flat, even, odd = t.ravel(), out_even.ravel(), out_odd.ravel()
         row_step = np.uint64(width)
         for k in range(first, stop):
             br, bc0, bc1 = runs[k, 0], runs[k, 1], runs[k, 2]
@@ -83,7 +87,7 @@ def _passes(radius: int) -> Callable[..., None]:
             for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
                 # Row r sits at r + radius of the x-pass rows.
                 start = np.uint64(r + radius) * row_step + np.uint64(c0)
-                even, odd = out_even[r, c0:c1], out_odd[r, c0:c1]
+                out_at = np.uint64(r) * row_step + np.uint64(c0)
                 for i in range(c1 - c0):
                     at = start + np.uint64(i)
                     s_even = g_even[radius] * flat[at]
@@ -93,20 +97,21 @@ def _passes(radius: int) -> Callable[..., None]:
                         down = flat[at + np.uint64(k) * row_step]
                         s_even += g_even[radius + k] * (up + down)
                         s_odd += g_odd[radius + k] * (up - down)
-                    even[i], odd[i] = s_even, s_odd
+                    o = out_at + np.uint64(i)
+                    even[o], odd[o] = s_even, s_odd
 
     @kernel
     def y_even(t, g_even, runs, first, stop, out_even) -> None:
         """`y_pass` with the even kernel only."""
         height, width = out_even.shape
-        flat = t.ravel()
+        flat, even = t.ravel(), out_even.ravel()
         row_step = np.uint64(width)
         for k in range(first, stop):
             br, bc0, bc1 = runs[k, 0], runs[k, 1], runs[k, 2]
             c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
             for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
                 start = np.uint64(r + radius) * row_step + np.uint64(c0)
-                even = out_even[r, c0:c1]
+                out_at = np.uint64(r) * row_step + np.uint64(c0)
                 for i in range(c1 - c0):
                     at = start + np.uint64(i)
                     s_even = g_even[radius] * flat[at]
@@ -114,7 +119,7 @@ def _passes(radius: int) -> Callable[..., None]:
                         up = flat[at - np.uint64(k) * row_step]
                         down = flat[at + np.uint64(k) * row_step]
                         s_even += g_even[radius + k] * (up + down)
-                    even[i] = s_even
+                    even[out_at + np.uint64(i)] = s_even
 
     @kernel
     def filter_band(padded, g0, g1, g2, need, blocks, along_x, ix, iy, ixx, ixy, iyy) -> None:
