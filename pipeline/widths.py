@@ -38,6 +38,27 @@ def _gradient_squared(ix, iy, u: float, v: float) -> float:
 
 
 @kernel
+def _coarse_interior(ix, iy, x0, y0, dx, dy, steps, origin, scale, values) -> None:
+    """values[i] = bilinear |∇I|² at steps[i] [px] along (dx, dy) from (x0, y0) [px] when
+    all taps lie inside the grid: the arithmetic of `_gradient_squared` without its border
+    branch, unsigned indices (no negative-index wraparound)."""
+    for i in range(steps.size):
+        u = (x0 + steps[i] * dx - origin) * scale
+        v = (y0 + steps[i] * dy - origin) * scale
+        u0 = np.floor(u)
+        v0 = np.floor(v)
+        fu = u - u0
+        fv = v - v0
+        c0, r0 = np.uint64(u0), np.uint64(v0)
+        c1, r1 = c0 + np.uint64(1), r0 + np.uint64(1)
+        gx = (ix[r0, c0] * (1 - fu) + ix[r0, c1] * fu) * (1 - fv)
+        gx += (ix[r1, c0] * (1 - fu) + ix[r1, c1] * fu) * fv
+        gy = (iy[r0, c0] * (1 - fu) + iy[r0, c1] * fu) * (1 - fv)
+        gy += (iy[r1, c0] * (1 - fu) + iy[r1, c1] * fu) * fv
+        values[i] = gx * gx + gy * gy
+
+
+@kernel
 def _edge_distances(ix, iy, stride, x, y, nx, ny, steps, out) -> None:
     """Distance [px] from each centre to the gradient maximum along ±(nx, ny), NaN if none;
     out[0] along +n, out[1] along −n.
@@ -51,21 +72,36 @@ def _edge_distances(ix, iy, stride, x, y, nx, ny, steps, out) -> None:
     scale = 1.0 / stride  # exact: the stride is a power of 2
     height, width = ix.shape
     refined = np.empty(5)
+    values = np.empty(steps.size)
     for side in range(2):
         for k in range(x.size):
             xk, yk = x[k], y[k]
             dx, dy = (nx[k], ny[k]) if side == 0 else (-nx[k], -ny[k])
+            last = steps[steps.size - 1]
+            u_first = (xk + steps[0] * dx - origin) * scale
+            v_first = (yk + steps[0] * dy - origin) * scale
+            u_last = (xk + last * dx - origin) * scale
+            v_last = (yk + last * dy - origin) * scale
+            if (  # a grid step of margin: rounding cannot take a tap outside
+                1 <= min(u_first, u_last)
+                and max(u_first, u_last) < width - 2
+                and 1 <= min(v_first, v_last)
+                and max(v_first, v_last) < height - 2
+            ):
+                _coarse_interior(ix, iy, xk, yk, dx, dy, steps, origin, scale, values)
+            else:
+                for i in range(steps.size):
+                    values[i] = _gradient_squared(
+                        ix,
+                        iy,
+                        (xk + steps[i] * dx - origin) * scale,
+                        (yk + steps[i] * dy - origin) * scale,
+                    )
             best = -1.0
             at = 0
             for i in range(steps.size):
-                value = _gradient_squared(
-                    ix,
-                    iy,
-                    (xk + steps[i] * dx - origin) * scale,
-                    (yk + steps[i] * dy - origin) * scale,
-                )
-                if value > best:
-                    best = value
+                if values[i] > best:
+                    best = values[i]
                     at = i
             if at == 0 or at == steps.size - 1:
                 out[side, k] = np.nan
