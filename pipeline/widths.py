@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from pipeline.jit import kernel
-from pipeline.scalespace import ScaleLevel, cubic_at, cubic_taps, reflect_index
+from pipeline.scalespace import ScaleLevel, _keys_weight, cubic_at, cubic_taps, reflect_index
 
 STEP_PX = 1.0
 """Sampling step of the coarse search along the normal [px]. The refinement spans ±1 px
@@ -59,6 +59,36 @@ def _coarse_interior(ix, iy, x0, y0, dx, dy, steps, origin, scale, values) -> No
 
 
 @kernel
+def _cubic_gradient_interior(ix, iy, u: float, v: float) -> float:
+    """|∇I| from Keys cubic Ix, Iy at level-grid coordinates (u, v) when all 4 × 4 taps lie
+    inside the grid: the arithmetic of `cubic_taps` and `cubic_at` without index folding,
+    unsigned indices, the weights shared by both fields."""
+    u0 = np.floor(u)
+    v0 = np.floor(v)
+    fu, fv = u - u0, v - v0
+    wu = (_keys_weight(fu + 1), _keys_weight(fu), _keys_weight(1 - fu), _keys_weight(2 - fu))
+    wv = (_keys_weight(fv + 1), _keys_weight(fv), _keys_weight(1 - fv), _keys_weight(2 - fv))
+    c, r = np.uint64(u0) - np.uint64(1), np.uint64(v0) - np.uint64(1)
+    gx = 0.0
+    gy = 0.0
+    for i in range(4):
+        ri = r + np.uint64(i)
+        gx += wv[i] * (
+            wu[0] * ix[ri, c]
+            + wu[1] * ix[ri, c + np.uint64(1)]
+            + wu[2] * ix[ri, c + np.uint64(2)]
+            + wu[3] * ix[ri, c + np.uint64(3)]
+        )
+        gy += wv[i] * (
+            wu[0] * iy[ri, c]
+            + wu[1] * iy[ri, c + np.uint64(1)]
+            + wu[2] * iy[ri, c + np.uint64(2)]
+            + wu[3] * iy[ri, c + np.uint64(3)]
+        )
+    return np.hypot(gx, gy)
+
+
+@kernel
 def _edge_distances(ix, iy, stride, x, y, nx, ny, steps, out) -> None:
     """Distance [px] from each centre to the gradient maximum along ±(nx, ny), NaN if none;
     out[0] along +n, out[1] along −n.
@@ -107,13 +137,26 @@ def _edge_distances(ix, iy, stride, x, y, nx, ny, steps, out) -> None:
                 out[side, k] = np.nan
                 continue
             distance = steps[at]
+            u_first = (xk + (distance - 2 * REFINE_STEP_PX) * dx - origin) * scale
+            v_first = (yk + (distance - 2 * REFINE_STEP_PX) * dy - origin) * scale
+            u_last = (xk + (distance + 2 * REFINE_STEP_PX) * dx - origin) * scale
+            v_last = (yk + (distance + 2 * REFINE_STEP_PX) * dy - origin) * scale
+            inside = (  # taps span ⌊u⌋ − 1 … ⌊u⌋ + 2; a grid step of margin for rounding
+                2 <= min(u_first, u_last)
+                and max(u_first, u_last) < width - 3
+                and 2 <= min(v_first, v_last)
+                and max(v_first, v_last) < height - 3
+            )
             node = 0
             for i in range(5):
                 step = distance + (i - 2) * REFINE_STEP_PX
                 u = (xk + step * dx - origin) * scale
                 v = (yk + step * dy - origin) * scale
-                taps = cubic_taps(u, v, height, width)
-                refined[i] = np.hypot(cubic_at(ix, *taps), cubic_at(iy, *taps))
+                if inside:
+                    refined[i] = _cubic_gradient_interior(ix, iy, u, v)
+                else:
+                    taps = cubic_taps(u, v, height, width)
+                    refined[i] = np.hypot(cubic_at(ix, *taps), cubic_at(iy, *taps))
                 if refined[i] > refined[node]:
                     node = i  # the first maximum, as np.argmax
             node = min(max(node, 1), 3)
