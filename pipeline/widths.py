@@ -147,16 +147,21 @@ def _edge_distances(ix, iy, stride, x, y, nx, ny, steps, out) -> None:
                 and 2 <= min(v_first, v_last)
                 and max(v_first, v_last) < height - 3
             )
-            node = 0
-            for i in range(5):
-                step = distance + (i - 2) * REFINE_STEP_PX
-                u = (xk + step * dx - origin) * scale
-                v = (yk + step * dy - origin) * scale
-                if inside:
+            if inside:
+                for i in range(5):
+                    step = distance + (i - 2) * REFINE_STEP_PX
+                    u = (xk + step * dx - origin) * scale
+                    v = (yk + step * dy - origin) * scale
                     refined[i] = _cubic_gradient_interior(ix, iy, u, v)
-                else:
+            else:
+                for i in range(5):
+                    step = distance + (i - 2) * REFINE_STEP_PX
+                    u = (xk + step * dx - origin) * scale
+                    v = (yk + step * dy - origin) * scale
                     taps = cubic_taps(u, v, height, width)
                     refined[i] = np.hypot(cubic_at(ix, *taps), cubic_at(iy, *taps))
+            node = 0
+            for i in range(1, 5):
                 if refined[i] > refined[node]:
                     node = i  # the first maximum, as np.argmax
             node = min(max(node, 1), 3)
