@@ -49,31 +49,46 @@ def _linear_tap(index: int, stride: int, size: int) -> tuple[int, int, float]:
 
 
 @kernel
-def _append_runs(line, row, first, stop, runs, count):
-    """Append the runs of True in line[first:stop] as (row, first, stop); grows `runs`.
-    Returns the runs array and the new count."""
-    c = first
-    while c < stop:
-        if not line[c]:
-            c += 1
-            continue
-        start = c
-        while c < stop and line[c]:
-            c += 1
-        if count == runs.shape[0]:
-            grown = np.empty((2 * count, 3), np.int64)
-            grown[:count] = runs
-            runs = grown
-        runs[count, 0], runs[count, 1], runs[count, 2] = row, start, c
+def _append_runs(line, row, first, stop, runs, count) -> int:
+    """Write the runs of True in line[first:stop] as (row, first, stop) from runs[count];
+    returns the new count. `runs` must have room (`_room_for_runs`)."""
+    inside = False
+    start = first
+    for c in range(first, stop):
+        if line[c] != inside:
+            if inside:
+                runs[count, 0], runs[count, 1], runs[count, 2] = row, start, c
+                count += 1
+            else:
+                start = c
+            inside = not inside
+    if inside:
+        runs[count, 0], runs[count, 1], runs[count, 2] = row, start, stop
         count += 1
-    return runs, count
+    return count
+
+
+@kernel
+def _room_for_runs(band, height):
+    """An empty (K, 3) run array with room for every run the band's rows can hold: a row
+    stretch of n pixels holds at most (n + 1) // 2."""
+    most = 0
+    for k in range(band.shape[0]):
+        rows = min(BLOCK_PX, height - band[k, 0] * BLOCK_PX)
+        most += rows * (((band[k, 2] - band[k, 1]) * BLOCK_PX + 1) // 2)
+    return np.empty((most, 3), np.int64)
 
 
 @kernel
 def _stripe_runs(responses, strides, blocks, shape):
     """Runs of V = max over scales > RIDGE_THRESHOLD along the band's frame rows, raster
-    order: rows of (row, first, stop). Coarser scales' V is upsampled bilinearly, as
-    cv2.resize INTER_LINEAR; their taps are computed once per column and per row."""
+    order: rows of (row, first, stop).
+
+    Coarser scales' V is upsampled bilinearly as cv2.resize INTER_LINEAR does it: along x
+    first, then along y. The x interpolation of the level rows a block row of the band
+    reads is done once for that block row, so each frame pixel costs one y interpolation
+    per scale (the same sums as pixel by pixel).
+    """
     height, width = shape
     levels = len(responses)
     x0 = np.zeros((levels, width), np.int64)
@@ -83,33 +98,56 @@ def _stripe_runs(responses, strides, blocks, shape):
         if strides[i] > 1:
             for c in range(width):
                 x0[i, c], x1[i, c], fx[i, c] = _linear_tap(c, strides[i], responses[i].shape[1])
+    # Level rows along x, per scale: rows first_row[i] .. + BLOCK_PX + 1 of the block row.
+    along_x = np.zeros((levels, BLOCK_PX + 2, width))
+    first_row = np.zeros(levels, np.int64)
     line = np.zeros(width, np.bool_)
-    runs = np.empty((64, 3), np.int64)
-    count = 0
     band = block_runs(blocks)
     starts = run_starts(band, blocks.shape[0])
-    for r in range(height):
-        br = r // BLOCK_PX
-        for k in range(starts[br], starts[br + 1]):
-            c0, c1 = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
-            line[c0:c1] = False
-            for i in range(levels):
-                field, stride = responses[i], strides[i]
-                if stride == 1:
-                    source = field[r]
-                    for c in range(c0, c1):
-                        line[c] |= source[c] > RIDGE_THRESHOLD
-                    continue
-                y0, y1, fy = _linear_tap(r, stride, field.shape[0])
-                top, bottom = field[y0], field[y1]
-                for c in range(c0, c1):
-                    if line[c]:
+    runs = _room_for_runs(band, height)
+    count = 0
+    for br in range(blocks.shape[0]):
+        if starts[br] == starts[br + 1]:
+            continue
+        r0, r1 = br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)
+        for i in range(levels):
+            field, stride = responses[i], strides[i]
+            if stride == 1:
+                continue
+            top = _linear_tap(r0, stride, field.shape[0])[0]
+            bottom = _linear_tap(r1 - 1, stride, field.shape[0])[1]
+            first_row[i] = top
+            for y in range(top, bottom + 1):
+                source, target = field[y], along_x[i, y - top]
+                for k in range(starts[br], starts[br + 1]):
+                    for c in range(band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)):
+                        a, b, w = x0[i, c], x1[i, c], fx[i, c]
+                        target[c] = source[a] * (1 - w) + source[b] * w
+        for r in range(r0, r1):
+            for k in range(starts[br], starts[br + 1]):
+                c0, c1 = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
+                n = np.uint64(c1 - c0)
+                start = np.uint64(c0)
+                for c in range(n):
+                    line[start + c] = False
+                # Unsigned flat offsets into whole arrays: no per-view alias checks each time
+                # a loop starts, so short band runs vectorise too (see pipeline.band_filters).
+                for i in range(levels):
+                    field, stride = responses[i], strides[i]
+                    if stride == 1:
+                        source = field.ravel()
+                        at = np.uint64(r * width + c0)
+                        for c in range(n):
+                            line[start + c] |= source[at + c] > RIDGE_THRESHOLD
                         continue
-                    a, b, w = x0[i, c], x1[i, c], fx[i, c]
-                    upper = top[a] * (1 - w) + top[b] * w
-                    lower = bottom[a] * (1 - w) + bottom[b] * w
-                    line[c] = upper * (1 - fy) + lower * fy > RIDGE_THRESHOLD
-            runs, count = _append_runs(line, r, c0, c1, runs, count)
+                    y0, y1, fy = _linear_tap(r, stride, field.shape[0])
+                    rows = along_x[i].ravel()
+                    upper = np.uint64((y0 - first_row[i]) * width + c0)
+                    lower = np.uint64((y1 - first_row[i]) * width + c0)
+                    for c in range(n):
+                        value = rows[upper + c] * (1 - fy) + rows[lower + c] * fy
+                        line[start + c] |= value > RIDGE_THRESHOLD
+                count = _append_runs(line, r, c0, c1, runs, count)
     return runs[:count].copy()
 
 
@@ -125,15 +163,15 @@ def _find(parent, p):
 def _row_runs(binary, blocks):
     """Runs of True pixels along the band's rows, raster order: rows of (row, first, stop)."""
     height, width = binary.shape
-    runs = np.empty((64, 3), np.int64)
-    count = 0
     band = block_runs(blocks)
     starts = run_starts(band, blocks.shape[0])
+    runs = _room_for_runs(band, height)
+    count = 0
     for r in range(height):
         br = r // BLOCK_PX
         for k in range(starts[br], starts[br + 1]):
             c0, c1 = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
-            runs, count = _append_runs(binary[r], r, c0, c1, runs, count)
+            count = _append_runs(binary[r], r, c0, c1, runs, count)
     return runs[:count].copy()
 
 
