@@ -92,31 +92,38 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
 def _max_along_rows(field, need, half, out) -> None:
     """out[r, c] = max of field[r, c − half .. c + half] (clipped) on the needed blocks."""
     height, width = field.shape
+    source, target = field.ravel(), out.ravel()
     for br, first, stop in block_runs(need):
         c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
         for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-            out[r, c0:c1] = 0.0
+            row = np.uint64(r * width)
+            # Unsigned flat offsets into whole arrays: no per-view alias checks each time a
+            # loop starts, so short band runs vectorise too (see pipeline.band_filters).
+            for i in range(np.uint64(c0), np.uint64(c1)):
+                target[row + i] = 0.0
             for k in range(-half, half + 1):
                 lo, hi = max(c0 + k, 0), min(c1 + k, width)
-                source = field[r, lo:hi]
-                target = out[r, lo - k : hi - k]
-                for i in range(hi - lo):
-                    target[i] = max(target[i], source[i])
+                read = row + np.uint64(lo)
+                write = row + np.uint64(lo - k)
+                for i in range(np.uint64(hi - lo)):
+                    target[write + i] = max(target[write + i], source[read + i])
 
 
 @kernel
 def _max_along_columns(field, blocks, half, out) -> None:
     """out[r, c] = max of field[r − half .. r + half, c] (clipped) on the band's blocks."""
     height, width = field.shape
+    source, target = field.ravel(), out.ravel()
     for br, first, stop in block_runs(blocks):
         c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
         for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-            target = out[r, c0:c1]
-            target[:] = 0.0
+            write = np.uint64(r * width + c0)
+            for i in range(np.uint64(c1 - c0)):
+                target[write + i] = 0.0
             for k in range(max(r - half, 0), min(r + half + 1, height)):
-                source = field[k, c0:c1]
-                for i in range(c1 - c0):
-                    target[i] = max(target[i], source[i])
+                read = np.uint64(k * width + c0)
+                for i in range(np.uint64(c1 - c0)):
+                    target[write + i] = max(target[write + i], source[read + i])
 
 
 def _max_filter_blocks(
