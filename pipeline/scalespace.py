@@ -148,6 +148,18 @@ def _keys_weight(distance: float) -> float:
 
 
 @kernel
+def keys_weights(fraction: float) -> tuple[float, float, float, float]:
+    """Keys weights of the 4 taps at −1, 0, 1, 2 grid steps from a point `fraction` past
+    tap 0."""
+    return (
+        _keys_weight(fraction + 1),
+        _keys_weight(fraction),
+        _keys_weight(1 - fraction),
+        _keys_weight(2 - fraction),
+    )
+
+
+@kernel
 def reflect_index(index: int, size: int) -> int:
     """An index folded into [0, size) with the edge pixel repeated (the BORDER mode)."""
     if index < 0:
@@ -164,8 +176,7 @@ def cubic_taps(u: float, v: float, height: int, width: int):
     v0 = np.floor(v)
     fu, fv = u - u0, v - v0
     iu, iv = int(u0), int(v0)
-    wu = (_keys_weight(fu + 1), _keys_weight(fu), _keys_weight(1 - fu), _keys_weight(2 - fu))
-    wv = (_keys_weight(fv + 1), _keys_weight(fv), _keys_weight(1 - fv), _keys_weight(2 - fv))
+    wu, wv = keys_weights(fu), keys_weights(fv)
     cols = (
         reflect_index(iu - 1, width),
         reflect_index(iu, width),

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from pipeline.jit import kernel
-from pipeline.scalespace import ScaleLevel, _keys_weight, cubic_at, cubic_taps, reflect_index
+from pipeline.scalespace import ScaleLevel, cubic_at, cubic_taps, keys_weights, reflect_index
 
 STEP_PX = 1.0
 """Sampling step of the coarse search along the normal [px]. The refinement spans ±1 px
@@ -66,8 +66,7 @@ def _cubic_gradient_interior(ix, iy, u: float, v: float) -> float:
     u0 = np.floor(u)
     v0 = np.floor(v)
     fu, fv = u - u0, v - v0
-    wu = (_keys_weight(fu + 1), _keys_weight(fu), _keys_weight(1 - fu), _keys_weight(2 - fu))
-    wv = (_keys_weight(fv + 1), _keys_weight(fv), _keys_weight(1 - fv), _keys_weight(2 - fv))
+    wu, wv = keys_weights(fu), keys_weights(fv)
     c, r = np.uint64(u0) - np.uint64(1), np.uint64(v0) - np.uint64(1)
     gx = 0.0
     gy = 0.0
