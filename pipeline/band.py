@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from pipeline.jit import kernel
-from pipeline.segmentation import KEEP_FRACTION
+from pipeline.segmentation import KEEP_FRACTION, shapes_from_moments
 
 BLOCK_PX = 8
 """Side of a band block [px of its level]."""
@@ -41,6 +41,10 @@ band. The rest of each field is left unwritten (no frame-sized memset)."""
 WIDER_MARGIN_PX = 36.0
 """Margin of the one wider band tried when a stripe component reaches the first band's
 edge [px]."""
+
+SMALL_MARGIN = 0.8
+"""The longest seed region is the stripe widened by its margin; its length L overstates the
+stripe's by a few margins at most. Regions left out are sized against this share of it."""
 
 MAX_BAND_FRACTION = 0.4
 """A band covering more of the frame than this saves nothing: the full-frame path runs."""
@@ -139,18 +143,26 @@ def blocks_holding(flags, blocks):
 
 
 @kernel
-def _label_sides(labels, count):
-    """Bounding-box height and width − 1 of each label 1..count − 1: (count, 2) int64, row 0
-    (the background) unset."""
+def _label_figures(labels, count):
+    """Bounding-box height and width − 1 (count, 2) and the pixel moments: area and the sums
+    of r, c, r², c², r·c (count, 6), of each label 1..count − 1 (row 0, the background,
+    unset)."""
     low = np.full((count, 2), labels.size, np.int64)
     high = np.zeros((count, 2), np.int64)
+    moments = np.zeros((count, 6))
     for r in range(labels.shape[0]):
         for c in range(labels.shape[1]):
             k = labels[r, c]
             if k:
                 low[k, 0], high[k, 0] = min(low[k, 0], r), max(high[k, 0], r)
                 low[k, 1], high[k, 1] = min(low[k, 1], c), max(high[k, 1], c)
-    return high - low
+                moments[k, 0] += 1
+                moments[k, 1] += r
+                moments[k, 2] += c
+                moments[k, 3] += r * r
+                moments[k, 4] += c * c
+                moments[k, 5] += r * c
+    return high - low, moments
 
 
 @kernel
@@ -169,18 +181,18 @@ def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, float]:
 
     A component kept as part of the stripe is at least KEEP_FRACTION of the longest one's
     length L = √(12·λmax) (`pipeline.segmentation.stripe_components`), and any pixel set of
-    diameter D has L ≤ √3·D. A region of extent D with √3·D < KEEP_FRACTION · ½ · the
-    largest region's extent (½: the mask is narrower and shorter than its seeds) can hold
-    no such piece: stray spots, another part's short stripe. Returns the grid without them
-    and the largest extent left out [px of the frame], which the caller checks against the
-    stripe's actual length.
+    extent D holds none longer than √3·D. Regions with √3·D < KEEP_FRACTION · SMALL_MARGIN ·
+    the longest region's L (stray spots, another part's short stripe) are left out. Returns
+    the grid without them and the largest extent D left out [px of the frame], which the
+    caller checks against the stripe's actual length (the regions are the seeds widened).
     """
     count, labels = cv2.connectedComponents(band, connectivity=8)
     if count <= 2:
         return band, 0.0
-    sides = _label_sides(labels, count)[1:]
-    extent = stride * np.hypot(sides[:, 0] + 1.0, sides[:, 1] + 1.0)
-    small = math.sqrt(3.0) * extent < KEEP_FRACTION * 0.5 * extent.max()
+    sides, moments = _label_figures(labels, count)
+    extent = stride * np.hypot(sides[1:, 0] + 1.0, sides[1:, 1] + 1.0)
+    length = stride * shapes_from_moments(*moments[1:].T).length_px
+    small = math.sqrt(3.0) * extent < KEEP_FRACTION * SMALL_MARGIN * length.max()
     if not small.any():
         return band, 0.0
     return _without(band, labels, np.concatenate(([False], small))), float(extent[small].max())
