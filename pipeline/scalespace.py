@@ -216,6 +216,39 @@ def _interpolate_cubic(fields, u, v, outs) -> None:
             outs[f][k] = cubic_at(fields[f], rows, cols, wv, wu)
 
 
+@kernel
+def _cubic_at_pixels(fields, stride, rows, cols, outs) -> None:
+    """`_interpolate_cubic` at frame pixels (rows, cols) of a level with stride 2^L > 1.
+
+    A frame pixel's position on the level grid has a fraction that depends only on the
+    pixel modulo the stride, so the Keys weights come from a table of `stride` entries;
+    taps wholly inside the grid are indexed directly. The sums are `cubic_at`'s.
+    """
+    height, width = fields[0].shape
+    origin = 0.5 * (stride - 1)
+    weights = np.empty((stride, 4))
+    for residue in range(stride):
+        u = (residue - origin) / stride
+        weights[residue] = keys_weights(u - np.floor(u))
+    for k in range(rows.size):
+        r, c = rows[k], cols[k]
+        iu = int(np.floor((c - origin) / stride))
+        iv = int(np.floor((r - origin) / stride))
+        if not (1 <= iu < width - 2 and 1 <= iv < height - 2):
+            u, v = np.float32((c - origin) / stride), np.float32((r - origin) / stride)
+            taps = cubic_taps(np.float64(u), np.float64(v), height, width)
+        else:
+            wu, wv = weights[c % stride], weights[r % stride]
+            taps = (
+                (iv - 1, iv, iv + 1, iv + 2),
+                (iu - 1, iu, iu + 1, iu + 2),
+                (wv[0], wv[1], wv[2], wv[3]),
+                (wu[0], wu[1], wu[2], wu[3]),
+            )
+        for f in range(len(fields)):
+            outs[f][k] = cubic_at(fields[f], *taps)
+
+
 def interpolate_cubic_fields(
     fields: tuple[np.ndarray, ...], u: np.ndarray, v: np.ndarray
 ) -> tuple[np.ndarray, ...]:
@@ -264,9 +297,11 @@ def sample_derivatives(
     if level.level == 0:
         ix, iy, ixx, ixy, iyy = (f[rows, cols] for f in fields)
     else:
-        u = level.to_level(cols.astype(np.float64))
-        v = level.to_level(rows.astype(np.float64))
-        ix, iy, ixx, ixy, iyy = interpolate_cubic_fields(fields, u, v)
+        outs = tuple(np.empty(np.size(rows), np.float32) for _ in fields)
+        _cubic_at_pixels(
+            fields, level.stride, np.asarray(rows, np.int64), np.asarray(cols, np.int64), outs
+        )
+        ix, iy, ixx, ixy, iyy = outs
     first = np.float32(1 / level.stride)
     second = np.float32(1 / level.stride**2)
     return GaussianDerivatives(
