@@ -89,24 +89,61 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
 
 
 @kernel
+def _power_below(span: int) -> int:
+    """The largest power of 2 ≤ span."""
+    p = 1
+    while 2 * p <= span:
+        p *= 2
+    return p
+
+
+@kernel
+def _running_max(a, b, length, stride, span):
+    """Max over windows of `span` entries of rows `stride` apart in a[:length·stride], by
+    doubling: after the step of width w, entry j holds the max of rows j .. j + w − 1.
+    Uses b as scratch; returns the array holding the windows of width `_power_below(span)`
+    (valid for rows ≤ length − that width). C ≥ 0 and max is exact, so the order is free."""
+    width = 1
+    target = _power_below(span)
+    while width < target:
+        count = np.uint64((length - width) * stride)
+        shift = np.uint64(width * stride)
+        for j in range(count):
+            b[j] = max(a[j], a[j + shift])
+        a, b = b, a
+        width *= 2
+    return a
+
+
+@kernel
 def _max_along_rows(field, need, half, out) -> None:
     """out[r, c] = max of field[r, c − half .. c + half] (clipped) on the needed blocks."""
     height, width = field.shape
     source, target = field.ravel(), out.ravel()
+    span = 2 * half + 1
+    last = np.uint64(span - _power_below(span))
+    a = np.empty(BLOCK_PX * (width + 2 * half), np.float32)
+    b = np.empty(BLOCK_PX * (width + 2 * half), np.float32)
     for br, first, stop in block_runs(need):
         c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
-        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-            row = np.uint64(r * width)
-            # Unsigned flat offsets into whole arrays: no per-view alias checks each time a
-            # loop starts, so short band runs vectorise too (see pipeline.band_filters).
-            for i in range(np.uint64(c0), np.uint64(c1)):
-                target[row + i] = 0.0
-            for k in range(-half, half + 1):
-                lo, hi = max(c0 + k, 0), min(c1 + k, width)
-                read = row + np.uint64(lo)
-                write = row + np.uint64(lo - k)
-                for i in range(np.uint64(hi - lo)):
-                    target[write + i] = max(target[write + i], source[read + i])
+        r0, r1 = br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)
+        length = c1 - c0 + 2 * half
+        lo, hi = max(c0 - half, 0), min(c1 + half, width)
+        # Row r of the block row at a[(r − r0)·length + j] = field[r, c0 − half + j], 0 beyond
+        # the grid (C ≥ 0: the same as clipping). The doubling runs over all its rows at
+        # once: a window running past its row's end is never read.
+        a[: BLOCK_PX * length] = 0.0
+        for r in range(r0, r1):
+            read = np.uint64(r * width + lo)
+            write = np.uint64((r - r0) * length + lo - (c0 - half))
+            for j in range(np.uint64(hi - lo)):
+                a[write + j] = source[read + j]
+        windows = _running_max(a, b, BLOCK_PX * length, 1, span)
+        for r in range(r0, r1):
+            at = np.uint64(r * width + c0)
+            row = np.uint64((r - r0) * length)
+            for i in range(np.uint64(c1 - c0)):
+                target[at + i] = max(windows[row + i], windows[row + i + last])
 
 
 @kernel
@@ -114,16 +151,30 @@ def _max_along_columns(field, blocks, half, out) -> None:
     """out[r, c] = max of field[r − half .. r + half, c] (clipped) on the band's blocks."""
     height, width = field.shape
     source, target = field.ravel(), out.ravel()
+    span = 2 * half + 1
+    last = span - _power_below(span)
+    rows = BLOCK_PX + 2 * half
+    a = np.empty(rows * width, np.float32)
+    b = np.empty(rows * width, np.float32)
     for br, first, stop in block_runs(blocks):
         c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
-        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-            write = np.uint64(r * width + c0)
-            for i in range(np.uint64(c1 - c0)):
-                target[write + i] = 0.0
-            for k in range(max(r - half, 0), min(r + half + 1, height)):
-                read = np.uint64(k * width + c0)
-                for i in range(np.uint64(c1 - c0)):
-                    target[write + i] = max(target[write + i], source[read + i])
+        n = c1 - c0
+        r0 = br * BLOCK_PX
+        r1 = min(r0 + BLOCK_PX, height)
+        # a[j·n + i] = field[r0 − half + j, c0 + i], 0 beyond the grid.
+        a[: rows * n] = 0.0
+        for j in range(max(half - r0, 0), min(r1 + half, height) - (r0 - half)):
+            read = np.uint64((r0 - half + j) * width + c0)
+            write = np.uint64(j * n)
+            for i in range(np.uint64(n)):
+                a[write + i] = source[read + i]
+        windows = _running_max(a, b, rows, n, span)
+        for r in range(r0, r1):
+            at = np.uint64(r * width + c0)
+            top = np.uint64((r - r0) * n)
+            bottom = np.uint64((r - r0 + last) * n)
+            for i in range(np.uint64(n)):
+                target[at + i] = max(windows[top + i], windows[bottom + i])
 
 
 def _max_filter_blocks(
