@@ -8,6 +8,7 @@ import numpy as np
 
 from pipeline.gaussian import GaussianDerivatives
 from pipeline.hessian import hessian_eigen
+from pipeline.jit import kernel
 from pipeline.scalespace import ScaleLevel, interpolate_cubic_fields
 
 MAX_OFFSET_PX = 0.5
@@ -88,18 +89,46 @@ def centre_pixels(
     strongest prediction landing in a pixel that no centre occupies is kept (one per pixel,
     its source pixel then taken too), which closes the seam without duplicating centres.
     """
-    bright = lines.lambda1 < 0
-    dx = lines.offset_px * lines.nx
-    dy = lines.offset_px * lines.ny
-    accepted = bright & (np.abs(dx) <= MAX_OFFSET_PX) & (np.abs(dy) <= MAX_OFFSET_PX)
-    target_r = rows + np.rint(dy).astype(np.int64)
-    target_c = cols + np.rint(dx).astype(np.int64)
-    seam = bright & ~accepted & (np.abs(dx) <= 1.5) & (np.abs(dy) <= 1.5)
-    seam &= (target_r >= 0) & (target_r < shape[0]) & (target_c >= 0) & (target_c < shape[1])
-    occupied = np.zeros(shape, bool)
-    occupied[rows[accepted], cols[accepted]] = True
-    seam &= ~occupied[np.clip(target_r, 0, shape[0] - 1), np.clip(target_c, 0, shape[1] - 1)]
-    for k in np.flatnonzero(seam)[np.argsort(-strength[seam], kind="stable")]:
+    return _centre_pixels(
+        np.asarray(rows, np.int64),
+        np.asarray(cols, np.int64),
+        lines.offset_px,
+        lines.nx,
+        lines.ny,
+        lines.lambda1,
+        np.asarray(strength),
+        shape[0],
+        shape[1],
+    )
+
+
+@kernel
+def _centre_pixels(rows, cols, offset, nx, ny, lambda1, strength, height, width):
+    """`centre_pixels` on arrays (K,): accepted centres, then the seams strongest first."""
+    count = rows.size
+    accepted = np.zeros(count, np.bool_)
+    seam = np.zeros(count, np.bool_)
+    target_r = np.empty(count, np.int64)
+    target_c = np.empty(count, np.int64)
+    occupied = np.zeros((height, width), np.bool_)
+    for k in range(count):
+        dx, dy = offset[k] * nx[k], offset[k] * ny[k]
+        bright = lambda1[k] < 0
+        accepted[k] = bright and abs(dx) <= MAX_OFFSET_PX and abs(dy) <= MAX_OFFSET_PX
+        target_r[k] = rows[k] + int(np.rint(dy)) if abs(dy) <= 1.5 else -1
+        target_c[k] = cols[k] + int(np.rint(dx)) if abs(dx) <= 1.5 else -1
+        seam[k] = bright and not accepted[k] and abs(dx) <= 1.5 and abs(dy) <= 1.5
+        seam[k] &= 0 <= target_r[k] < height and 0 <= target_c[k] < width
+        if accepted[k]:
+            occupied[rows[k], cols[k]] = True
+    candidates = np.flatnonzero(seam)
+    free = np.zeros(candidates.size, np.bool_)
+    for i in range(candidates.size):
+        k = candidates[i]
+        free[i] = not occupied[target_r[k], target_c[k]]
+    candidates = candidates[free]
+    order = np.argsort(-strength[candidates], kind="mergesort")  # stable
+    for k in candidates[order]:
         if occupied[target_r[k], target_c[k]] or occupied[rows[k], cols[k]]:
             continue
         occupied[target_r[k], target_c[k]] = occupied[rows[k], cols[k]] = True
