@@ -19,12 +19,25 @@ MAX_NORMAL_TURN_RAD = np.deg2rad(30.0)
 NEIGHBOUR_REACH_PX = 2
 """Neighbour pixels searched: the 5×5 window, so a one-pixel gap is bridged."""
 
+_SURE_TURN_DOT = np.cos(MAX_NORMAL_TURN_RAD) - 1e-9
+"""|n_i·n_j| below this turns the normal by more than MAX_NORMAL_TURN_RAD for certain (the
+margin is far above arccos's rounding), so arccos is evaluated only above it."""
+
 
 @kernel
-def _best_neighbours(rows, cols, x, y, nx, ny, order, row_start, ahead, behind) -> None:
+def _in_row_major_order(rows, cols) -> bool:
+    """Whether the points are sorted by (row, col) already (np.nonzero's order)."""
+    for k in range(1, rows.size):
+        if rows[k] < rows[k - 1] or (rows[k] == rows[k - 1] and cols[k] <= cols[k - 1]):
+            return False
+    return True
+
+
+@kernel
+def _best_neighbours(rows, cols, x, y, nx, ny, order, height, ahead, behind) -> None:
     """Index of the cheapest neighbour ahead (+tangent) and behind (−tangent), −1 if none.
 
-    `order` sorts the points by (row, col) and `row_start[r]` is where row r begins in it.
+    `order` sorts the points by (row, col); rows outside [0, height) are never searched.
 
     Notes
     -----
@@ -32,48 +45,101 @@ def _best_neighbours(rows, cols, x, y, nx, ny, order, row_start, ahead, behind) 
     line, so a parallel neighbour never wins over one ahead. A neighbour qualifies when it
     lies within 45° of the tangent and its normal turns by at most MAX_NORMAL_TURN_RAD.
     Neighbours are visited row by row, column by column, and the first of equal costs wins.
+    The points are taken in `order`, so the first candidate of each window row, (r + dr,
+    c − reach), only moves forward: one pointer per dr, no search.
     """
+    count = order.size
+    sorted_rows = rows[order]
     sorted_cols = cols[order]
-    height = row_start.size - 1
-    for i in range(rows.size):
+    first = np.zeros(2 * NEIGHBOUR_REACH_PX + 1, np.int64)
+    for q in range(count):
+        i = order[q]
+        xi, yi, nxi, nyi = x[i], y[i], nx[i], ny[i]
         best_ahead = np.inf
         best_behind = np.inf
-        ahead[i] = -1
-        behind[i] = -1
-        for dr in range(-NEIGHBOUR_REACH_PX, NEIGHBOUR_REACH_PX + 1):
-            r = rows[i] + dr
+        found_ahead = -1
+        found_behind = -1
+        low = sorted_cols[q] - NEIGHBOUR_REACH_PX
+        high = sorted_cols[q] + NEIGHBOUR_REACH_PX
+        for k in range(2 * NEIGHBOUR_REACH_PX + 1):
+            r = sorted_rows[q] + k - NEIGHBOUR_REACH_PX
             if r < 0 or r >= height:
                 continue
-            lo, hi = row_start[r], row_start[r + 1]
-            p = lo + np.searchsorted(sorted_cols[lo:hi], cols[i] - NEIGHBOUR_REACH_PX)
-            while p < hi and sorted_cols[p] <= cols[i] + NEIGHBOUR_REACH_PX:
+            p = first[k]
+            while p < count and (
+                sorted_rows[p] < r or (sorted_rows[p] == r and sorted_cols[p] < low)
+            ):
+                p += 1
+            first[k] = p
+            while p < count and sorted_rows[p] == r and sorted_cols[p] <= high:
                 j = order[p]
                 p += 1
                 if j == i:
                     continue
-                dx = x[j] - x[i]
-                dy = y[j] - y[i]
-                along = -ny[i] * dx + nx[i] * dy
-                across = nx[i] * dx + ny[i] * dy
-                turn = np.arccos(min(abs(nx[i] * nx[j] + ny[i] * ny[j]), 1.0))
-                if abs(across) >= abs(along) or turn > MAX_NORMAL_TURN_RAD:
+                dx = x[j] - xi
+                dy = y[j] - yi
+                along = -nyi * dx + nxi * dy
+                across = nxi * dx + nyi * dy
+                if abs(across) >= abs(along):
+                    continue
+                best = best_ahead if along > 0 else best_behind
+                floor = max(abs(dx), abs(dy)) + 2 * abs(across)
+                if floor >= best:
+                    continue
+                dot = abs(nxi * nx[j] + nyi * ny[j])
+                if dot < _SURE_TURN_DOT:
+                    continue
+                turn = np.arccos(min(dot, 1.0))
+                if turn > MAX_NORMAL_TURN_RAD or floor + turn >= best:
                     continue
                 cost = np.hypot(dx, dy) + 2 * abs(across) + turn
                 if along > 0 and cost < best_ahead:
                     best_ahead = cost
-                    ahead[i] = j
+                    found_ahead = j
                 elif along < 0 and cost < best_behind:
                     best_behind = cost
-                    behind[i] = j
+                    found_behind = j
+        ahead[i] = found_ahead
+        behind[i] = found_behind
 
 
 @kernel
-def _walk_chains(ahead, behind, chain_of, position) -> None:
-    """Split the mutual links into ordered chains: `position` lists the points chain by chain,
-    `chain_of[k]` is the chain of the k-th listed point.
+def _pairwise_sum(values, start, n) -> float:
+    """Sum of values[start:start + n] in NumPy's pairwise order (`ndarray.sum` of a
+    contiguous float64 array: 8 partial sums in blocks of up to 128), so equal to the bit."""
+    if n < 8:
+        total = 0.0
+        for k in range(start, start + n):
+            total += values[k]
+        return total
+    if n <= 128:
+        partial = values[start : start + 8].copy()
+        k = 8
+        while k < n - n % 8:
+            for m in range(8):
+                partial[m] += values[start + k + m]
+            k += 8
+        total = ((partial[0] + partial[1]) + (partial[2] + partial[3])) + (
+            (partial[4] + partial[5]) + (partial[6] + partial[7])
+        )
+        for m in range(start + k, start + n):
+            total += values[m]
+        return total
+    half = n // 2
+    half -= half % 8
+    return _pairwise_sum(values, start, half) + _pairwise_sum(values, start + half, n - half)
+
+
+@kernel
+def _walk_chains(ahead, behind, x, y, sigma, position, ends) -> int:
+    """Split the mutual links into ordered chains and keep those long enough: `position`
+    lists the kept points chain by chain, `ends[c]` is where chain c ends; returns the count.
 
     A link i–j is kept when each picked the other (ahead or behind), so every point has at
     most two links. Chains start at the ends (degree ≤ 1) in index order, then closed loops.
+    A chain is kept with at least MIN_POLYLINE_POINTS points and a length (sum of its steps
+    [px], summed as NumPy would) of at least MIN_LENGTH_SIGMAS times its largest σ, and runs
+    from the end with the smaller x (then y).
     """
     count = ahead.size
     links = np.full((count, 2), -1, np.int64)
@@ -82,18 +148,19 @@ def _walk_chains(ahead, behind, chain_of, position) -> None:
             if j >= 0 and (ahead[j] == i or behind[j] == i):
                 links[i, k] = j
     visited = np.zeros(count, np.bool_)
+    steps = np.empty(count, np.float64)
     listed = 0
-    chain = 0
+    kept = 0
     for degree_limit in (1, 2):
         for start in range(count):
             degree = (links[start, 0] >= 0) + (links[start, 1] >= 0)
             if visited[start] or degree > degree_limit:
                 continue
+            begin = listed
             current = start
             while current >= 0:
                 visited[current] = True
                 position[listed] = current
-                chain_of[listed] = chain
                 listed += 1
                 following = -1
                 for j in links[current]:
@@ -101,7 +168,30 @@ def _walk_chains(ahead, behind, chain_of, position) -> None:
                         following = j
                         break
                 current = following
-            chain += 1
+            size = listed - begin
+            if size < MIN_POLYLINE_POINTS:
+                listed = begin
+                continue
+            largest = sigma[position[begin]]
+            for k in range(begin, listed):
+                s = sigma[position[k]]
+                if s > largest:
+                    largest = s
+                elif s != s:
+                    largest = np.nan
+                    break
+            for k in range(begin, listed - 1):
+                a, b = position[k], position[k + 1]
+                steps[k] = np.hypot(x[b] - x[a], y[b] - y[a])
+            if _pairwise_sum(steps, begin, size - 1) < MIN_LENGTH_SIGMAS * largest:
+                listed = begin
+                continue
+            first, last = position[begin], position[listed - 1]
+            if x[last] < x[first] or (x[last] == x[first] and y[last] < y[first]):
+                position[begin:listed] = position[begin:listed][::-1].copy()
+            ends[kept] = listed
+            kept += 1
+    return kept
 
 
 def link_points(
@@ -147,25 +237,18 @@ def link_points(
         return []
     rows = np.asarray(rows, np.int64)
     cols = np.asarray(cols, np.int64)
-    order = np.lexsort((cols, rows))
-    row_start = np.searchsorted(rows[order], np.arange(shape[0] + 1))
+    if _in_row_major_order(rows, cols):
+        order = np.arange(rows.size)
+    else:
+        order = np.lexsort((cols, rows))
+    fx, fy, fnx, fny, fsigma = (
+        np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny, sigma_px)
+    )
     ahead = np.empty(rows.size, np.int64)
     behind = np.empty(rows.size, np.int64)
-    fx, fy, fnx, fny = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny))
-    _best_neighbours(rows, cols, fx, fy, fnx, fny, order, row_start, ahead, behind)
-    chain_of = np.empty(rows.size, np.int64)
+    _best_neighbours(rows, cols, fx, fy, fnx, fny, order, shape[0], ahead, behind)
     position = np.empty(rows.size, np.int64)
-    _walk_chains(ahead, behind, chain_of, position)
-    bounds = np.flatnonzero(np.diff(chain_of)) + 1
-    chains = []
-    for chain in np.split(position, bounds):
-        if chain.size < MIN_POLYLINE_POINTS:
-            continue
-        length = np.hypot(np.diff(x[chain]), np.diff(y[chain])).sum()
-        if length < MIN_LENGTH_SIGMAS * sigma_px[chain].max():
-            continue
-        first, last = chain[0], chain[-1]
-        if (x[last], y[last]) < (x[first], y[first]):
-            chain = chain[::-1].copy()
-        chains.append(chain)
-    return chains
+    ends = np.empty(rows.size, np.int64)
+    kept = _walk_chains(ahead, behind, fx, fy, fsigma, position, ends)
+    bounds = [0, *ends[:kept].tolist()]
+    return [position[a:b] for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
