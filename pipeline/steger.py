@@ -9,7 +9,7 @@ import numpy as np
 from pipeline.gaussian import GaussianDerivatives
 from pipeline.hessian import hessian_eigen
 from pipeline.jit import kernel
-from pipeline.scalespace import ScaleLevel, interpolate_cubic_fields
+from pipeline.scalespace import ScaleLevel, cubic_at, cubic_taps
 
 MAX_OFFSET_PX = 0.5
 """A centre is kept only inside its own pixel: |t·nx| ≤ 0.5 and |t·ny| ≤ 0.5 (paper eq. (10))."""
@@ -162,15 +162,34 @@ def newton_step(level: ScaleLevel, x: np.ndarray, y: np.ndarray, nx, ny) -> np.n
     t is near 0, removes it (Newton's method on the first derivative along the normal).
     """
     d = level.derivatives
-    u, v = level.to_level(x), level.to_level(y)
-    first = 1 / level.stride
+    out = np.empty(np.size(x))
+    _newton_steps(
+        (d.ix, d.iy, d.ixx, d.ixy, d.iyy),
+        level.stride,
+        *(np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny)),
+        out,
+    )
+    return out
+
+
+@kernel
+def _newton_steps(fields, stride, x, y, nx, ny, out) -> None:
+    """`newton_step` per point: Keys cubic derivatives at the level coordinates (float32,
+    as `ScaleLevel.to_level`), in frame units, and the trusted step."""
+    height, width = fields[0].shape
+    origin = 0.5 * (stride - 1)
+    first = np.float32(1 / stride)
     second = first * first
-    gx, gy, hxx, hxy, hyy = interpolate_cubic_fields((d.ix, d.iy, d.ixx, d.ixy, d.iyy), u, v)
-    gx, gy = gx * first, gy * first
-    hxx, hxy, hyy = hxx * second, hxy * second, hyy * second
-    slope = nx * gx + ny * gy
-    curvature = nx * nx * hxx + 2 * nx * ny * hxy + ny * ny * hyy
-    with np.errstate(divide="ignore", invalid="ignore"):
+    for k in range(x.size):
+        u = np.float32((x[k] - origin) / stride)
+        v = np.float32((y[k] - origin) / stride)
+        taps = cubic_taps(np.float64(u), np.float64(v), height, width)
+        gx = np.float32(cubic_at(fields[0], *taps)) * first
+        gy = np.float32(cubic_at(fields[1], *taps)) * first
+        hxx = np.float32(cubic_at(fields[2], *taps)) * second
+        hxy = np.float32(cubic_at(fields[3], *taps)) * second
+        hyy = np.float32(cubic_at(fields[4], *taps)) * second
+        slope = nx[k] * gx + ny[k] * gy
+        curvature = nx[k] * nx[k] * hxx + 2 * nx[k] * ny[k] * hxy + ny[k] * ny[k] * hyy
         step = -slope / curvature
-    trusted = (curvature < 0) & (np.abs(step) <= MAX_OFFSET_PX)
-    return np.where(trusted, step, 0.0)
+        out[k] = step if curvature < 0 and abs(step) <= MAX_OFFSET_PX else 0.0
