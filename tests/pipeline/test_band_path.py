@@ -189,3 +189,33 @@ def test_a_short_stripe_left_out_beside_a_faint_long_ridge_is_taken_back(monkeyp
     assert band.path == "band" and len(full) > 50
     np.testing.assert_array_equal(band.mask, full.mask)
     _assert_same_points(band, full)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    shape=st.tuples(st.integers(9, 70), st.integers(9, 70)),
+    density=st.floats(0.05, 0.95),
+    deep=st.booleans(),
+    scratch=st.integers(0, 255),
+)
+def test_band_closing_is_the_full_frame_closing(seed, shape, density, deep, scratch) -> None:
+    from pipeline.band_segmentation import CLOSING_REACH_PX, _runs_near_band_edge, close_band
+    from pipeline.segmentation import close_holes
+
+    rng = np.random.default_rng(seed)
+    grid = (-(-shape[0] // BLOCK_PX), -(-shape[1] // BLOCK_PX))
+    blocks = rng.random(grid) < 0.7
+    band = np.kron(blocks, np.ones((BLOCK_PX, BLOCK_PX), np.uint8))[: shape[0], : shape[1]]
+    if deep:  # the mask beyond CLOSING_REACH_PX of the band's edge (the frame's edge is band)
+        square = np.ones((2 * CLOSING_REACH_PX + 1,) * 2, np.uint8)
+        band = cv2.erode(band, square, borderType=cv2.BORDER_CONSTANT, borderValue=1)
+    mask = (rng.random(shape) < density) & (band > 0)
+    runs = _row_runs(mask, blocks)
+    chosen = np.ones(len(runs), bool)
+    if deep:  # the kernels on the band, not the full-frame fallback
+        assert not _runs_near_band_edge(runs, blocks, CLOSING_REACH_PX).any()
+    dilated = np.full(shape, scratch, np.uint8)  # whatever the scratch array held before
+    ours = close_band(runs, chosen, blocks, shape, dilated=dilated)
+    assert ours.dtype == bool and ours.shape == shape
+    np.testing.assert_array_equal(ours, close_holes(mask))
