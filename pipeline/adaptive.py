@@ -232,6 +232,8 @@ def choose_scales(
     fields = [np.zeros(rows.size, np.float32) for _ in range(6)]
     for i, scale in enumerate(scales):
         at = np.flatnonzero(index == i)
+        if not at.size:
+            continue
         lines = lines_at(scale.level, rows[at], cols[at])
         strength = np.float32(scale.level.sigma_px**2) * -np.minimum(lines.lambda1, 0)
         values = (strength, lines.lambda1, lines.lambda2, lines.nx, lines.ny, lines.offset_px)

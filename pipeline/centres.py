@@ -233,6 +233,8 @@ def _assemble(
     y = selected.rows + offset * ny
     for i, level in enumerate(selected.levels):
         at = np.flatnonzero(selected.level_index == i)
+        if not at.size:
+            continue
         step = newton_step(level, x[at], y[at], nx[at], ny[at])
         x[at] += step * nx[at]
         y[at] += step * ny[at]
