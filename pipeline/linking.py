@@ -104,30 +104,51 @@ def _best_neighbours(rows, cols, x, y, nx, ny, order, height, ahead, behind) -> 
 
 
 @kernel
-def _pairwise_sum(values, start, n) -> float:
-    """Sum of values[start:start + n] in NumPy's pairwise order (`ndarray.sum` of a
-    contiguous float64 array: 8 partial sums in blocks of up to 128), so equal to the bit."""
+def _pairwise_sum(values) -> float:
+    """Sum of `values` in NumPy's pairwise order (`ndarray.sum` of a contiguous float64
+    array: 8 partial sums in blocks of up to 128 values), so equal to it bit for bit."""
+    n = values.size
     if n < 8:
         total = 0.0
-        for k in range(start, start + n):
-            total += values[k]
+        for value in values:
+            total += value
         return total
     if n <= 128:
-        partial = values[start : start + 8].copy()
+        partial = values[:8].copy()
         k = 8
         while k < n - n % 8:
             for m in range(8):
-                partial[m] += values[start + k + m]
+                partial[m] += values[k + m]
             k += 8
         total = ((partial[0] + partial[1]) + (partial[2] + partial[3])) + (
             (partial[4] + partial[5]) + (partial[6] + partial[7])
         )
-        for m in range(start + k, start + n):
+        for m in range(k, n):
             total += values[m]
         return total
-    half = n // 2
-    half -= half % 8
-    return _pairwise_sum(values, start, half) + _pairwise_sum(values, start + half, n - half)
+    half = n // 2 - n // 2 % 8
+    return _pairwise_sum(values[:half]) + _pairwise_sum(values[half:])
+
+
+@kernel
+def _shorter_than(x, y, chain, limit, steps) -> bool:
+    """Whether the polyline through the points `chain` is shorter than `limit` [px], decided
+    as `np.hypot(np.diff(x[chain]), np.diff(y[chain])).sum() < limit` is; `steps` is scratch.
+
+    A chain whose sum of max(|dx|, |dy|) per step, a lower bound of its length, exceeds
+    `limit` by 1e-6 (relative) is long: both sums err by at most (n − 1)·2⁻⁵³ relatively, so
+    this needs no hypot. The rest are summed in NumPy's pairwise order.
+    """
+    floor = 0.0
+    for k in range(chain.size - 1):
+        a, b = chain[k], chain[k + 1]
+        floor += max(abs(x[b] - x[a]), abs(y[b] - y[a]))
+    if floor > limit * (1 + 1e-6):
+        return False
+    for k in range(chain.size - 1):
+        a, b = chain[k], chain[k + 1]
+        steps[k] = np.hypot(x[b] - x[a], y[b] - y[a])
+    return _pairwise_sum(steps[: chain.size - 1]) < limit
 
 
 @kernel
@@ -137,9 +158,9 @@ def _walk_chains(ahead, behind, x, y, sigma, position, ends) -> int:
 
     A link i–j is kept when each picked the other (ahead or behind), so every point has at
     most two links. Chains start at the ends (degree ≤ 1) in index order, then closed loops.
-    A chain is kept with at least MIN_POLYLINE_POINTS points and a length (sum of its steps
-    [px], summed as NumPy would) of at least MIN_LENGTH_SIGMAS times its largest σ, and runs
-    from the end with the smaller x (then y).
+    A chain is kept with at least MIN_POLYLINE_POINTS points and a length [px] of at least
+    MIN_LENGTH_SIGMAS times its largest σ (NaN σ keeps it), and runs from the end with the
+    smaller x (then y).
     """
     count = ahead.size
     links = np.full((count, 2), -1, np.int64)
@@ -180,10 +201,7 @@ def _walk_chains(ahead, behind, x, y, sigma, position, ends) -> int:
                 elif s != s:
                     largest = np.nan
                     break
-            for k in range(begin, listed - 1):
-                a, b = position[k], position[k + 1]
-                steps[k] = np.hypot(x[b] - x[a], y[b] - y[a])
-            if _pairwise_sum(steps, begin, size - 1) < MIN_LENGTH_SIGMAS * largest:
+            if _shorter_than(x, y, position[begin:listed], MIN_LENGTH_SIGMAS * largest, steps):
                 listed = begin
                 continue
             first, last = position[begin], position[listed - 1]
