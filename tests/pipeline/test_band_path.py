@@ -15,8 +15,15 @@ import pipeline.band_analysis as band_analysis
 from pipeline import extract_centres
 from pipeline.band import BLOCK_PX
 from pipeline.band_filters import band_derivatives
-from pipeline.band_segmentation import _label_runs, _row_runs
+from pipeline.band_segmentation import (
+    CLOSING_REACH_PX,
+    _label_runs,
+    _row_runs,
+    _runs_near_band_edge,
+    close_band,
+)
 from pipeline.gaussian import gaussian_derivatives
+from pipeline.segmentation import close_holes
 from tests.pipeline.stripe_images import StripeCase, make_stripe
 from tests.pipeline.test_centres_accuracy import UNIFORM, VARYING
 from tests.pipeline.test_steger import straight_stripe
@@ -200,9 +207,6 @@ def test_a_short_stripe_left_out_beside_a_faint_long_ridge_is_taken_back(monkeyp
     scratch=st.integers(0, 255),
 )
 def test_band_closing_is_the_full_frame_closing(seed, shape, density, deep, scratch) -> None:
-    from pipeline.band_segmentation import CLOSING_REACH_PX, _runs_near_band_edge, close_band
-    from pipeline.segmentation import close_holes
-
     rng = np.random.default_rng(seed)
     grid = (-(-shape[0] // BLOCK_PX), -(-shape[1] // BLOCK_PX))
     blocks = rng.random(grid) < 0.7
