@@ -163,12 +163,8 @@ def newton_step(level: ScaleLevel, x: np.ndarray, y: np.ndarray, nx, ny) -> np.n
     """
     d = level.derivatives
     out = np.empty(np.size(x))
-    _newton_steps(
-        (d.ix, d.iy, d.ixx, d.ixy, d.iyy),
-        level.stride,
-        *(np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny)),
-        out,
-    )
+    fx, fy, fnx, fny = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny))
+    _newton_steps((d.ix, d.iy, d.ixx, d.ixy, d.iyy), level.stride, fx, fy, fnx, fny, out)
     return out
 
 
