@@ -12,11 +12,10 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 
-import cv2
 import numpy as np
 
 from pipeline.band import BLOCK_PX, block_runs, run_starts, zero_blocks
-from pipeline.gaussian import BORDER, GaussianDerivatives, gaussian_kernels
+from pipeline.gaussian import GaussianDerivatives, gaussian_kernels
 from pipeline.jit import kernel
 
 
@@ -32,6 +31,17 @@ def _row_needs(blocks, reach_px, padded_rows):
     return need
 
 
+@kernel
+def _fold(index: int, size: int) -> int:
+    """An index folded into [0, size) as cv2.BORDER_REFLECT (edge pixel repeated), as
+    often as it takes."""
+    if size == 1:
+        return 0
+    while index < 0 or index >= size:
+        index = -index - 1 if index < 0 else 2 * size - index - 1
+    return index
+
+
 @functools.cache
 def _passes(radius: int) -> Callable[..., None]:
     """The band's separable filtering compiled for one kernel radius [px].
@@ -41,33 +51,57 @@ def _passes(radius: int) -> Callable[..., None]:
     """
 
     @kernel
-    def x_pass(src, g0, g1, g2, runs, first, stop, out0, out1, out2) -> None:
-        """Convolve the stretches runs[first:stop] (padded row, first, stop block) with G,
-        G', G'' along x."""
-        width = out0.shape[1]
-        source, f0, f1, f2 = src.ravel(), out0.ravel(), out1.ravel(), out2.ravel()
+    def x_stretch(source, centre_at, count, g0, g1, g2, f0, f1, f2, out_at) -> None:
+        """Convolve `count` samples of a row, the first centred at source[centre_at], with
+        G, G', G'' along x into f0, f1, f2 from out_at.
+
+        Unsigned flat offsets into whole arrays: no wrap-around test and no per-view alias
+        checks each time the loop starts (band runs are short), so it vectorises even over
+        a few blocks.
+        """
+        for i in range(np.uint64(count)):
+            at = centre_at + i
+            centre = np.float32(source[at])
+            s0 = g0[radius] * centre
+            s1 = np.float32(0.0)
+            s2 = g2[radius] * centre
+            for k in range(1, radius + 1):
+                left = np.float32(source[at - np.uint64(k)])
+                right = np.float32(source[at + np.uint64(k)])
+                s0 += g0[radius + k] * (left + right)
+                s1 += g1[radius + k] * (left - right)  # convolution: G'(k) meets I(c − k)
+                s2 += g2[radius + k] * (left + right)
+            o = out_at + i
+            f0[o], f1[o], f2[o] = s0, s1, s2
+
+    @kernel
+    def x_pass(image, g0, g1, g2, runs, first, stop, out0, out1, out2) -> None:
+        """Convolve the stretches runs[first:stop] (x-pass row, first, stop block) with G,
+        G', G'' along x. X-pass row p is image row p − radius, both folded at the border as
+        BORDER (the frame is read in place; a stretch within `radius` of its left or right
+        edge is first copied, folded, into a scratch row)."""
+        height, width = image.shape
+        source, f0, f1, f2 = image.ravel(), out0.ravel(), out1.ravel(), out2.ravel()
+        scratch = np.empty(width + 2 * radius, np.float32)
         for k in range(first, stop):
             rp, bc0, bc1 = runs[k, 0], runs[k, 1], runs[k, 2]
             c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
-            # Unsigned flat offsets into whole arrays: no wrap-around test and no per-view
-            # alias checks each time the loop starts (band runs are short), so it
-            # vectorises even over a few blocks.
-            centre_at = np.uint64(rp * src.shape[1] + c0 + radius)
+            row = _fold(rp - radius, height)
             out_at = np.uint64(rp * width + c0)
-            for i in range(c1 - c0):
-                at = centre_at + np.uint64(i)
-                centre = np.float32(source[at])
-                s0 = g0[radius] * centre
-                s1 = np.float32(0.0)
-                s2 = g2[radius] * centre
-                for k in range(1, radius + 1):
-                    left = np.float32(source[at - np.uint64(k)])
-                    right = np.float32(source[at + np.uint64(k)])
-                    s0 += g0[radius + k] * (left + right)
-                    s1 += g1[radius + k] * (left - right)  # convolution: G'(k) meets I(c − k)
-                    s2 += g2[radius + k] * (left + right)
-                o = out_at + np.uint64(i)
-                f0[o], f1[o], f2[o] = s0, s1, s2
+            if c0 >= radius and c1 + radius <= width:
+                centre_at = np.uint64(row * width + c0)
+                x_stretch(source, centre_at, c1 - c0, g0, g1, g2, f0, f1, f2, out_at)
+                continue
+            lo, hi = max(c0 - radius, 0), min(c1 + radius, width)
+            for j in range(lo - (c0 - radius)):  # folded columns left of the frame
+                scratch[j] = source[row * width + _fold(c0 - radius + j, width)]
+            into = np.uint64(lo - (c0 - radius))
+            start = np.uint64(row * width + lo)
+            for j in range(np.uint64(hi - lo)):
+                scratch[into + j] = source[start + j]
+            for j in range(hi - (c0 - radius), c1 - c0 + 2 * radius):  # right of the frame
+                scratch[j] = source[row * width + _fold(c0 - radius + j, width)]
+            x_stretch(scratch, np.uint64(radius), c1 - c0, g0, g1, g2, f0, f1, f2, out_at)
 
     @kernel
     def y_pass(t, g_even, g_odd, runs, first, stop, out_even, out_odd) -> None:
@@ -122,7 +156,7 @@ def _passes(radius: int) -> Callable[..., None]:
                     even[out_at + np.uint64(i)] = s_even
 
     @kernel
-    def filter_band(padded, g0, g1, g2, need, blocks, along_x, ix, iy, ixx, ixy, iyy) -> None:
+    def filter_band(image, g0, g1, g2, need, blocks, along_x, ix, iy, ixx, ixy, iyy) -> None:
         """Both passes, one block row of the band at a time: the x pass just ahead of the
         y pass, so the y pass reads x-pass rows still in cache (same sums, same order)."""
         smooth_x, d1_x, d2_x = along_x
@@ -139,7 +173,7 @@ def _passes(radius: int) -> Callable[..., None]:
             upto = min(br * BLOCK_PX + BLOCK_PX + 2 * radius, padded_rows)
             if upto > done:
                 x_pass(
-                    padded,
+                    image,
                     g0,
                     g1,
                     g2,
@@ -183,12 +217,12 @@ def band_derivatives(
     radius = kernels.radius_px
     # Convolution by reversed kernels: G and G'' are symmetric, G' antisymmetric.
     g0, g1, g2 = (np.asarray(k, np.float32) for k in (kernels.g0, kernels.g1, kernels.g2))
-    padded = cv2.copyMakeBorder(image, radius, radius, radius, radius, BORDER)
-    need = _row_needs(blocks, radius, padded.shape[0])
     rows, cols = image.shape
-    along_x = tuple(np.empty((padded.shape[0], cols), np.float32) for _ in range(3))
+    need = _row_needs(blocks, radius, rows + 2 * radius)
+    along_x = tuple(np.empty((rows + 2 * radius, cols), np.float32) for _ in range(3))
     ix, iy, ixx, ixy, iyy = (np.empty((rows, cols), np.float32) for _ in range(5))
-    _passes(radius)(padded, g0, g1, g2, need, blocks, along_x, ix, iy, ixx, ixy, iyy)
+    frame = np.ascontiguousarray(image)
+    _passes(radius)(frame, g0, g1, g2, need, blocks, along_x, ix, iy, ixx, ixy, iyy)
     # Only the width search reads beyond the band, and only the gradient.
     for field in (ix, iy):
         zero_blocks(field, ring)
