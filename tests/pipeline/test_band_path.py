@@ -135,6 +135,18 @@ def test_band_derivatives_equal_the_full_filters_inside_the_band(dtype, sigma_px
     assert not band.ix[zeroed].any() and not band.iy[zeroed].any()
 
 
+@pytest.mark.parametrize("shape", [(6, 9), (20, 3), (1, 17)])
+def test_band_derivatives_fold_borders_wider_than_the_image(shape) -> None:
+    # A kernel radius (15 px at σ 3.74) beyond the image: the border folds more than once.
+    image = np.random.default_rng(3).integers(0, 255, shape).astype(np.float32)
+    grid = (-(-shape[0] // BLOCK_PX), -(-shape[1] // BLOCK_PX))
+    blocks = np.ones(grid, bool)
+    band = band_derivatives(image, 3.74, blocks, ~blocks)
+    full = gaussian_derivatives(image, 3.74)
+    for name in ("ix", "iy", "ixx", "ixy", "iyy"):  # float32 sums in another order
+        np.testing.assert_allclose(getattr(band, name), getattr(full, name), atol=2e-6 * 255)
+
+
 @settings(max_examples=30, deadline=None)
 @given(seed=st.integers(0, 2**31 - 1), density=st.floats(0.05, 0.6))
 def test_run_labelling_matches_opencv_components(seed, density) -> None:
