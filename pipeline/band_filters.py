@@ -14,7 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from pipeline.band import BLOCK_PX, block_runs, run_starts, zero_blocks
+from pipeline.band import BLOCK_PX, block_runs, zero_blocks
 from pipeline.gaussian import GaussianDerivatives, gaussian_kernels
 from pipeline.jit import kernel
 
@@ -43,70 +43,59 @@ def _fold(index: int, size: int) -> int:
 
 
 @functools.cache
-def _passes(radius: int) -> Callable[..., None]:
-    """The band's separable filtering compiled for one kernel radius [px].
+def _passes(radius: int) -> tuple[Callable[..., None], ...]:
+    """The x pass and the two y passes compiled for one kernel radius [px].
 
     The radius is a compile-time constant, so the tap loop unrolls and the loop over the
     columns of a stretch vectorises (about 8× faster than a radius known only at run time).
+    The passes call no other closure: numba caches a closure only when its captured values
+    are plain constants, and these would otherwise compile anew in every process.
     """
 
     @kernel
-    def x_stretch(source, centre_at, count, g0, g1, g2, f0, f1, f2, out_at) -> None:
-        """Convolve `count` samples of a row, the first centred at source[centre_at], with
-        G, G', G'' along x into f0, f1, f2 from out_at.
+    def x_pass(image, g0, g1, g2, need, out0, out1, out2) -> None:
+        """Convolve the needed stretches of each x-pass row with G, G', G'' along x.
 
-        Unsigned flat offsets into whole arrays: no wrap-around test and no per-view alias
-        checks each time the loop starts (band runs are short), so it vectorises even over
-        a few blocks.
+        X-pass row p is image row p − radius; rows and columns fold at the border as BORDER.
+        Each stretch is copied, folded, into a scratch row first (the frame is read in
+        place, no padded copy), and convolved there by unsigned offsets: no wrap-around
+        test and no per-view alias checks each time the loop starts (band runs are short),
+        so it vectorises even over a few blocks.
         """
-        for i in range(np.uint64(count)):
-            at = centre_at + i
-            centre = np.float32(source[at])
-            s0 = g0[radius] * centre
-            s1 = np.float32(0.0)
-            s2 = g2[radius] * centre
-            for k in range(1, radius + 1):
-                left = np.float32(source[at - np.uint64(k)])
-                right = np.float32(source[at + np.uint64(k)])
-                s0 += g0[radius + k] * (left + right)
-                s1 += g1[radius + k] * (left - right)  # convolution: G'(k) meets I(c − k)
-                s2 += g2[radius + k] * (left + right)
-            o = out_at + i
-            f0[o], f1[o], f2[o] = s0, s1, s2
-
-    @kernel
-    def x_pass(image, g0, g1, g2, runs, first, stop, out0, out1, out2) -> None:
-        """Convolve the stretches runs[first:stop] (x-pass row, first, stop block) with G,
-        G', G'' along x. X-pass row p is image row p − radius, both folded at the border as
-        BORDER (the frame is read in place; a stretch within `radius` of its left or right
-        edge is first copied, folded, into a scratch row)."""
         height, width = image.shape
         source, f0, f1, f2 = image.ravel(), out0.ravel(), out1.ravel(), out2.ravel()
         scratch = np.empty(width + 2 * radius, np.float32)
-        for k in range(first, stop):
-            rp, bc0, bc1 = runs[k, 0], runs[k, 1], runs[k, 2]
+        for rp, bc0, bc1 in block_runs(need):  # need: one row of blocks per x-pass row
             c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
-            row = _fold(rp - radius, height)
-            out_at = np.uint64(rp * width + c0)
-            if c0 >= radius and c1 + radius <= width:
-                centre_at = np.uint64(row * width + c0)
-                x_stretch(source, centre_at, c1 - c0, g0, g1, g2, f0, f1, f2, out_at)
-                continue
+            row = _fold(rp - radius, height) * width
             lo, hi = max(c0 - radius, 0), min(c1 + radius, width)
             for j in range(lo - (c0 - radius)):  # folded columns left of the frame
-                scratch[j] = source[row * width + _fold(c0 - radius + j, width)]
-            into = np.uint64(lo - (c0 - radius))
-            start = np.uint64(row * width + lo)
+                scratch[j] = source[row + _fold(c0 - radius + j, width)]
+            into, start = np.uint64(lo - (c0 - radius)), np.uint64(row + lo)
             for j in range(np.uint64(hi - lo)):
                 scratch[into + j] = source[start + j]
             for j in range(hi - (c0 - radius), c1 - c0 + 2 * radius):  # right of the frame
-                scratch[j] = source[row * width + _fold(c0 - radius + j, width)]
-            x_stretch(scratch, np.uint64(radius), c1 - c0, g0, g1, g2, f0, f1, f2, out_at)
+                scratch[j] = source[row + _fold(c0 - radius + j, width)]
+            out_at = np.uint64(rp * width + c0)
+            for i in range(np.uint64(c1 - c0)):
+                at = np.uint64(radius) + i
+                centre = scratch[at]
+                s0 = g0[radius] * centre
+                s1 = np.float32(0.0)
+                s2 = g2[radius] * centre
+                for k in range(1, radius + 1):
+                    left = scratch[at - np.uint64(k)]
+                    right = scratch[at + np.uint64(k)]
+                    s0 += g0[radius + k] * (left + right)
+                    s1 += g1[radius + k] * (left - right)  # convolution: G'(k) meets I(c − k)
+                    s2 += g2[radius + k] * (left + right)
+                o = out_at + i
+                f0[o], f1[o], f2[o] = s0, s1, s2
 
     @kernel
-    def y_pass(t, g_even, g_odd, runs, first, stop, out_even, out_odd) -> None:
+    def y_pass(t, g_even, g_odd, blocks, out_even, out_odd) -> None:
         """Convolve x-pass rows along y with one even and one odd kernel on the band's
-        block runs runs[first:stop].
+        blocks.
 
         Two outputs of one input per call: more arrays in one loop exceed the alias checks
         the compiler will make, and the loop stops vectorising. Indices are unsigned flat
@@ -115,8 +104,7 @@ def _passes(radius: int) -> Callable[..., None]:
         height, width = out_even.shape
         flat, even, odd = t.ravel(), out_even.ravel(), out_odd.ravel()
         row_step = np.uint64(width)
-        for k in range(first, stop):
-            br, bc0, bc1 = runs[k, 0], runs[k, 1], runs[k, 2]
+        for br, bc0, bc1 in block_runs(blocks):
             c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
             for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
                 # Row r sits at r + radius of the x-pass rows.
@@ -135,13 +123,12 @@ def _passes(radius: int) -> Callable[..., None]:
                     even[o], odd[o] = s_even, s_odd
 
     @kernel
-    def y_even(t, g_even, runs, first, stop, out_even) -> None:
+    def y_even(t, g_even, blocks, out_even) -> None:
         """`y_pass` with the even kernel only."""
         height, width = out_even.shape
         flat, even = t.ravel(), out_even.ravel()
         row_step = np.uint64(width)
-        for k in range(first, stop):
-            br, bc0, bc1 = runs[k, 0], runs[k, 1], runs[k, 2]
+        for br, bc0, bc1 in block_runs(blocks):
             c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
             for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
                 start = np.uint64(r + radius) * row_step + np.uint64(c0)
@@ -155,41 +142,7 @@ def _passes(radius: int) -> Callable[..., None]:
                         s_even += g_even[radius + k] * (up + down)
                     even[out_at + np.uint64(i)] = s_even
 
-    @kernel
-    def filter_band(image, g0, g1, g2, need, blocks, along_x, ix, iy, ixx, ixy, iyy) -> None:
-        """Both passes, one block row of the band at a time: the x pass just ahead of the
-        y pass, so the y pass reads x-pass rows still in cache (same sums, same order)."""
-        smooth_x, d1_x, d2_x = along_x
-        padded_rows = need.shape[0]
-        stretches = block_runs(need)
-        row_first = run_starts(stretches, padded_rows)
-        runs = block_runs(blocks)
-        block_first = run_starts(runs, blocks.shape[0])
-        done = 0  # x-pass rows [0, done) are filtered
-        for br in range(blocks.shape[0]):
-            first, stop = block_first[br], block_first[br + 1]
-            if first == stop:
-                continue
-            upto = min(br * BLOCK_PX + BLOCK_PX + 2 * radius, padded_rows)
-            if upto > done:
-                x_pass(
-                    image,
-                    g0,
-                    g1,
-                    g2,
-                    stretches,
-                    row_first[done],
-                    row_first[upto],
-                    smooth_x,
-                    d1_x,
-                    d2_x,
-                )
-                done = upto
-            y_pass(d1_x, g0, g1, runs, first, stop, ix, ixy)
-            y_pass(smooth_x, g2, g1, runs, first, stop, iyy, iy)
-            y_even(d2_x, g0, runs, first, stop, ixx)
-
-    return filter_band
+    return x_pass, y_pass, y_even
 
 
 def band_derivatives(
@@ -222,7 +175,12 @@ def band_derivatives(
     along_x = tuple(np.empty((rows + 2 * radius, cols), np.float32) for _ in range(3))
     ix, iy, ixx, ixy, iyy = (np.empty((rows, cols), np.float32) for _ in range(5))
     frame = np.ascontiguousarray(image)
-    _passes(radius)(frame, g0, g1, g2, need, blocks, along_x, ix, iy, ixx, ixy, iyy)
+    x_pass, y_pass, y_even = _passes(radius)
+    smooth_x, d1_x, d2_x = along_x
+    x_pass(frame, g0, g1, g2, need, smooth_x, d1_x, d2_x)
+    y_pass(d1_x, g0, g1, blocks, ix, ixy)
+    y_pass(smooth_x, g2, g1, blocks, iyy, iy)
+    y_even(d2_x, g0, blocks, ixx)
     # Only the width search reads beyond the band, and only the gradient.
     for field in (ix, iy):
         zero_blocks(field, ring)
