@@ -127,6 +127,10 @@ def test_pass_view_shows_every_wheel_with_both_methods_and_their_difference(
     page.wait_for_url("**mode=steger")
     page.get_by_role("button", name="Δ adaptive − Steger").click()
     page.wait_for_url("**mode=difference")
+    # The cards re-render after the route changes: wait for the signed differences.
+    page.wait_for_function(
+        "() => /[+−]/.test(document.querySelector('a.wheel-card').innerText)", timeout=10_000
+    )
     assert any(sign in cards.first.inner_text() for sign in "+−")
     page.screenshot(path=str(screenshots / "05-pass-difference.png"))
 
