@@ -262,7 +262,8 @@ CLOSING_REACH_PX = 2 * (CLOSING_PX // 2)
 """Farthest a closing's result depends on the mask [px, Chebyshev]: the dilation's reach
 and then the erosion's."""
 
-assert CLOSING_PX == 5 and CLOSING_REACH_PX <= EDGE_REACH_PX  # the kernels' 5×5 ellipse
+if CLOSING_PX != 5 or CLOSING_REACH_PX > EDGE_REACH_PX:
+    raise ImportError(f"the band closing is written for a 5 px ellipse, CLOSING_PX = {CLOSING_PX}")
 
 
 @kernel
