@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from pipeline.jit import kernel
-from pipeline.segmentation import KEEP_FRACTION, shapes_from_moments
+from pipeline.segmentation import KEEP_FRACTION, component_shapes
 
 BLOCK_PX = 8
 """Side of a band block [px of its level]."""
@@ -143,26 +143,18 @@ def blocks_holding(flags, blocks):
 
 
 @kernel
-def _label_figures(labels, count):
-    """Bounding-box height and width − 1 (count, 2) and the pixel moments: area and the sums
-    of r, c, r², c², r·c (count, 6), of each label 1..count − 1 (row 0, the background,
-    unset)."""
+def _label_sides(labels, count):
+    """Bounding-box height and width − 1 of each label 1..count − 1: (count, 2) int64, row 0
+    (the background) unset."""
     low = np.full((count, 2), labels.size, np.int64)
     high = np.zeros((count, 2), np.int64)
-    moments = np.zeros((count, 6))
     for r in range(labels.shape[0]):
         for c in range(labels.shape[1]):
             k = labels[r, c]
             if k:
                 low[k, 0], high[k, 0] = min(low[k, 0], r), max(high[k, 0], r)
                 low[k, 1], high[k, 1] = min(low[k, 1], c), max(high[k, 1], c)
-                moments[k, 0] += 1
-                moments[k, 1] += r
-                moments[k, 2] += c
-                moments[k, 3] += r * r
-                moments[k, 4] += c * c
-                moments[k, 5] += r * c
-    return high - low, moments
+    return high - low
 
 
 @kernel
@@ -189,9 +181,9 @@ def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, float]:
     count, labels = cv2.connectedComponents(band, connectivity=8)
     if count <= 2:
         return band, 0.0
-    sides, moments = _label_figures(labels, count)
+    sides = _label_sides(labels, count)
     extent = stride * np.hypot(sides[1:, 0] + 1.0, sides[1:, 1] + 1.0)
-    length = stride * shapes_from_moments(*moments[1:].T).length_px
+    length = stride * component_shapes(labels, count).length_px[1:]
     small = math.sqrt(3.0) * extent < KEEP_FRACTION * SMALL_MARGIN * length.max()
     if not small.any():
         return band, 0.0

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from pipeline.jit import kernel
 from pipeline.ridges import RIDGE_THRESHOLD
 
 MIN_COMPONENT_AREA_PX = 40
@@ -66,19 +67,27 @@ def shapes_from_moments(
     return ComponentShapes(area_px=area, length_px=length, elongation=length**2 / safe)
 
 
+@kernel
+def _label_moments(labels, count):
+    """Area and the sums of r, c, r², c², r·c of each label 0..count − 1, raster order:
+    (count, 6) float64."""
+    moments = np.zeros((count, 6))
+    for r in range(labels.shape[0]):
+        for c in range(labels.shape[1]):
+            k = labels[r, c]
+            if k:
+                moments[k, 0] += 1
+                moments[k, 1] += r
+                moments[k, 2] += c
+                moments[k, 3] += r * r
+                moments[k, 4] += c * c
+                moments[k, 5] += r * c
+    return moments
+
+
 def component_shapes(labels: np.ndarray, count: int) -> ComponentShapes:
     """Area, equivalent bar length and elongation of each labelled component."""
-    rows, cols = np.nonzero(labels)
-    lab = labels[rows, cols]
-    r = rows.astype(np.float64)
-    c = cols.astype(np.float64)
-
-    def total(values: np.ndarray | None) -> np.ndarray:
-        return np.bincount(lab, weights=values, minlength=count).astype(np.float64)
-
-    return shapes_from_moments(
-        total(None), total(r), total(c), total(r * r), total(c * c), total(r * c)
-    )
+    return shapes_from_moments(*_label_moments(labels, count).T)
 
 
 def stripe_components(shapes: ComponentShapes) -> np.ndarray:
