@@ -217,6 +217,13 @@ def _interpolate_cubic(fields, u, v, outs) -> None:
 
 
 @kernel
+def level_coordinate(coord_px: float, stride: int) -> np.float32:
+    """Frame coordinate [px] → coordinate on a level grid of stride 2^L, float32 as
+    `ScaleLevel.to_level`."""
+    return np.float32((coord_px - 0.5 * (stride - 1)) / stride)
+
+
+@kernel
 def _cubic_at_pixels(fields, stride, rows, cols, outs) -> None:
     """`_interpolate_cubic` at frame pixels (rows, cols) of a level with stride 2^L > 1.
 
@@ -235,7 +242,7 @@ def _cubic_at_pixels(fields, stride, rows, cols, outs) -> None:
         iu = int(np.floor((c - origin) / stride))
         iv = int(np.floor((r - origin) / stride))
         if not (1 <= iu < width - 2 and 1 <= iv < height - 2):
-            u, v = np.float32((c - origin) / stride), np.float32((r - origin) / stride)
+            u, v = level_coordinate(c, stride), level_coordinate(r, stride)
             taps = cubic_taps(np.float64(u), np.float64(v), height, width)
         else:
             wu, wv = weights[c % stride], weights[r % stride]

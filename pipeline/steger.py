@@ -9,7 +9,7 @@ import numpy as np
 from pipeline.gaussian import GaussianDerivatives
 from pipeline.hessian import hessian_eigen
 from pipeline.jit import kernel
-from pipeline.scalespace import ScaleLevel, cubic_at, cubic_taps
+from pipeline.scalespace import ScaleLevel, cubic_at, cubic_taps, level_coordinate
 
 MAX_OFFSET_PX = 0.5
 """A centre is kept only inside its own pixel: |t·nx| ≤ 0.5 and |t·ny| ≤ 0.5 (paper eq. (10))."""
@@ -170,15 +170,13 @@ def newton_step(level: ScaleLevel, x: np.ndarray, y: np.ndarray, nx, ny) -> np.n
 
 @kernel
 def _newton_steps(fields, stride, x, y, nx, ny, out) -> None:
-    """`newton_step` per point: Keys cubic derivatives at the level coordinates (float32,
-    as `ScaleLevel.to_level`), in frame units, and the trusted step."""
+    """`newton_step` per point: Keys cubic derivatives at the level coordinates, in frame
+    units, and the trusted step."""
     height, width = fields[0].shape
-    origin = 0.5 * (stride - 1)
     first = np.float32(1 / stride)
     second = first * first
     for k in range(x.size):
-        u = np.float32((x[k] - origin) / stride)
-        v = np.float32((y[k] - origin) / stride)
+        u, v = level_coordinate(x[k], stride), level_coordinate(y[k], stride)
         taps = cubic_taps(np.float64(u), np.float64(v), height, width)
         gx = np.float32(cubic_at(fields[0], *taps)) * first
         gy = np.float32(cubic_at(fields[1], *taps)) * first
