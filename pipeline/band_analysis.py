@@ -268,9 +268,9 @@ def with_peak_strength(
 def _left_out_safely(band: StripeBand, stripe_length_px: float) -> bool:
     """Whether no region left out of the band could hold a kept stripe component: one of
     extent D holds none of length ≥ √3·D, and kept ones are ≥ KEEP_FRACTION of the stripe's."""
-    return math.sqrt(3.0) * band.left_out_px < KEEP_FRACTION * stripe_length_px or not (
-        band.left_out_px
-    )
+    if not band.left_out_px:
+        return True
+    return math.sqrt(3.0) * band.left_out_px < KEEP_FRACTION * stripe_length_px
 
 
 @dataclass(frozen=True, slots=True, eq=False)
