@@ -16,7 +16,7 @@ from pipeline.scalespace import (
     MAX_LEVEL,
     ScaleLevel,
     blend,
-    clamped_tap,
+    linear_tap,
     sample_bilinear,
     sample_derivatives,
     scale_levels,
@@ -260,20 +260,22 @@ def _choose_in_band(mask, hints, peaks, strides, sigmas, blocks):
     starts = run_starts(runs, blocks.shape[0])
     # The bilinear taps of `bilinear_at`, once per column and per row instead of per pixel.
     u0 = np.zeros((levels, width), np.int64)
+    u1 = np.zeros((levels, width), np.int64)
     fu = np.zeros((levels, width))
     v0 = np.zeros(levels, np.int64)
+    v1 = np.zeros(levels, np.int64)
     fv = np.zeros(levels)
     for i in range(levels):
         if strides[i] > 1:
             for c in range(width):
-                u0[i, c], fu[i, c] = clamped_tap(c, strides[i], peaks[i].shape[1])
+                u0[i, c], u1[i, c], fu[i, c] = linear_tap(c, strides[i], peaks[i].shape[1])
     for r in range(height):
         br = r // BLOCK_PX
         if starts[br] == starts[br + 1]:
             continue
         for i in range(levels):
             if strides[i] > 1:
-                v0[i], fv[i] = clamped_tap(r, strides[i], peaks[i].shape[0])
+                v0[i], v1[i], fv[i] = linear_tap(r, strides[i], peaks[i].shape[0])
         for k in range(starts[br], starts[br + 1]):
             for c in range(runs[k, 1] * BLOCK_PX, min(runs[k, 2] * BLOCK_PX, width)):
                 if not mask[r, c]:
@@ -285,7 +287,9 @@ def _choose_in_band(mask, hints, peaks, strides, sigmas, blocks):
                     if strides[i] == 1:
                         value = peaks[i][r, c]
                     else:
-                        value = np.float32(blend(peaks[i], v0[i], fv[i], u0[i, c], fu[i, c]))
+                        value = np.float32(
+                            blend(peaks[i], v0[i], v1[i], fv[i], u0[i, c], u1[i, c], fu[i, c])
+                        )
                     if value > best:
                         best = value
                         chosen = i

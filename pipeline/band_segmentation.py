@@ -10,6 +10,7 @@ import numpy as np
 from pipeline.band import BLOCK_PX, block_runs, run_starts, zero_blocks
 from pipeline.jit import kernel
 from pipeline.ridges import RIDGE_THRESHOLD
+from pipeline.scalespace import linear_tap
 from pipeline.segmentation import (
     CLOSING_PX,
     MIN_COMPONENT_AREA_PX,
@@ -33,20 +34,6 @@ class BandMask:
     mask: np.ndarray
     inside: bool
     stripe_length_px: float
-
-
-@kernel
-def _linear_tap(index: int, stride: int, size: int) -> tuple[int, int, float]:
-    """Source taps and weight of frame index `index` on a grid `stride` times coarser, as
-    cv2.resize INTER_LINEAR (pixel centres aligned, clamped at the edges)."""
-    source = (index + 0.5) / stride - 0.5
-    first = int(np.floor(source))
-    weight = source - first
-    if first < 0:
-        first, weight = 0, 0.0
-    if first >= size - 1:
-        first, weight = size - 1, 0.0
-    return first, min(first + 1, size - 1), weight
 
 
 @kernel
@@ -98,7 +85,7 @@ def _stripe_runs(responses, strides, blocks, shape):
     for i in range(levels):
         if strides[i] > 1:
             for c in range(width):
-                x0[i, c], x1[i, c], fx[i, c] = _linear_tap(c, strides[i], responses[i].shape[1])
+                x0[i, c], x1[i, c], fx[i, c] = linear_tap(c, strides[i], responses[i].shape[1])
     # Level rows along x, per scale: rows first_row[i] .. + BLOCK_PX + 1 of the block row.
     along_x = np.zeros((levels, BLOCK_PX + 2, width))
     first_row = np.zeros(levels, np.int64)
@@ -115,8 +102,8 @@ def _stripe_runs(responses, strides, blocks, shape):
             field, stride = responses[i], strides[i]
             if stride == 1:
                 continue
-            top = _linear_tap(r0, stride, field.shape[0])[0]
-            bottom = _linear_tap(r1 - 1, stride, field.shape[0])[1]
+            top = linear_tap(r0, stride, field.shape[0])[0]
+            bottom = linear_tap(r1 - 1, stride, field.shape[0])[1]
             first_row[i] = top
             for y in range(top, bottom + 1):
                 source, target = field[y], along_x[i, y - top]
@@ -141,7 +128,7 @@ def _stripe_runs(responses, strides, blocks, shape):
                         for c in range(n):
                             line[start + c] |= source[at + c] > RIDGE_THRESHOLD
                         continue
-                    y0, y1, fy = _linear_tap(r, stride, field.shape[0])
+                    y0, y1, fy = linear_tap(r, stride, field.shape[0])
                     rows = along_x[i].ravel()
                     upper = np.uint64((y0 - first_row[i]) * width + c0)
                     lower = np.uint64((y1 - first_row[i]) * width + c0)

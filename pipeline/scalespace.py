@@ -322,20 +322,25 @@ def sample_derivatives(
 
 
 @kernel
-def clamped_tap(index: int, stride: int, size: int) -> tuple[int, float]:
-    """First grid index and weight of frame index `index` on a level grid of `size` nodes
-    (stride 2^L > 1), clamped to the grid: the value is g[i0]·(1 − w) + g[i0 + 1]·w."""
-    origin = 0.5 * (stride - 1)
-    u = min(max((index - origin) / stride, 0.0), size - 1.0)
-    first = min(int(u), size - 2)
-    return first, u - first
+def linear_tap(index: int, stride: int, size: int) -> tuple[int, int, float]:
+    """Taps and weight of frame index `index` on a level grid of `size` nodes, stride
+    2^L: the value is g[first]·(1 − w) + g[second]·w, pixel centres aligned and clamped at
+    the edges (cv2.resize INTER_LINEAR)."""
+    source = (index + 0.5) / stride - 0.5
+    first = int(np.floor(source))
+    weight = source - first
+    if first < 0:
+        first, weight = 0, 0.0
+    if first >= size - 1:
+        first, weight = size - 1, 0.0
+    return first, min(first + 1, size - 1), weight
 
 
 @kernel
-def blend(field, v0: int, fv: float, u0: int, fu: float) -> float:
-    """Bilinear value of `field` between rows v0, v0 + 1 and columns u0, u0 + 1."""
-    top = field[v0, u0] * (1 - fu) + field[v0, u0 + 1] * fu
-    bottom = field[v0 + 1, u0] * (1 - fu) + field[v0 + 1, u0 + 1] * fu
+def blend(field, v0: int, v1: int, fv: float, u0: int, u1: int, fu: float) -> float:
+    """Bilinear value of `field` between rows v0, v1 and columns u0, u1 (`linear_tap`)."""
+    top = field[v0, u0] * (1 - fu) + field[v0, u1] * fu
+    bottom = field[v1, u0] * (1 - fu) + field[v1, u1] * fu
     return top * (1 - fv) + bottom * fv
 
 
@@ -345,9 +350,9 @@ def bilinear_at(field, stride: int, row: int, col: int) -> float:
     the grid; stride 1 reads the pixel itself."""
     if stride == 1:
         return field[row, col]
-    v0, fv = clamped_tap(row, stride, field.shape[0])
-    u0, fu = clamped_tap(col, stride, field.shape[1])
-    return blend(field, v0, fv, u0, fu)
+    v0, v1, fv = linear_tap(row, stride, field.shape[0])
+    u0, u1, fu = linear_tap(col, stride, field.shape[1])
+    return blend(field, v0, v1, fv, u0, u1, fu)
 
 
 @kernel
