@@ -16,6 +16,7 @@ from pipeline.scalespace import (
     MAX_LEVEL,
     ScaleLevel,
     blend,
+    column_taps,
     linear_tap,
     sample_bilinear,
     sample_derivatives,
@@ -259,16 +260,10 @@ def _choose_in_band(mask, hints, peaks, strides, sigmas, blocks):
     runs = block_runs(blocks)
     starts = run_starts(runs, blocks.shape[0])
     # The bilinear taps of `bilinear_at`, once per column and per row instead of per pixel.
-    u0 = np.zeros((levels, width), np.int64)
-    u1 = np.zeros((levels, width), np.int64)
-    fu = np.zeros((levels, width))
+    u0, u1, fu = column_taps(peaks, strides, width)
     v0 = np.zeros(levels, np.int64)
     v1 = np.zeros(levels, np.int64)
     fv = np.zeros(levels)
-    for i in range(levels):
-        if strides[i] > 1:
-            for c in range(width):
-                u0[i, c], u1[i, c], fu[i, c] = linear_tap(c, strides[i], peaks[i].shape[1])
     for r in range(height):
         br = r // BLOCK_PX
         if starts[br] == starts[br + 1]:

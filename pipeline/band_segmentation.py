@@ -10,7 +10,7 @@ import numpy as np
 from pipeline.band import BLOCK_PX, block_runs, run_starts, zero_blocks
 from pipeline.jit import kernel
 from pipeline.ridges import RIDGE_THRESHOLD
-from pipeline.scalespace import linear_tap
+from pipeline.scalespace import column_taps, linear_tap
 from pipeline.segmentation import (
     CLOSING_PX,
     MIN_COMPONENT_AREA_PX,
@@ -79,13 +79,7 @@ def _stripe_runs(responses, strides, blocks, shape):
     """
     height, width = shape
     levels = len(responses)
-    x0 = np.zeros((levels, width), np.int64)
-    x1 = np.zeros((levels, width), np.int64)
-    fx = np.zeros((levels, width))
-    for i in range(levels):
-        if strides[i] > 1:
-            for c in range(width):
-                x0[i, c], x1[i, c], fx[i, c] = linear_tap(c, strides[i], responses[i].shape[1])
+    x0, x1, fx = column_taps(responses, strides, width)
     # Level rows along x, per scale: rows first_row[i] .. + BLOCK_PX + 1 of the block row.
     along_x = np.zeros((levels, BLOCK_PX + 2, width))
     first_row = np.zeros(levels, np.int64)

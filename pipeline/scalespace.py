@@ -337,6 +337,23 @@ def linear_tap(index: int, stride: int, size: int) -> tuple[int, int, float]:
 
 
 @kernel
+def column_taps(fields, strides, width):
+    """`linear_tap` of frame columns 0 … width − 1 on each field's grid: first, second
+    (int64) and weight, arrays (len(fields), width); rows of stride 1 are 0."""
+    levels = len(fields)
+    first = np.zeros((levels, width), np.int64)
+    second = np.zeros((levels, width), np.int64)
+    weight = np.zeros((levels, width))
+    for i in range(levels):
+        if strides[i] > 1:
+            for c in range(width):
+                first[i, c], second[i, c], weight[i, c] = linear_tap(
+                    c, strides[i], fields[i].shape[1]
+                )
+    return first, second, weight
+
+
+@kernel
 def blend(field, v0: int, v1: int, fv: float, u0: int, u1: int, fu: float) -> float:
     """Bilinear value of `field` between rows v0, v1 and columns u0, u1 (`linear_tap`)."""
     top = field[v0, u0] * (1 - fu) + field[v0, u1] * fu
