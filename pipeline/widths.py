@@ -17,19 +17,8 @@ REFINE_STEP_PX = 0.5
 
 
 @kernel
-def _gradient_squared(ix, iy, u: float, v: float) -> float:
-    """|∇I|² from bilinear Ix, Iy at level-grid coordinates (u, v), reflect border."""
-    height, width = ix.shape
-    u0 = np.floor(u)
-    v0 = np.floor(v)
-    fu = u - u0
-    fv = v - v0
-    c0, r0 = int(u0), int(v0)
-    if 0 <= c0 < width - 1 and 0 <= r0 < height - 1:
-        c1, r1 = c0 + 1, r0 + 1
-    else:
-        c1, r1 = reflect_index(c0 + 1, width), reflect_index(r0 + 1, height)
-        c0, r0 = reflect_index(c0, width), reflect_index(r0, height)
+def _bilinear_gradient_squared(ix, iy, r0, r1, c0, c1, fu: float, fv: float) -> float:
+    """|∇I|² from Ix, Iy blended between rows r0, r1 and columns c0, c1."""
     gx = (ix[r0, c0] * (1 - fu) + ix[r0, c1] * fu) * (1 - fv)
     gx += (ix[r1, c0] * (1 - fu) + ix[r1, c1] * fu) * fv
     gy = (iy[r0, c0] * (1 - fu) + iy[r0, c1] * fu) * (1 - fv)
@@ -38,53 +27,48 @@ def _gradient_squared(ix, iy, u: float, v: float) -> float:
 
 
 @kernel
+def _gradient_squared(ix, iy, u: float, v: float) -> float:
+    """|∇I|² from bilinear Ix, Iy at level-grid coordinates (u, v), reflect border."""
+    height, width = ix.shape
+    u0 = np.floor(u)
+    v0 = np.floor(v)
+    c0, r0 = int(u0), int(v0)
+    if 0 <= c0 < width - 1 and 0 <= r0 < height - 1:
+        c1, r1 = c0 + 1, r0 + 1
+    else:
+        c1, r1 = reflect_index(c0 + 1, width), reflect_index(r0 + 1, height)
+        c0, r0 = reflect_index(c0, width), reflect_index(r0, height)
+    return _bilinear_gradient_squared(ix, iy, r0, r1, c0, c1, u - u0, v - v0)
+
+
+@kernel
 def _coarse_interior(ix, iy, x0, y0, dx, dy, steps, origin, scale, values) -> None:
     """values[i] = bilinear |∇I|² at steps[i] [px] along (dx, dy) from (x0, y0) [px] when
-    all taps lie inside the grid: the arithmetic of `_gradient_squared` without its border
-    branch, unsigned indices (no negative-index wraparound)."""
+    all taps lie inside the grid: `_gradient_squared` without its border branch, unsigned
+    indices (no negative-index wraparound)."""
     for i in range(steps.size):
         u = (x0 + steps[i] * dx - origin) * scale
         v = (y0 + steps[i] * dy - origin) * scale
         u0 = np.floor(u)
         v0 = np.floor(v)
-        fu = u - u0
-        fv = v - v0
         c0, r0 = np.uint64(u0), np.uint64(v0)
         c1, r1 = c0 + np.uint64(1), r0 + np.uint64(1)
-        gx = (ix[r0, c0] * (1 - fu) + ix[r0, c1] * fu) * (1 - fv)
-        gx += (ix[r1, c0] * (1 - fu) + ix[r1, c1] * fu) * fv
-        gy = (iy[r0, c0] * (1 - fu) + iy[r0, c1] * fu) * (1 - fv)
-        gy += (iy[r1, c0] * (1 - fu) + iy[r1, c1] * fu) * fv
-        values[i] = gx * gx + gy * gy
+        values[i] = _bilinear_gradient_squared(ix, iy, r0, r1, c0, c1, u - u0, v - v0)
 
 
 @kernel
 def _cubic_gradient_interior(ix, iy, u: float, v: float) -> float:
     """|∇I| from Keys cubic Ix, Iy at level-grid coordinates (u, v) when all 4 × 4 taps lie
-    inside the grid: the arithmetic of `cubic_taps` and `cubic_at` without index folding,
-    unsigned indices, the weights shared by both fields."""
+    inside the grid: `cubic_taps` without index folding, unsigned indices, the taps shared
+    by both fields."""
     u0 = np.floor(u)
     v0 = np.floor(v)
-    fu, fv = u - u0, v - v0
-    wu, wv = keys_weights(fu), keys_weights(fv)
     c, r = np.uint64(u0) - np.uint64(1), np.uint64(v0) - np.uint64(1)
-    gx = 0.0
-    gy = 0.0
-    for i in range(4):
-        ri = r + np.uint64(i)
-        gx += wv[i] * (
-            wu[0] * ix[ri, c]
-            + wu[1] * ix[ri, c + np.uint64(1)]
-            + wu[2] * ix[ri, c + np.uint64(2)]
-            + wu[3] * ix[ri, c + np.uint64(3)]
-        )
-        gy += wv[i] * (
-            wu[0] * iy[ri, c]
-            + wu[1] * iy[ri, c + np.uint64(1)]
-            + wu[2] * iy[ri, c + np.uint64(2)]
-            + wu[3] * iy[ri, c + np.uint64(3)]
-        )
-    return np.hypot(gx, gy)
+    one, two, three = np.uint64(1), np.uint64(2), np.uint64(3)
+    rows = (r, r + one, r + two, r + three)
+    cols = (c, c + one, c + two, c + three)
+    wv, wu = keys_weights(v - v0), keys_weights(u - u0)
+    return np.hypot(cubic_at(ix, rows, cols, wv, wu), cubic_at(iy, rows, cols, wv, wu))
 
 
 @kernel
