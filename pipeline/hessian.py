@@ -46,6 +46,8 @@ def eigen2(ixx: float, ixy: float, iyy: float) -> tuple[float, float, float, flo
     else:
         vx, vy = bx, by
     norm = np.sqrt(vx * vx + vy * vy)  # no overflow: derivatives of grey levels
+    if norm < 1e-18:  # squares near the subnormals (float32 from 1e-19): hypot scales them
+        norm = np.hypot(vx, vy)
     if norm == 0:
         return lambda1, lambda2, 1.0, 0.0
     return lambda1, lambda2, vx / norm, vy / norm
