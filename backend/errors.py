@@ -15,7 +15,7 @@ from sqlalchemy.exc import DataError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.types import ASGIApp, Receive, Scope, Send
 
-from backend.schemas import ErrorRead
+from backend.api.schemas import ErrorRead
 from pipeline import PipelineError
 
 logger = logging.getLogger(__name__)

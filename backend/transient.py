@@ -1,6 +1,6 @@
 """Faults that pass: a database that is unreachable or restarting, a frame store that does
-not answer, a full disk. A request meeting one is answered 503 or 507 (`backend.outages`);
-a measurement meeting one is tried again later (`backend.runner`) instead of failing.
+not answer, a full disk. A request meeting one is answered 503 or 507 (`backend.api.outages`);
+a measurement meeting one is tried again later (`backend.jobs.runner`) instead of failing.
 
 No web framework here: the measurement workers import it too.
 """

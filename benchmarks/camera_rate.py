@@ -58,7 +58,7 @@ def _peak_rss_mib() -> float:
 
 def _extract_frames(folder: str, offset: int) -> WorkerRun:
     """Worker: adaptive centres of FRAMES_PER_WORKER frames of the pass, cycling."""
-    from backend.allocator import keep_freed_memory
+    from backend.jobs.allocator import keep_freed_memory
     from pipeline import extract_centres
 
     keep_freed_memory()  # as the service's workers do
@@ -88,9 +88,9 @@ def _extract_frames(folder: str, offset: int) -> WorkerRun:
 
 def _measure_wheels(folder: str, share: int) -> WorkerRun:
     """Worker: measure_wheel (adaptive) of every WORKERS-th wheel of the pass."""
-    from backend.allocator import keep_freed_memory
-    from pipeline.archive import read_pass_archive
-    from pipeline.measurement import measure_wheel
+    from backend.jobs.allocator import keep_freed_memory
+    from pipeline.archive.pass_archive import read_pass_archive
+    from pipeline.profile.measurement import measure_wheel
 
     keep_freed_memory()
     cv2.setNumThreads(1)
@@ -127,8 +127,13 @@ def _rate(runs: list[WorkerRun]) -> tuple[float, float]:
 
 def run() -> str:
     """Markdown section: frames per second of 2 workers, and their memory."""
-    from pipeline.archive import write_pass_archive
-    from pipeline.simulator import build_station, build_train, pass_start_time, simulate_pass
+    from pipeline.archive.pass_archive import write_pass_archive
+    from pipeline.simulation.passes import (
+        build_station,
+        build_train,
+        pass_start_time,
+        simulate_pass,
+    )
 
     station = build_station()
     train_rng, pass_rng = np.random.default_rng(8).spawn(2)

@@ -11,11 +11,11 @@ Three tables, each one run with every method side by side:
    of REPEATS), with each method's accuracy on that frame and the path it took. Issue 8
    bar: adaptive band ≤ 1.0× the blur, RMS, gap and false points no worse than the
    full-frame path's.
-3. The frames of a simulated pass (pipeline.simulator): which path each frame took, the
+3. The frames of a simulated pass (pipeline.simulation.passes): which path each frame took, the
    time per frame, and the mean time of the pass's frames extracted one after another.
 
 Single thread: OpenCV is set to one thread, the numba kernels never start threads. The
-process keeps freed memory as the service's workers do (backend.allocator).
+process keeps freed memory as the service's workers do (backend.jobs.allocator).
 """
 
 from __future__ import annotations
@@ -28,9 +28,9 @@ from dataclasses import dataclass, replace
 import cv2
 import numpy as np
 
-from backend.allocator import keep_freed_memory
+from backend.jobs.allocator import keep_freed_memory
 from pipeline import extract_centres
-from pipeline.simulator import build_station, build_train, pass_start_time, simulate_pass
+from pipeline.simulation.passes import build_station, build_train, pass_start_time, simulate_pass
 from tests.pipeline.stripe_images import StripeCase, make_stripe, score_centres
 from tests.pipeline.test_centres_accuracy import UNIFORM, VARYING
 

@@ -12,15 +12,15 @@ import math
 import tempfile
 import time
 
-from pipeline.archive import read_pass_archive
-from pipeline.measurement import measure_pass
-from pipeline.repeatability import (
+from pipeline.archive.pass_archive import read_pass_archive
+from pipeline.profile.measurement import measure_pass
+from pipeline.profile.repeatability import (
     ParameterStats,
     pass_observations,
     repeatability_markdown,
     summarise_repeatability,
 )
-from pipeline.simulator import read_truth, write_synthetic_passes
+from pipeline.simulation.passes import read_truth, write_synthetic_passes
 
 REPEATS = 9
 SEED = 2026

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.centres import METHODS, extract_centres
-from pipeline.profile import clean_profile_points
+from pipeline.extraction.centres import METHODS, extract_centres
+from pipeline.profile.fusion import clean_profile_points
 
 
 def synthetic_stripe(shape: tuple[int, int] = (240, 320)) -> np.ndarray:

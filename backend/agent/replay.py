@@ -15,8 +15,8 @@ from collections import Counter
 from pathlib import Path
 
 from backend.agent.station import SENSORS
-from pipeline.archive import read_pass_archive
-from pipeline.manifest import PassManifest, WheelEntry
+from pipeline.archive.manifest import PassManifest, WheelEntry
+from pipeline.archive.pass_archive import read_pass_archive
 
 EMULATED_SERIALS = tuple(f"0815-{n:04d}" for n in range(len(SENSORS)))
 """Serial numbers pylon gives its emulated cameras, in enumeration order."""

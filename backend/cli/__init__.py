@@ -11,7 +11,7 @@ import argparse
 import importlib
 import sys
 
-from backend.allocator import keep_freed_memory
+from backend.jobs.allocator import keep_freed_memory
 
 VERB_MODULES: list[str] = [
     "backend.cli.extract",

@@ -1,5 +1,5 @@
 """`wheelscan backup OUT` and `wheelscan restore IN`: the database and the frame store as
-one consistent archive (backend/snapshot.py describes the format)."""
+one consistent archive (backend/ops/snapshot.py describes the format)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from typing import TypeVar
 from sqlalchemy.exc import SQLAlchemyError
 
 from backend.config import add_settings_arguments, settings_from_args
-from backend.snapshot import Manifest
+from backend.ops.snapshot import Manifest
 
 T = TypeVar("T")
 MIB = 1024 * 1024
@@ -39,7 +39,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_backup(args: argparse.Namespace) -> int:
-    from backend.backup import create_backup
+    from backend.ops.backup import create_backup
 
     summary = _with_database_errors(lambda: create_backup(settings_from_args(args), args.out))
     sys.stdout.write(
@@ -50,7 +50,7 @@ def run_backup(args: argparse.Namespace) -> int:
 
 
 def run_restore(args: argparse.Namespace) -> int:
-    from backend.restore import restore_backup
+    from backend.ops.restore import restore_backup
 
     summary = _with_database_errors(lambda: restore_backup(settings_from_args(args), args.archive))
     sys.stdout.write(

@@ -12,7 +12,7 @@ import numpy as np
 from tqdm import tqdm
 
 from pipeline import Centres, extract_centres
-from pipeline.centres import METHODS
+from pipeline.extraction.centres import METHODS
 
 CSV_HEADER = "x,y,nx,ny,sigma,strength"
 """Column header of the centre CSV (the design's contract)."""

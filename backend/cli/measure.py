@@ -11,20 +11,17 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from pipeline.archive import read_pass_archive
-from pipeline.calibration import SENSOR_NAMES, read_calibration, write_calibration
-from pipeline.calibration_set import (
-    calibrate_station,
-    read_calibration_set,
-    write_synthetic_calibration_set,
-)
-from pipeline.measurement import PassWheelResult, measure_pass
-from pipeline.repeatability import (
+from pipeline.archive.pass_archive import read_pass_archive
+from pipeline.calibration.image_sets import calibrate_station, read_calibration_set
+from pipeline.calibration.model import SENSOR_NAMES, read_calibration, write_calibration
+from pipeline.profile.measurement import PassWheelResult, measure_pass
+from pipeline.profile.repeatability import (
     pass_observations,
     repeatability_markdown,
     summarise_repeatability,
 )
-from pipeline.simulator import AXLES_PER_VEHICLE, read_truth, write_synthetic_passes
+from pipeline.simulation.calibration_images import write_synthetic_calibration_set
+from pipeline.simulation.passes import AXLES_PER_VEHICLE, read_truth, write_synthetic_passes
 from pipeline.version import PIPELINE_VERSION
 
 PARAMETER_KEYS = ("flange_height_mm", "flange_thickness_mm", "flange_thickness_10_mm", "qr_mm")

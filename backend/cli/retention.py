@@ -11,8 +11,8 @@ import argparse
 import sys
 
 from backend.config import add_settings_arguments, settings_from_args
-from backend.retention import PassRemoval, remove_expired_frames
-from backend.storage import BlobStore
+from backend.services.retention import PassRemoval, remove_expired_frames
+from backend.storage.store import BlobStore
 from db.engine import make_engine, make_session_factory, upgrade_database
 
 MIB = 1024 * 1024

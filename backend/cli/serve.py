@@ -6,8 +6,8 @@ import argparse
 import sys
 from datetime import timedelta
 
-from backend.auth import create_token, record_audit
 from backend.config import Settings, add_settings_arguments, settings_from_args
+from backend.services.auth import create_token, record_audit
 from db.engine import make_engine, make_session_factory, upgrade_database
 from db.models import ROLES
 from db.types import utc_now
@@ -49,7 +49,7 @@ def serve(settings: Settings) -> None:
     """Run the service in the foreground until interrupted."""
     import uvicorn
 
-    from backend.main import create_app
+    from backend.api.app import create_app
 
     uvicorn.run(create_app(settings), host=settings.host, port=settings.port, log_level="info")
 
@@ -86,7 +86,7 @@ def run_token_create(args: argparse.Namespace) -> int:
 
 
 def run_demo(args: argparse.Namespace) -> int:
-    from backend.demo import load_demo
+    from backend.ops.demo import load_demo
 
     settings = settings_from_args(args)
     if args.vehicles < 1:

@@ -53,7 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_worker(args: argparse.Namespace) -> int:
-    from backend.celery_runner import make_celery_app
+    from backend.jobs.celery_runner import make_celery_app
 
     if args.concurrency < 1:
         raise ValueError(f"--concurrency must be ≥ 1, got {args.concurrency}")

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.archive import encode_frame, write_pass_archive
-from pipeline.calibration import calibration_to_document
+from pipeline.archive.pass_archive import encode_frame, write_pass_archive
+from pipeline.calibration.model import calibration_to_document
 from tests.pipeline.archive_helpers import small_calibration, small_frames, small_manifest
 
 

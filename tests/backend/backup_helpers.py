@@ -14,14 +14,14 @@ from typing import Any
 import numpy as np
 from sqlalchemy import inspect, select
 
-from backend.auth import create_token
 from backend.config import Settings
-from backend.ingest import store_archive, validate_archive
-from backend.storage import BlobStore
-from backend.tasks import measure_pass_wheel
+from backend.jobs.tasks import measure_pass_wheel
+from backend.services.auth import create_token
+from backend.services.ingest import store_archive, validate_archive
+from backend.storage.store import BlobStore
 from db.engine import make_engine, make_session_factory, upgrade_database
 from db.models import Base
-from pipeline.archive import write_pass_archive
+from pipeline.archive.pass_archive import write_pass_archive
 from tests.pipeline.archive_helpers import (
     HEIGHT_PX,
     WIDTH_PX,

@@ -14,9 +14,9 @@ import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import text
 
-from backend.auth import create_token
+from backend.api.app import create_app
 from backend.config import Settings
-from backend.main import create_app
+from backend.services.auth import create_token
 from db.models import Base
 from tests.databases import BACKENDS, throwaway_database
 

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from backend.allocator import keep_freed_memory
+from backend.jobs.allocator import keep_freed_memory
 
 
 @pytest.mark.skipif(
@@ -23,7 +23,7 @@ def test_a_frame_after_the_full_frame_path_is_not_slowed_by_fresh_memory() -> No
     """The effect itself, counted, not timed: page faults of a band-path frame."""
     script = (
         "import resource, sys, numpy as np\n"
-        "from backend.allocator import keep_freed_memory\n"
+        "from backend.jobs.allocator import keep_freed_memory\n"
         "if sys.argv[1] == 'keep': keep_freed_memory()\n"
         "from pipeline import extract_centres\n"
         "from pipeline.precompile import synthetic_stripe\n"

@@ -22,17 +22,17 @@ from alembic.script import ScriptDirectory
 from fastapi.testclient import TestClient
 from sqlalchemy import select
 
-from backend.backup import create_backup, database_snapshot, dump_tables
+from backend.api.app import create_app
 from backend.config import Settings
-from backend.demo import zip_folder
-from backend.main import create_app
-from backend.restore import restore_backup
-from backend.snapshot import blob_columns, read_revision
-from backend.storage import BlobStore
+from backend.ops.backup import create_backup, database_snapshot, dump_tables
+from backend.ops.demo import zip_folder
+from backend.ops.restore import restore_backup
+from backend.ops.snapshot import blob_columns, read_revision
+from backend.storage.store import BlobStore
 from db.engine import alembic_config, make_engine, make_session_factory, upgrade_database
 from db.models import Base, Frame, Site
 from db.types import utc_now
-from pipeline.simulator import write_synthetic_passes
+from pipeline.simulation.passes import write_synthetic_passes
 from tests.backend.backup_helpers import (
     add_token,
     database_rows,
@@ -244,7 +244,9 @@ def test_every_sha256_column_of_the_models_is_known_to_name_a_blob_or_not():
 
 
 def test_a_pass_whose_frames_retention_removed_is_backed_up_without_them(tmp_path):
-    retention = pytest.importorskip("backend.retention", reason="frame retention not there yet")
+    retention = pytest.importorskip(
+        "backend.services.retention", reason="frame retention not there yet"
+    )
     settings = Settings(data_dir=tmp_path / "data")
     measure(settings, ingest(settings, small_pass(tmp_path, 1)))
     ingest(settings, small_pass(tmp_path, 2))  # its wheels still queued: it keeps its frames

@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from backend.backup import create_backup
 from backend.cli import main
 from backend.config import Settings
+from backend.ops.backup import create_backup
 from tests.backend.backup_helpers import (
     database_rows,
     ingest,

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from sqlalchemy import delete, select
 
-from backend.demo import zip_folder
-from backend.ingest import store_archive, validate_archive
+from backend.ops.demo import zip_folder
+from backend.services.ingest import store_archive, validate_archive
 from db.models import Frame, Job, Measurement, PassWheel
-from pipeline.simulator import write_synthetic_passes
+from pipeline.simulation.passes import write_synthetic_passes
 from tests.backend.conftest import empty_service, make_tokens
 
 PARAMETERS = ("flange_height_mm", "flange_thickness_mm", "qr_mm", "back_to_back_mm")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 from starlette.websockets import WebSocketDisconnect
 
-from backend.routes import ROUTERS
+from backend.api.routes import ROUTERS
 from db.models import Measurement, PassWheel
 from tests.backend.archives import calibration_document, frame_png
 

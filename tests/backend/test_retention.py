@@ -13,8 +13,8 @@ import pytest
 from fastapi.testclient import TestClient
 from sqlalchemy import select
 
-from backend.main import create_app
-from backend.retention import remove_expired_frames, retention_cutoff, sweep_periodically
+from backend.api.app import create_app
+from backend.services.retention import remove_expired_frames, retention_cutoff, sweep_periodically
 from db.models import AuditEvent, Frame, MeasurementFrame, Pass
 from db.types import utc_now
 from tests.backend.archives import (

@@ -16,9 +16,9 @@ from fastapi.testclient import TestClient
 from sqlalchemy import select
 from starlette.websockets import WebSocketDisconnect
 
-from backend.auth import create_token
-from backend.routes.jobs import WS_POLICY_VIOLATION
-from backend.security import AuthLimit, FailedAuthTracker, redact_secrets
+from backend.api.routes.jobs import WS_POLICY_VIOLATION
+from backend.api.security import AuthLimit, FailedAuthTracker, redact_secrets
+from backend.services.auth import create_token
 from db.models import ROLES, ApiToken
 from db.types import utc_now
 from tests.backend.archives import frame_png, small_archive_bytes

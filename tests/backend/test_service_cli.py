@@ -9,8 +9,8 @@ from pathlib import Path
 
 from fastapi.testclient import TestClient
 
+from backend.api.app import create_app
 from backend.config import Settings, add_settings_arguments, settings_from_args
-from backend.main import create_app
 
 
 def run_cli(*args: str, env: dict | None = None) -> subprocess.CompletedProcess[str]:

@@ -8,7 +8,7 @@ import socket
 import numpy as np
 import pytest
 
-from backend.viewer import (
+from backend.services.viewer import (
     NOMINAL_RADIUS_MM,
     WheelPlacement,
     WheelSceneData,
@@ -17,8 +17,8 @@ from backend.viewer import (
     place_wheel,
     revolve_profile,
 )
-from pipeline.geometry import laser_plane_track
-from pipeline.station import build_station
+from pipeline.calibration.geometry import laser_plane_track
+from pipeline.simulation.station import build_station
 
 
 def flange_profile() -> tuple[np.ndarray, np.ndarray]:

@@ -26,7 +26,7 @@ from backend.cli.serve import issue_token
 from backend.config import Settings
 from db.engine import make_engine, make_session_factory
 from db.models import Frame, Job, Measurement, MeasurementFrame, Pass, PassWheel
-from pipeline.archive import decode_frame, encode_frame
+from pipeline.archive.pass_archive import decode_frame, encode_frame
 from tests.scale.topology import free_port, wait_until
 
 ROOT = Path(__file__).resolve().parents[2]

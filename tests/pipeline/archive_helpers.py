@@ -6,8 +6,13 @@ from datetime import UTC, datetime
 
 import numpy as np
 
-from pipeline.calibration import SENSOR_NAMES, LaserPlane, SensorCalibration, StationCalibration
-from pipeline.manifest import PassManifest, WheelEntry
+from pipeline.archive.manifest import PassManifest, WheelEntry
+from pipeline.calibration.model import (
+    SENSOR_NAMES,
+    LaserPlane,
+    SensorCalibration,
+    StationCalibration,
+)
 
 WIDTH_PX, HEIGHT_PX = 40, 30
 

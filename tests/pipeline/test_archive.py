@@ -12,9 +12,9 @@ import cv2
 import numpy as np
 import pytest
 
-from pipeline.archive import ArchiveLimits, read_pass_archive, write_pass_archive
+from pipeline.archive.manifest import manifest_to_document, parse_manifest
+from pipeline.archive.pass_archive import ArchiveLimits, read_pass_archive, write_pass_archive
 from pipeline.errors import ArchiveError
-from pipeline.manifest import manifest_to_document, parse_manifest
 from tests.pipeline.archive_helpers import small_calibration, small_frames, small_manifest
 
 

@@ -11,19 +11,19 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import pipeline.band_analysis as band_analysis
+import pipeline.extraction.band_analysis as band_analysis
 from pipeline import extract_centres
-from pipeline.band import BLOCK_PX
-from pipeline.band_filters import band_derivatives
-from pipeline.band_segmentation import (
+from pipeline.extraction.band import BLOCK_PX
+from pipeline.extraction.band_filters import band_derivatives
+from pipeline.extraction.band_segmentation import (
     CLOSING_REACH_PX,
     _label_runs,
     _row_runs,
     _runs_near_band_edge,
     close_band,
 )
-from pipeline.gaussian import gaussian_derivatives
-from pipeline.segmentation import close_holes
+from pipeline.extraction.gaussian import gaussian_derivatives
+from pipeline.extraction.segmentation import close_holes
 from tests.pipeline.stripe_images import StripeCase, make_stripe
 from tests.pipeline.test_centres_accuracy import UNIFORM, VARYING
 from tests.pipeline.test_steger import straight_stripe

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline.calibration import (
+from pipeline.calibration.model import (
     calibration_to_document,
     load_calibration_json,
     read_calibration,

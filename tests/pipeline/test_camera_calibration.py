@@ -9,25 +9,23 @@ import cv2
 import numpy as np
 import pytest
 
-from pipeline.calibration import read_calibration
-from pipeline.calibration_set import (
-    calibrate_station,
-    read_calibration_set,
-    write_synthetic_calibration_set,
-)
-from pipeline.camera_calibration import detect_board_corners, fit_plane
-from pipeline.errors import CalibrationError
-from pipeline.geometry import (
+from pipeline.calibration.board import Board
+from pipeline.calibration.camera import detect_board_corners, fit_plane
+from pipeline.calibration.geometry import (
     apply_transform,
     invert_rigid,
     pixels_to_track_points,
     project_track_points,
 )
-from pipeline.reference import load_reference_profile
-from pipeline.render import WheelPose, wheel_section
-from pipeline.station import build_station
-from pipeline.target import Board, pixel_rays, render_board
-from pipeline.wheel import wheel_profile
+from pipeline.calibration.image_sets import calibrate_station, read_calibration_set
+from pipeline.calibration.model import read_calibration
+from pipeline.errors import CalibrationError
+from pipeline.profile.reference import load_reference_profile
+from pipeline.simulation.calibration_images import write_synthetic_calibration_set
+from pipeline.simulation.render import WheelPose, wheel_section
+from pipeline.simulation.station import build_station
+from pipeline.simulation.target_images import pixel_rays, render_board
+from pipeline.simulation.wheel import wheel_profile
 
 SENSOR = "right_outer"
 

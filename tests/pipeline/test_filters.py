@@ -7,9 +7,14 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from pipeline.gaussian import MIN_SIGMA_PX, gaussian_derivatives, gaussian_kernels
-from pipeline.hessian import hessian_eigen
-from pipeline.scalespace import interpolate_cubic, level_for, sample_derivatives, scale_levels
+from pipeline.extraction.gaussian import MIN_SIGMA_PX, gaussian_derivatives, gaussian_kernels
+from pipeline.extraction.hessian import hessian_eigen
+from pipeline.extraction.scalespace import (
+    interpolate_cubic,
+    level_for,
+    sample_derivatives,
+    scale_levels,
+)
 
 
 @pytest.mark.parametrize("sigma_px", [0.8, 1.0, 2.887, 7.5, 12.1])

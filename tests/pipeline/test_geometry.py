@@ -7,9 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pipeline.calibration import LaserPlane, SensorCalibration
-from pipeline.errors import PipelineError
-from pipeline.geometry import (
+from pipeline.calibration.geometry import (
     invert_rigid,
     laser_plane_track,
     pixels_to_camera_points,
@@ -17,7 +15,9 @@ from pipeline.geometry import (
     project_track_points,
     rigid_transform,
 )
-from pipeline.station import build_station
+from pipeline.calibration.model import LaserPlane, SensorCalibration
+from pipeline.errors import PipelineError
+from pipeline.simulation.station import build_station
 
 ROT_Z_90 = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
 

@@ -8,15 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline.archive import read_pass_archive, write_pass_archive
-from pipeline.measurement import (
+from pipeline.archive.pass_archive import read_pass_archive, write_pass_archive
+from pipeline.profile.measurement import (
     MEASURED,
     NOT_MEASURED,
     axle_back_to_back,
     measure_pass,
     measure_wheel,
 )
-from pipeline.simulator import write_synthetic_passes
+from pipeline.simulation.passes import write_synthetic_passes
 
 
 @pytest.fixture(scope="module")

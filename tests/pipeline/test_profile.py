@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.flange import fit_flange_parameters
-from pipeline.profile import DatumError, fuse_profile, overlap_residual
-from pipeline.reference import load_reference_profile
-from pipeline.wheel import Wear, wheel_profile
+from pipeline.profile.flange import fit_flange_parameters
+from pipeline.profile.fusion import DatumError, fuse_profile, overlap_residual
+from pipeline.profile.reference import load_reference_profile
+from pipeline.simulation.wheel import Wear, wheel_profile
 
 PROFILE = wheel_profile(load_reference_profile("LMA"), Wear(0.5, 1.0, 0.3))
 

@@ -5,8 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.flange import FlangeNotFoundError, curve_flange_parameters, fit_flange_parameters
-from pipeline.reference import load_reference_profile
+from pipeline.profile.flange import (
+    FlangeNotFoundError,
+    curve_flange_parameters,
+    fit_flange_parameters,
+)
+from pipeline.profile.reference import load_reference_profile
 
 EXPECTED = {
     "LMA": (28.0000, 31.9744, 32.9000, 9.7399),

@@ -6,7 +6,11 @@ import math
 
 import pytest
 
-from pipeline.repeatability import Observation, repeatability_markdown, summarise_repeatability
+from pipeline.profile.repeatability import (
+    Observation,
+    repeatability_markdown,
+    summarise_repeatability,
+)
 
 
 def _obs(wheel: str, values, truth: float, method: str = "adaptive") -> list[Observation]:

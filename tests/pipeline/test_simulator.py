@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline.archive import read_pass_archive
-from pipeline.reference import load_reference_profile
-from pipeline.render import WheelPose, wheel_section
-from pipeline.simulator import write_synthetic_passes
-from pipeline.station import IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, build_station
-from pipeline.wheel import Wear, wheel_profile
+from pipeline.archive.pass_archive import read_pass_archive
+from pipeline.profile.reference import load_reference_profile
+from pipeline.simulation.passes import write_synthetic_passes
+from pipeline.simulation.render import WheelPose, wheel_section
+from pipeline.simulation.station import IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, build_station
+from pipeline.simulation.wheel import Wear, wheel_profile
 
 
 @pytest.fixture(scope="module")

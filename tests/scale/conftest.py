@@ -11,8 +11,8 @@ from typing import Any
 import pytest
 import redis
 
-from backend.celery_runner import MEASURE_QUEUE
 from backend.config import Settings
+from backend.jobs.celery_runner import MEASURE_QUEUE
 from tests.databases import throwaway_database
 from tests.scale.topology import (
     REDIS_SERVER,

@@ -11,7 +11,7 @@ import pytest
 from sqlalchemy import select
 
 from backend.config import Settings
-from backend.storage import BlobStore
+from backend.storage.store import BlobStore
 from db.models import Frame, MeasurementFrame
 from tests.scale.conftest import PASS_TIMEOUT_S
 from tests.scale.topology import (

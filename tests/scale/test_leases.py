@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from sqlalchemy import Engine
 
-from backend.leases import hold_wheel_lease
+from backend.jobs.leases import hold_wheel_lease
 from db.engine import make_engine
 from tests.databases import BACKENDS, throwaway_database
 from tests.scale.topology import wait_until
@@ -20,7 +20,7 @@ from tests.scale.topology import wait_until
 HOLDER = """
 import sys
 from pathlib import Path
-from backend.leases import hold_wheel_lease
+from backend.jobs.leases import hold_wheel_lease
 from db.engine import make_engine
 with hold_wheel_lease(make_engine(sys.argv[1]), Path(sys.argv[2]), 7) as held:
     sys.stdout.write(f"{held}\\n")

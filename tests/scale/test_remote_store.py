@@ -10,11 +10,11 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
-from backend.auth import create_token
+from backend.api.app import create_app
 from backend.config import Settings
-from backend.main import create_app
-from backend.remote_store import BlobIntegrityError, HttpBlobStore
-from backend.storage import BlobStore
+from backend.services.auth import create_token
+from backend.storage.remote import BlobIntegrityError, HttpBlobStore
+from backend.storage.store import BlobStore
 from tests.scale.topology import free_port
 
 FRAME = b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 8

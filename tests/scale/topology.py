@@ -27,11 +27,11 @@ import uvicorn
 from fastapi.testclient import TestClient
 from sqlalchemy import select
 
-from backend.auth import create_token
+from backend.api.app import create_app
 from backend.config import Settings
-from backend.main import create_app
+from backend.services.auth import create_token
 from db.models import Job, Measurement, PassWheel, Wheel
-from pipeline.simulator import write_synthetic_passes
+from pipeline.simulation.passes import write_synthetic_passes
 
 WHEELSCAN = str(Path(sys.executable).parent / "wheelscan")
 REDIS_SERVER = shutil.which("redis-server")

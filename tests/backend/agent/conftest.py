@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline.archive import write_pass_archive
-from pipeline.manifest import PassManifest, WheelEntry
+from pipeline.archive.manifest import PassManifest, WheelEntry
+from pipeline.archive.pass_archive import write_pass_archive
 
 
 @pytest.fixture

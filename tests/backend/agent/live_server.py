@@ -16,7 +16,7 @@ from pathlib import Path
 
 import httpx
 
-from backend.auth import create_token
+from backend.services.auth import create_token
 from db.engine import make_engine, make_session_factory
 
 START_TIMEOUT_S = 60.0
@@ -30,7 +30,7 @@ def free_port() -> int:
 
 
 class LiveServer:
-    """`python -m uvicorn backend.main:create_app --factory` on 127.0.0.1."""
+    """`python -m uvicorn backend.api.app:create_app --factory` on 127.0.0.1."""
 
     def __init__(self, data_dir: Path) -> None:
         self.data_dir = data_dir
@@ -49,7 +49,7 @@ class LiveServer:
         }
         env.pop("WHEELSCAN_DATABASE_URL", None)
         env.pop("WHEELSCAN_BROKER_URL", None)
-        command = [sys.executable, "-m", "uvicorn", "backend.main:create_app", "--factory"]
+        command = [sys.executable, "-m", "uvicorn", "backend.api.app:create_app", "--factory"]
         command += ["--host", "127.0.0.1", "--port", str(self.port), "--log-level", "warning"]
         with open(self.log_path, "ab") as log:
             self._process = subprocess.Popen(

@@ -22,7 +22,7 @@ from backend.agent.progress import Progress
 from backend.agent.replay import write_replay_station
 from backend.agent.spool import FrameItem, MissingItem, Spool
 from backend.agent.station import load_station
-from pipeline.archive import read_pass_archive
+from pipeline.archive.pass_archive import read_pass_archive
 from tests.backend.agent.conftest import make_archive
 
 

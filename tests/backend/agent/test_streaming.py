@@ -26,8 +26,8 @@ from backend.agent.capture import encode_png
 from backend.agent.client import StreamClient
 from backend.agent.replay import write_replay_station
 from backend.agent.spool import PassOpen
-from pipeline.calibration import calibration_to_document
-from pipeline.station import build_station
+from pipeline.calibration.model import calibration_to_document
+from pipeline.simulation.station import build_station
 from tests.backend.agent.live_server import LiveServer
 
 FRAMES_PER_SENSOR = 2

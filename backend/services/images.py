@@ -1,0 +1,117 @@
+"""PNG renderings for the browser: frames, stripe masks and coloured σ maps (downscaled)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import cv2
+import numpy as np
+from matplotlib import colormaps
+
+from backend.storage.artefacts import FrameArtefacts, load_artefacts
+from backend.storage.store import BlobStore
+from pipeline import Centres
+from pipeline.archive.pass_archive import decode_frame
+
+SIGMA_COLORMAP = "viridis"
+
+
+def _downscale(image: np.ndarray, max_width_px: int | None, *, nearest: bool) -> np.ndarray:
+    if max_width_px is None or image.shape[1] <= max_width_px:
+        return image
+    height_px = max(1, round(image.shape[0] * max_width_px / image.shape[1]))
+    interpolation = cv2.INTER_NEAREST if nearest else cv2.INTER_AREA
+    return cv2.resize(image, (max_width_px, height_px), interpolation=interpolation)
+
+
+def encode_png(image: np.ndarray) -> bytes:
+    ok, buffer = cv2.imencode(".png", image, [cv2.IMWRITE_PNG_COMPRESSION, 3])
+    if not ok:
+        raise ValueError(
+            f"image of shape {image.shape} and dtype {image.dtype} is not PNG-encodable"
+        )
+    return buffer.tobytes()
+
+
+def frame_png(png_bytes: bytes, max_width_px: int | None) -> bytes:
+    """A stored frame, downscaled to `max_width_px` when wider (grey levels kept)."""
+    if max_width_px is None:
+        return png_bytes
+    image = decode_frame(png_bytes, "stored frame")
+    return encode_png(_downscale(image, max_width_px, nearest=False))
+
+
+def mask_png(mask: np.ndarray, max_width_px: int | None) -> bytes:
+    """The stripe mask as an 8-bit PNG: 255 on the stripe, 0 elsewhere."""
+    image = np.where(mask, 255, 0).astype(np.uint8)
+    return encode_png(_downscale(image, max_width_px, nearest=True))
+
+
+def sigma_png(
+    sigma_map: np.ndarray, sigma_min_px: float, sigma_max_px: float, max_width_px: int | None
+) -> bytes:
+    """σ map coloured with `SIGMA_COLORMAP` over [sigma_min_px, sigma_max_px]; RGBA with
+    transparent pixels where no scale was chosen (σ = 0), so it overlays the frame."""
+    small = _downscale(sigma_map, max_width_px, nearest=True)
+    span = max(sigma_max_px - sigma_min_px, 1e-9)
+    unit = np.clip((small - sigma_min_px) / span, 0.0, 1.0)
+    rgba = (colormaps[SIGMA_COLORMAP](unit) * 255).astype(np.uint8)
+    rgba[..., 3] = np.where(small > 0, 255, 0)
+    return encode_png(cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGRA))
+
+
+def sigma_scale(sigma_map: np.ndarray) -> tuple[float, float]:
+    """(min, max) of the chosen scales [px] (0 = none chosen is left out)."""
+    chosen = sigma_map[sigma_map > 0]
+    if chosen.size == 0:
+        return 0.0, 0.0
+    return float(chosen.min()), float(chosen.max())
+
+
+@lru_cache(maxsize=4)
+def cached_artefacts(store: BlobStore, sha256: str) -> FrameArtefacts:
+    """Artefacts of a frame, kept decompressed for the next layer requests (immutable)."""
+    return load_artefacts(store, sha256)
+
+
+@dataclass(frozen=True, slots=True)
+class LayerPng:
+    """A rendered layer and, for σ maps, its colour scale [px]."""
+
+    png: bytes
+    sigma_min_px: float
+    sigma_max_px: float
+
+
+@lru_cache(maxsize=64)
+def layer_png(store: BlobStore, sha256: str, layer: str, max_width_px: int | None) -> LayerPng:
+    """The "mask" or "sigma" layer of a frame's artefacts as PNG (rendered once, cached)."""
+    artefacts = cached_artefacts(store, sha256)
+    if layer == "mask":
+        return LayerPng(mask_png(artefacts.mask, max_width_px), 0.0, 0.0)
+    if artefacts.sigma_map is None:
+        raise ValueError(f"artefacts {sha256[:12]}… have no σ map (a fixed-σ method)")
+    low, high = sigma_scale(artefacts.sigma_map)
+    return LayerPng(sigma_png(artefacts.sigma_map, low, high, max_width_px), low, high)
+
+
+def prerender_layers(store: BlobStore, centres: Centres) -> dict[str, str | float | None]:
+    """Render a frame's full-size mask and coloured σ map once, in the worker, as blobs.
+
+    Returns the MeasurementFrame fields: mask_png_sha256, sigma_png_sha256, sigma_min_px,
+    sigma_max_px (the σ ones None for fixed-σ methods).
+    """
+    layers: dict[str, str | float | None] = {
+        "mask_png_sha256": store.put(mask_png(centres.mask, None), ".png"),
+        "sigma_png_sha256": None,
+        "sigma_min_px": None,
+        "sigma_max_px": None,
+    }
+    if centres.sigma_map is not None:
+        low, high = sigma_scale(centres.sigma_map)
+        layers["sigma_png_sha256"] = store.put(
+            sigma_png(centres.sigma_map, low, high, None), ".png"
+        )
+        layers["sigma_min_px"], layers["sigma_max_px"] = low, high
+    return layers

@@ -1,0 +1,160 @@
+"""From a pipeline `WheelMeasurement` to a `Measurement` row: parameters, quality, σ
+statistics, the fused profile with its construction points, the reference profile family
+and the alarms against the fleet's limits."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from backend.services.limits import evaluate_alarms, limits_for, profile_family
+from db.models import Measurement
+from pipeline.profile.flange import FlangeParameters
+from pipeline.profile.fusion import FusedProfile
+from pipeline.profile.measurement import MEASURED, WheelMeasurement
+from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile
+from pipeline.profile.reference import ReferenceProfile as _Reference
+
+REFERENCE_POINT_X_MM = 70.0
+"""Tread reference point (z = 0) of the profile frame [mm]."""
+STORED_DECIMALS = 4
+"""Profile coordinates are stored to 0.1 µm: far below the measurement's resolution."""
+
+
+@lru_cache(maxsize=1)
+def _references() -> dict[str, _Reference]:
+    return {name: load_reference_profile(name) for name in REFERENCE_PROFILES}
+
+
+def closest_reference(x_mm: np.ndarray) -> str | None:
+    """The reference profile (LMA or S1002) a measured profile is drawn and judged against.
+
+    Manifests do not say which profile a wheel was turned to, and the two profiles' heights
+    differ by less than wear does, so the service matches the rim width: the measured
+    profile's extent from the back face against each reference table's (LMA 135 mm, S1002
+    130 mm). This picks the limit set (LM or EN) and the curve drawn behind the profile; it
+    changes no measured parameter. A vehicle register would replace it (see issue 5 notes).
+    """
+    if x_mm.size == 0:
+        return None
+    width_mm = float(np.max(x_mm))
+    gaps = {name: abs(width_mm - float(ref.x_mm[-1])) for name, ref in _references().items()}
+    return min(gaps, key=gaps.__getitem__)
+
+
+def construction_points(
+    parameters: FlangeParameters, profile: FusedProfile
+) -> dict[str, dict[str, Any]]:
+    """The points that define Sh, Sd (12 and 10 mm) and qR in the profile frame [mm].
+
+    Sd and qR are horizontal distances from the back face (x = 0), so the flank points are
+    (Sd, 12), (Sd10, 10) and (Sd10 − qR, Sh − 2); the flange top is the highest profile
+    point, at height Sh above the tread reference point (70, 0).
+    """
+    top = int(np.argmax(profile.z_mm))
+    sh = parameters.flange_height_mm
+    sd10 = parameters.flange_thickness_10_mm
+    return {
+        "sh": {
+            "flange_top": [round(float(profile.x_mm[top]), 3), round(sh, 3)],
+            "tread_point": [REFERENCE_POINT_X_MM, 0.0],
+        },
+        "sd": {
+            "back_face_x_mm": 0.0,
+            "flank_point": [round(parameters.flange_thickness_mm, 3), 12.0],
+        },
+        "sd_en": {"flank_point": [round(sd10, 3), 10.0]},
+        "qr": {
+            "upper_point": [round(sd10 - parameters.qr_mm, 3), round(sh - 2.0, 3)],
+            "lower_point": [round(sd10, 3), 10.0],
+        },
+    }
+
+
+def _sigma_statistics(result: WheelMeasurement) -> dict[str, float | None]:
+    sigmas = [f.centres.sigma[f.used] for f in result.frames]
+    values = np.concatenate(sigmas) if sigmas else np.zeros(0)
+    if values.size == 0:
+        return {"sigma_mean_px": None, "sigma_min_px": None, "sigma_max_px": None}
+    return {
+        "sigma_mean_px": float(values.mean()),
+        "sigma_min_px": float(values.min()),
+        "sigma_max_px": float(values.max()),
+    }
+
+
+def _track_points(result: WheelMeasurement) -> dict[str, dict[str, list[float]]]:
+    points: dict[str, list[np.ndarray]] = {}
+    for frame in result.frames:
+        points.setdefault(frame.sensor, []).append(frame.points_track_mm[frame.used])
+    out = {}
+    for sensor, chunks in points.items():
+        xyz = np.round(np.concatenate(chunks), 3)
+        out[sensor] = {
+            "x_mm": xyz[:, 0].tolist(),
+            "y_mm": xyz[:, 1].tolist(),
+            "z_mm": xyz[:, 2].tolist(),
+        }
+    return out
+
+
+def _profile_document(result: WheelMeasurement) -> dict[str, Any]:
+    document: dict[str, Any] = {"track_points": _track_points(result)}
+    profile = result.profile
+    if profile is not None:
+        document["x_mm"] = np.round(profile.x_mm, STORED_DECIMALS).tolist()
+        document["z_mm"] = np.round(profile.z_mm, STORED_DECIMALS).tolist()
+        document["sensor"] = profile.sensor.astype(int).tolist()
+        if result.parameters is not None:
+            document["construction"] = construction_points(result.parameters, profile)
+    return document
+
+
+def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> Measurement:
+    """A Measurement row (not yet attached to a pass wheel) from one method's result."""
+    parameters, profile = result.parameters, result.profile
+    quality = {
+        "points_inner": result.points_inner,
+        "points_outer": result.points_outer,
+        "overlap_residual_mm": None if profile is None else profile.overlap_residual_mm,
+        "overlap_points": 0 if profile is None else profile.overlap_points,
+        "rejected_points": 0 if profile is None else profile.rejected_points,
+    }
+    row = Measurement(
+        method=result.method,
+        status="measured" if result.status == MEASURED else "not_measured",
+        reason=result.reason,
+        flange_height_mm=None if parameters is None else parameters.flange_height_mm,
+        flange_thickness_mm=None if parameters is None else parameters.flange_thickness_mm,
+        flange_thickness_en_mm=None if parameters is None else parameters.flange_thickness_10_mm,
+        qr_mm=None if parameters is None else parameters.qr_mm,
+        back_face_track_x_mm=result.back_face_track_x_mm,
+        reference_profile=None if profile is None else closest_reference(profile.x_mm),
+        point_count=result.points_inner + result.points_outer,
+        quality=quality,
+        profile=_profile_document(result),
+        pipeline_version=result.pipeline_version,
+        **_sigma_statistics(result),
+    )
+    apply_alarms(row, fleet, session)
+    return row
+
+
+def apply_alarms(row: Measurement, fleet: str, session: Session) -> None:
+    """(Re)compute the alarms of a measurement against its fleet's current limits."""
+    family = profile_family(row.reference_profile)
+    parameters = {
+        name: getattr(row, name)
+        for name in (
+            "flange_height_mm",
+            "flange_thickness_mm",
+            "flange_thickness_en_mm",
+            "qr_mm",
+            "back_to_back_mm",
+        )
+    }
+    row.alarms = evaluate_alarms(parameters, limits_for(session, fleet, family), family)
+    row.alarm_count = len(row.alarms)

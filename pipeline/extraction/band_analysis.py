@@ -1,0 +1,390 @@
+"""The multi-scale analysis inside the stripe band: per scale V, C, its ridge-peak value and
+the centre hints on the band's blocks only (as `analyse_level`), and the stripe mask.
+
+The camera-rate path of the adaptive method. The coarsest scale is analysed over its whole
+(16× decimated) grid and locates the band; the finer scales are filtered on the band's
+blocks only. Inside the band every figure equals the full-frame analysis (the same kernels,
+summed in another order); a stripe component reaching the band's edge sends the frame to
+the full-frame path, which stays the reference.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+
+from pipeline.extraction.adaptive import HINT_REACH, LevelResponse
+from pipeline.extraction.band import (
+    BAND_MARGIN_PX,
+    BLOCK_PX,
+    MAX_BAND_FRACTION,
+    WIDER_MARGIN_PX,
+    StripeBand,
+    band_ring,
+    block_grid,
+    block_runs,
+    blocks_holding,
+    locate_band,
+    pool_blocks,
+    zero_blocks,
+)
+from pipeline.extraction.band_filters import band_derivatives
+from pipeline.extraction.band_segmentation import segment_band
+from pipeline.extraction.hessian import eigen2
+from pipeline.extraction.ridges import min_structure_squared, ridge_value
+from pipeline.extraction.scalespace import (
+    MAX_LEVEL,
+    ScaleLevel,
+    build_pyramid,
+    decimated_variance,
+    level_for,
+    level_shapes,
+)
+from pipeline.extraction.segmentation import KEEP_FRACTION
+from pipeline.jit import kernel
+
+
+@kernel
+def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_grey, hints):
+    """V and C on the band's pixels of one level; sets the frame pixels hinted at (3×3)."""
+    height, width = ix.shape
+    frame_rows, frame_cols = hints.shape
+    response = np.empty((height, width), np.float32)
+    strength = np.empty((height, width), np.float32)
+    norm = sigma_px * sigma_px / (stride * stride)  # σ² and level → frame units of ∂²
+    sigma2 = sigma_px * sigma_px
+    to_frame = 1.0 / stride
+    second = to_frame * to_frame
+    origin = 0.5 * (stride - 1)
+    least = 0.25 * min_s2
+    d_xx, d_xy, d_yy = ixx.ravel(), ixy.ravel(), iyy.ravel()
+    candidate = np.empty(width, np.bool_)
+    for br, bc0, bc1 in block_runs(blocks):
+        c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
+        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+            response[r, c0:c1] = 0.0
+            strength[r, c0:c1] = 0.0
+            # As analyse_level: only λ1 < 0 candidates strong enough can matter. The test
+            # runs first over the stretch, branch-free and by flat offsets (it vectorises).
+            at = np.uint64(r * width + c0)
+            for i in range(np.uint64(c1 - c0)):
+                dxx, dxy, dyy = d_xx[at + i], d_xy[at + i], d_yy[at + i]
+                s2 = (dxx * dxx + dyy * dyy + 2 * dxy * dxy) * (norm * norm)
+                candidate[i] = (dxx + dyy < 0) & (s2 > least)
+            for c in range(c0, c1):
+                if not candidate[c - c0]:
+                    continue
+                dxx, dxy, dyy = ixx[r, c], ixy[r, c], iyy[r, c]
+                lambda1, lambda2, nx, ny = eigen2(dxx * second, dxy * second, dyy * second)
+                response[r, c] = ridge_value(lambda1 * sigma2, lambda2 * sigma2, c_grey)
+                strength[r, c] = -sigma2 * min(lambda1, 0.0)
+                if lambda1 == 0:
+                    continue
+                offset = -(nx * ix[r, c] + ny * iy[r, c]) * to_frame / lambda1
+                if abs(offset) > HINT_REACH * stride:
+                    continue
+                x = c * stride + origin + offset * nx
+                y = r * stride + origin + offset * ny
+                hr = min(max(int(np.rint(y)), 0), frame_rows - 1)
+                hc = min(max(int(np.rint(x)), 0), frame_cols - 1)
+                hints[max(hr - 1, 0) : hr + 2, max(hc - 1, 0) : hc + 2] = True
+    return response, strength
+
+
+@kernel
+def _power_below(span: int) -> int:
+    """The largest power of 2 ≤ span."""
+    p = 1
+    while 2 * p <= span:
+        p *= 2
+    return p
+
+
+@kernel
+def _running_max(a, b, length, stride, span):
+    """Max over windows of `span` entries of rows `stride` apart in a[:length·stride], by
+    doubling: after the step of width w, entry j holds the max of rows j .. j + w − 1.
+    Uses b as scratch; returns the array holding the windows of width `_power_below(span)`
+    (valid for rows ≤ length − that width). C ≥ 0 and max is exact, so the order is free."""
+    width = 1
+    target = _power_below(span)
+    while width < target:
+        count = np.uint64((length - width) * stride)
+        shift = np.uint64(width * stride)
+        for j in range(count):
+            b[j] = max(a[j], a[j + shift])
+        a, b = b, a
+        width *= 2
+    return a
+
+
+@kernel
+def _max_along_rows(field, need, half, out) -> None:
+    """out[r, c] = max of field[r, c − half .. c + half] (clipped) on the needed blocks."""
+    height, width = field.shape
+    source, target = field.ravel(), out.ravel()
+    span = 2 * half + 1
+    last = np.uint64(span - _power_below(span))
+    a = np.empty(BLOCK_PX * (width + 2 * half), np.float32)
+    b = np.empty(BLOCK_PX * (width + 2 * half), np.float32)
+    for br, first, stop in block_runs(need):
+        c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
+        r0, r1 = br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)
+        length = c1 - c0 + 2 * half
+        lo, hi = max(c0 - half, 0), min(c1 + half, width)
+        # Row r of the block row at a[(r − r0)·length + j] = field[r, c0 − half + j], 0 beyond
+        # the grid (C ≥ 0: the same as clipping). The doubling runs over all its rows at
+        # once: a window running past its row's end is never read.
+        a[: BLOCK_PX * length] = 0.0
+        for r in range(r0, r1):
+            read = np.uint64(r * width + lo)
+            write = np.uint64((r - r0) * length + lo - (c0 - half))
+            for j in range(np.uint64(hi - lo)):
+                a[write + j] = source[read + j]
+        windows = _running_max(a, b, BLOCK_PX * length, 1, span)
+        for r in range(r0, r1):
+            at = np.uint64(r * width + c0)
+            row = np.uint64((r - r0) * length)
+            for i in range(np.uint64(c1 - c0)):
+                target[at + i] = max(windows[row + i], windows[row + i + last])
+
+
+@kernel
+def _max_along_columns(field, blocks, half, out) -> None:
+    """out[r, c] = max of field[r − half .. r + half, c] (clipped) on the band's blocks."""
+    height, width = field.shape
+    source, target = field.ravel(), out.ravel()
+    span = 2 * half + 1
+    last = span - _power_below(span)
+    rows = BLOCK_PX + 2 * half
+    a = np.empty(rows * width, np.float32)
+    b = np.empty(rows * width, np.float32)
+    for br, first, stop in block_runs(blocks):
+        c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
+        n = c1 - c0
+        r0 = br * BLOCK_PX
+        r1 = min(r0 + BLOCK_PX, height)
+        # a[j·n + i] = field[r0 − half + j, c0 + i], 0 beyond the grid.
+        a[: rows * n] = 0.0
+        for j in range(max(half - r0, 0), min(r1 + half, height) - (r0 - half)):
+            read = np.uint64((r0 - half + j) * width + c0)
+            write = np.uint64(j * n)
+            for i in range(np.uint64(n)):
+                a[write + i] = source[read + i]
+        windows = _running_max(a, b, rows, n, span)
+        for r in range(r0, r1):
+            at = np.uint64(r * width + c0)
+            top = np.uint64((r - r0) * n)
+            bottom = np.uint64((r - r0 + last) * n)
+            for i in range(np.uint64(n)):
+                target[at + i] = max(windows[top + i], windows[bottom + i])
+
+
+def _max_filter_blocks(
+    field: np.ndarray, blocks: np.ndarray, ring: np.ndarray, half: int
+) -> np.ndarray:
+    """Max over the (2·half+1)² square around each band pixel (clipped at the grid; C ≥ 0).
+
+    Separable, on whole runs of blocks: along rows on the rows within `half` of the band,
+    then along columns on the band. Each loop reads one array and writes another, so it
+    vectorises.
+    """
+    reach = -(-half // BLOCK_PX)
+    need = cv2.dilate(blocks.astype(np.uint8), np.ones((2 * reach + 1, 1), np.uint8)) > 0
+    along_rows = np.empty(field.shape, np.float32)
+    _max_along_rows(field, need, half, along_rows)
+    out = np.empty(field.shape, np.float32)
+    _max_along_columns(along_rows, blocks, half, out)
+    zero_blocks(out, ring)
+    return out
+
+
+def analyse_band_level(
+    level: ScaleLevel,
+    blocks: np.ndarray,
+    ring: np.ndarray,
+    *,
+    c_grey: float,
+    frame_shape: tuple[int, int],
+) -> LevelResponse:
+    """`pipeline.extraction.adaptive.analyse_level` on the band's blocks of one level, but for the
+    ridge-peak strength, which `with_peak_strength` adds once the mask is known.
+
+    Parameters
+    ----------
+    level : ScaleLevel
+        Derivatives of the scale (valid on the band's blocks).
+    blocks : ndarray of bool
+        The band's blocks of that level.
+    ring : ndarray of bool
+        The blocks around them set to 0 (see `pipeline.extraction.band.RING_BLOCKS`).
+    c_grey : float
+        Structure constant of the ridge response [grey levels].
+    frame_shape : tuple of int
+        Frame shape (M, N).
+
+    Returns
+    -------
+    LevelResponse
+        V and the hints, valid on the band and its ring; `peak_strength` holds C itself.
+    """
+    d = level.derivatives
+    hints = np.zeros(frame_shape, np.bool_)
+    response, strength = _analyse_blocks(
+        d.ix,
+        d.iy,
+        d.ixx,
+        d.ixy,
+        d.iyy,
+        blocks,
+        level.stride,
+        level.sigma_px,
+        min_structure_squared(c_grey),
+        c_grey,
+        hints,
+    )
+    for field in (response, strength):
+        zero_blocks(field, ring)
+    return LevelResponse(level=level, response=response, peak_strength=strength, hints=hints)
+
+
+def with_peak_strength(
+    scale: LevelResponse, mask_blocks: np.ndarray, *, peak_reach_px: float
+) -> LevelResponse:
+    """The scale with C max-filtered (its ridge-peak value) on the blocks holding the mask.
+
+    `mask_blocks` are the level's blocks that hold mask pixels, widened by one block for the
+    bilinear reads of coarser levels; only there is the peak strength read.
+    """
+    half = max(1, round(peak_reach_px / scale.level.stride))
+    ring = band_ring(mask_blocks)
+    peak = _max_filter_blocks(scale.peak_strength, mask_blocks, ring, half)
+    return replace(scale, peak_strength=peak)
+
+
+def _left_out_safely(band: StripeBand, stripe_length_px: float) -> bool:
+    """Whether no region left out of the band could hold a kept stripe component: one of
+    extent D holds none of length ≥ √3·D, and kept ones are ≥ KEEP_FRACTION of the stripe's."""
+    if not band.left_out_px:
+        return True
+    return math.sqrt(3.0) * band.left_out_px < KEEP_FRACTION * stripe_length_px
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class BandAnalysis:
+    """The multi-scale analysis of a frame inside its stripe band.
+
+    `scales` as `MultiScaleAnalysis.scales` (fields valid on the band, 0 elsewhere); `mask`
+    (M, N) bool the stripe mask, None when the band cannot be trusted; `reason` says why not
+    (empty when it can); `widened` whether the wider band was needed.
+    """
+
+    sigmas_px: tuple[float, ...]
+    scales: tuple[LevelResponse, ...]
+    band: StripeBand | None
+    mask: np.ndarray | None
+    reason: str
+    widened: bool = False
+
+
+def analyse_band(
+    image: np.ndarray,
+    sigmas_px: tuple[float, ...],
+    *,
+    c_grey: float,
+    peak_reach_px: float,
+    max_level: int = MAX_LEVEL,
+) -> BandAnalysis:
+    """Multi-scale analysis and stripe mask of a frame, computed inside its stripe band.
+
+    Parameters
+    ----------
+    image : ndarray of shape (M, N), uint8, uint16 or float
+        Grey frame [grey levels], validated.
+    sigmas_px : tuple of float
+        Scales [px], ascending; the last sits on the coarsest pyramid level and locates
+        the band.
+    c_grey : float
+        Structure constant of the ridge response [grey levels].
+    peak_reach_px : float
+        Half-size of the max filter of C [px].
+    max_level : int
+        Coarsest pyramid level.
+
+    Returns
+    -------
+    BandAnalysis
+        With `mask` None (and the reason) when the coarsest scale is on the frame grid, the
+        band covers most of the frame, or a stripe component reaches the band's edge.
+    """
+    levels = [level_for(s, max_level) for s in sigmas_px]
+    coarsest = max(levels)
+    if coarsest == 0:
+        return BandAnalysis(tuple(sigmas_px), (), None, None, "no scale on a decimated grid")
+    pyramid = build_pyramid(image, coarsest)
+    pyramid[0] = image
+    shapes = level_shapes(image.shape, coarsest)
+
+    def analysed(index: int, blocks: np.ndarray, ring: np.ndarray) -> LevelResponse:
+        sigma, level = sigmas_px[index], levels[index]
+        residual = math.sqrt(sigma**2 - decimated_variance(level)) / 2**level
+        derivatives = band_derivatives(pyramid[level], residual, blocks, ring)
+        return analyse_band_level(
+            ScaleLevel(float(sigma), level, derivatives),
+            blocks,
+            ring,
+            c_grey=c_grey,
+            frame_shape=image.shape,
+        )
+
+    seed_index = max(range(len(levels)), key=lambda i: (levels[i], sigmas_px[i]))
+    seed_blocks = np.ones(block_grid(shapes[coarsest]), np.bool_)
+    seed = analysed(seed_index, seed_blocks, ~seed_blocks)
+    strides = tuple(2**lv for lv in levels)
+
+    def attempt(margin: float, leave_out_small: bool):
+        band = locate_band(
+            seed.response, coarsest, shapes, margin_px=margin, leave_out_small=leave_out_small
+        )
+        if band.fraction > MAX_BAND_FRACTION:
+            return band, [], None
+        scales = [
+            seed if i == seed_index else analysed(i, band.blocks[lv], band.rings[lv])
+            for i, lv in enumerate(levels)
+        ]
+        responses = tuple(sc.response for sc in scales)
+        return band, scales, segment_band(responses, strides, band.blocks[0], image.shape)
+
+    # A stripe the band cuts (a spot fused to its edge, a faint end) gets one wider band.
+    for margin in (BAND_MARGIN_PX, WIDER_MARGIN_PX):
+        band, scales, found = attempt(margin, True)
+        # The regions left out must be too small for a piece of the stripe actually found.
+        if found is not None and not _left_out_safely(band, found.stripe_length_px):
+            band, scales, found = attempt(margin, False)
+        if found is None:
+            reason = f"the band covers {100 * band.fraction:.0f} % of the frame"
+            return BandAnalysis(tuple(sigmas_px), (), band, None, reason)
+        if found.inside:
+            break
+    else:
+        reason = "a stripe component reaches the band's edge"
+        return BandAnalysis(tuple(sigmas_px), (), band, None, reason)
+    held = blocks_holding(found.mask, band.blocks[0])
+    peaked = []
+    for scale, level in zip(scales, levels, strict=True):
+        grid = block_grid(shapes[level])
+        mask_blocks = pool_blocks(held, 2**level, grid) if level else held
+        if level:
+            mask_blocks = cv2.dilate(mask_blocks.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        peaked.append(with_peak_strength(scale, mask_blocks, peak_reach_px=peak_reach_px))
+    return BandAnalysis(
+        tuple(float(s) for s in sigmas_px),
+        tuple(peaked),
+        band,
+        found.mask,
+        "",
+        widened=margin != BAND_MARGIN_PX,
+    )

@@ -1,0 +1,400 @@
+"""Gaussian scale space on a pyramid: large scales are filtered on 2×2-decimated grids.
+
+A scale σ [px of the frame] is computed on the coarsest pyramid level L whose residual scale
+σ_L = √(σ² − v_L)/2^L stays ≥ MIN_LEVEL_SIGMA_PX, where v_L is the variance the 2×2 means
+already applied. The derivative fields then cost 4^L times less; values at frame pixels are
+read back with bicubic interpolation, which is exact to O(h⁴) on fields this smooth.
+Level 0 is the frame itself, so `max_level=0` is the full-resolution reference.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from pipeline.extraction.gaussian import BORDER, GaussianDerivatives, gaussian_derivatives
+from pipeline.jit import kernel
+
+MIN_LEVEL_SIGMA_PX = 2.0
+"""Least residual σ on a decimated grid [px of that grid]: the sampled kernels stay accurate
+and the derivative fields smooth enough for bicubic read-back."""
+
+MAX_LEVEL = 2
+"""Coarsest level used by default (4× decimation)."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ScaleLevel:
+    """Derivatives of the frame at scale `sigma_px`, stored on pyramid level `level`.
+
+    `derivatives` are in units of that level's grid; frame pixel (r, c) sits at level
+    coordinates ((r − o)/s, (c − o)/s) with stride s = 2^level and o = (s − 1)/2.
+    """
+
+    sigma_px: float
+    level: int
+    derivatives: GaussianDerivatives
+
+    @property
+    def stride(self) -> int:
+        return 2**self.level
+
+    def to_level(self, coord_px: np.ndarray) -> np.ndarray:
+        """Frame coordinate [px] → coordinate on this level's grid (float32)."""
+        return ((coord_px - 0.5 * (self.stride - 1)) / self.stride).astype(np.float32)
+
+
+def decimated_variance(level: int) -> float:
+    """Variance [px²] the 2×2 means of `level` pyramid steps add (a 2-tap mean: 1/4 per step)."""
+    return 0.25 * (4**level - 1) / 3
+
+
+def level_for(sigma_px: float, max_level: int) -> int:
+    """Coarsest level ≤ max_level keeping the residual σ ≥ MIN_LEVEL_SIGMA_PX."""
+    level = 0
+    while level < max_level:
+        nxt = level + 1
+        residual = math.sqrt(max(sigma_px**2 - decimated_variance(nxt), 0)) / 2**nxt
+        if residual < MIN_LEVEL_SIGMA_PX:
+            break
+        level = nxt
+    return level
+
+
+@kernel
+def halve(image):
+    """2×2 means of an image with even sides, as float32 (cv2 INTER_AREA at exactly ½)."""
+    rows, cols = image.shape[0] // 2, image.shape[1] // 2
+    out = np.empty((rows, cols), np.float32)
+    for r in range(rows):
+        for c in range(cols):
+            total = (
+                np.float32(image[2 * r, 2 * c])
+                + np.float32(image[2 * r, 2 * c + 1])
+                + np.float32(image[2 * r + 1, 2 * c])
+                + np.float32(image[2 * r + 1, 2 * c + 1])
+            )
+            out[r, c] = total * np.float32(0.25)
+    return out
+
+
+def build_pyramid(image: np.ndarray, levels: int) -> list[np.ndarray]:
+    """The frame padded (reflect) to a multiple of 2^levels, and its 2×2-mean decimations.
+
+    `image` may be of any real dtype; the decimated levels are float32.
+    """
+    stride = 2**levels
+    pad_rows = -image.shape[0] % stride
+    pad_cols = -image.shape[1] % stride
+    base = (
+        cv2.copyMakeBorder(image, 0, pad_rows, 0, pad_cols, BORDER)
+        if pad_rows or pad_cols
+        else image
+    )
+    pyramid = [base]
+    for _ in range(levels):
+        pyramid.append(halve(pyramid[-1]))
+    return pyramid
+
+
+def level_shapes(shape: tuple[int, int], levels: int) -> tuple[tuple[int, int], ...]:
+    """Grid shape of pyramid levels 0..levels (level 0 is the frame itself, unpadded)."""
+    stride = 2**levels
+    padded = (-(-shape[0] // stride) * stride, -(-shape[1] // stride) * stride)
+    return (shape, *((padded[0] >> k, padded[1] >> k) for k in range(1, levels + 1)))
+
+
+def scale_levels(
+    image: np.ndarray, sigmas_px: tuple[float, ...], *, max_level: int = MAX_LEVEL
+) -> tuple[ScaleLevel, ...]:
+    """Gaussian derivatives of a float32 frame at each scale, each on its pyramid level.
+
+    Parameters
+    ----------
+    image : ndarray of shape (M, N), float32
+        Grey frame [grey levels].
+    sigmas_px : tuple of float
+        Scales [px of the frame].
+    max_level : int
+        Coarsest pyramid level allowed; 0 computes every scale at full resolution.
+
+    Returns
+    -------
+    tuple of ScaleLevel
+        One per scale, in order.
+    """
+    levels = [level_for(s, max_level) for s in sigmas_px]
+    pyramid = build_pyramid(image, max(levels, default=0))
+    out = []
+    for sigma, level in zip(sigmas_px, levels, strict=True):
+        residual = math.sqrt(sigma**2 - decimated_variance(level)) / 2**level
+        grid = pyramid[level] if level else image
+        out.append(ScaleLevel(float(sigma), level, gaussian_derivatives(grid, residual)))
+    return tuple(out)
+
+
+@kernel
+def _keys_weight(distance: float) -> float:
+    """Keys cubic convolution weight (a = −1/2) of a tap `distance` grid steps away."""
+    d = abs(distance)
+    if d <= 1.0:
+        return (1.5 * d - 2.5) * d * d + 1.0
+    if d < 2.0:
+        return ((-0.5 * d + 2.5) * d - 4.0) * d + 2.0
+    return 0.0
+
+
+@kernel
+def keys_weights(fraction: float) -> tuple[float, float, float, float]:
+    """Keys weights of the 4 taps at −1, 0, 1, 2 grid steps from a point `fraction` past
+    tap 0."""
+    return (
+        _keys_weight(fraction + 1),
+        _keys_weight(fraction),
+        _keys_weight(1 - fraction),
+        _keys_weight(2 - fraction),
+    )
+
+
+@kernel
+def reflect_index(index: int, size: int) -> int:
+    """An index folded into [0, size) with the edge pixel repeated (the BORDER mode)."""
+    if index < 0:
+        index = -index - 1
+    if index >= size:
+        index = 2 * size - index - 1
+    return index
+
+
+@kernel
+def cubic_taps(u: float, v: float, height: int, width: int):
+    """Rows, columns (reflected) and Keys weights of the 4 × 4 taps around (u, v)."""
+    u0 = np.floor(u)
+    v0 = np.floor(v)
+    fu, fv = u - u0, v - v0
+    iu, iv = int(u0), int(v0)
+    wu, wv = keys_weights(fu), keys_weights(fv)
+    cols = (
+        reflect_index(iu - 1, width),
+        reflect_index(iu, width),
+        reflect_index(iu + 1, width),
+        reflect_index(iu + 2, width),
+    )
+    rows = (
+        reflect_index(iv - 1, height),
+        reflect_index(iv, height),
+        reflect_index(iv + 1, height),
+        reflect_index(iv + 2, height),
+    )
+    return rows, cols, wv, wu
+
+
+@kernel
+def cubic_at(field, rows, cols, wv, wu) -> float:
+    """Keys cubic convolution of `field` from its taps (see `cubic_taps`)."""
+    total = 0.0
+    for i in range(4):
+        r = rows[i]
+        total += wv[i] * (
+            wu[0] * field[r, cols[0]]
+            + wu[1] * field[r, cols[1]]
+            + wu[2] * field[r, cols[2]]
+            + wu[3] * field[r, cols[3]]
+        )
+    return total
+
+
+@kernel
+def _interpolate_cubic(fields, u, v, outs) -> None:
+    height, width = fields[0].shape
+    for k in range(u.size):
+        rows, cols, wv, wu = cubic_taps(u[k], v[k], height, width)
+        for f in range(len(fields)):
+            outs[f][k] = cubic_at(fields[f], rows, cols, wv, wu)
+
+
+@kernel
+def level_coordinate(coord_px: float, stride: int) -> np.float32:
+    """Frame coordinate [px] → coordinate on a level grid of stride 2^L, float32 as
+    `ScaleLevel.to_level`."""
+    return np.float32((coord_px - 0.5 * (stride - 1)) / stride)
+
+
+@kernel
+def _cubic_at_pixels(fields, stride, rows, cols, outs) -> None:
+    """`_interpolate_cubic` at frame pixels (rows, cols) of a level with stride 2^L > 1.
+
+    A frame pixel's position on the level grid has a fraction that depends only on the
+    pixel modulo the stride, so the Keys weights come from a table of `stride` entries;
+    taps wholly inside the grid are indexed directly. The sums are `cubic_at`'s.
+    """
+    height, width = fields[0].shape
+    origin = 0.5 * (stride - 1)
+    weights = np.empty((stride, 4))
+    for residue in range(stride):
+        u = (residue - origin) / stride
+        weights[residue] = keys_weights(u - np.floor(u))
+    for k in range(rows.size):
+        r, c = rows[k], cols[k]
+        iu = int(np.floor((c - origin) / stride))
+        iv = int(np.floor((r - origin) / stride))
+        if not (1 <= iu < width - 2 and 1 <= iv < height - 2):
+            u, v = level_coordinate(c, stride), level_coordinate(r, stride)
+            taps = cubic_taps(np.float64(u), np.float64(v), height, width)
+        else:
+            wu, wv = weights[c % stride], weights[r % stride]
+            taps = (
+                (iv - 1, iv, iv + 1, iv + 2),
+                (iu - 1, iu, iu + 1, iu + 2),
+                (wv[0], wv[1], wv[2], wv[3]),
+                (wu[0], wu[1], wu[2], wu[3]),
+            )
+        for f in range(len(fields)):
+            outs[f][k] = cubic_at(fields[f], *taps)
+
+
+def interpolate_cubic_fields(
+    fields: tuple[np.ndarray, ...], u: np.ndarray, v: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """`interpolate_cubic` of several fields of one shape at the same coordinates."""
+    outs = tuple(np.empty(np.size(u), np.float32) for _ in fields)
+    _interpolate_cubic(
+        tuple(fields),
+        np.ascontiguousarray(u, np.float64).ravel(),
+        np.ascontiguousarray(v, np.float64).ravel(),
+        outs,
+    )
+    return tuple(out.reshape(np.shape(u)) for out in outs)
+
+
+def interpolate_cubic(field: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Keys cubic convolution of a 2-D field at grid coordinates (u = column, v = row).
+
+    Parameters
+    ----------
+    field : ndarray of shape (H, W), float32
+    u, v : ndarray of shape (K,)
+        Coordinates on the field's grid; outside it the field is reflected (BORDER).
+
+    Returns
+    -------
+    ndarray of shape (K,), float32
+
+    Notes
+    -----
+    Keys' kernel with a = −1/2 is the one choice that reproduces quadratics exactly
+    (third-order accurate); OpenCV's INTER_CUBIC uses a = −3/4, which does not even
+    reproduce a linear ramp.
+    """
+    return interpolate_cubic_fields((field,), u, v)[0]
+
+
+def sample_derivatives(
+    level: ScaleLevel, rows: np.ndarray, cols: np.ndarray
+) -> GaussianDerivatives:
+    """Ix, Iy, Ixx, Ixy, Iyy at frame pixels, in frame units (float32, shape (K,)).
+
+    Level 0 is read directly; coarser levels by Keys cubic convolution, reflect border.
+    """
+    d = level.derivatives
+    fields = (d.ix, d.iy, d.ixx, d.ixy, d.iyy)
+    if level.level == 0:
+        ix, iy, ixx, ixy, iyy = (f[rows, cols] for f in fields)
+    else:
+        outs = tuple(np.empty(np.size(rows), np.float32) for _ in fields)
+        _cubic_at_pixels(
+            fields, level.stride, np.asarray(rows, np.int64), np.asarray(cols, np.int64), outs
+        )
+        ix, iy, ixx, ixy, iyy = outs
+    first = np.float32(1 / level.stride)
+    second = np.float32(1 / level.stride**2)
+    return GaussianDerivatives(
+        sigma_px=level.sigma_px,
+        ix=ix * first,
+        iy=iy * first,
+        ixx=ixx * second,
+        ixy=ixy * second,
+        iyy=iyy * second,
+    )
+
+
+@kernel
+def linear_tap(index: int, stride: int, size: int) -> tuple[int, int, float]:
+    """Taps and weight of frame index `index` on a level grid of `size` nodes, stride
+    2^L: the value is g[first]·(1 − w) + g[second]·w, pixel centres aligned and clamped at
+    the edges (cv2.resize INTER_LINEAR)."""
+    source = (index + 0.5) / stride - 0.5
+    first = int(np.floor(source))
+    weight = source - first
+    if first < 0:
+        first, weight = 0, 0.0
+    if first >= size - 1:
+        first, weight = size - 1, 0.0
+    return first, min(first + 1, size - 1), weight
+
+
+@kernel
+def column_taps(fields, strides, width):
+    """`linear_tap` of frame columns 0 … width − 1 on each field's grid: first, second
+    (int64) and weight, arrays (len(fields), width); rows of stride 1 are 0."""
+    levels = len(fields)
+    first = np.zeros((levels, width), np.int64)
+    second = np.zeros((levels, width), np.int64)
+    weight = np.zeros((levels, width))
+    for i in range(levels):
+        if strides[i] > 1:
+            for c in range(width):
+                first[i, c], second[i, c], weight[i, c] = linear_tap(
+                    c, strides[i], fields[i].shape[1]
+                )
+    return first, second, weight
+
+
+@kernel
+def blend(field, v0: int, v1: int, fv: float, u0: int, u1: int, fu: float) -> float:
+    """Bilinear value of `field` between rows v0, v1 and columns u0, u1 (`linear_tap`)."""
+    top = field[v0, u0] * (1 - fu) + field[v0, u1] * fu
+    bottom = field[v1, u0] * (1 - fu) + field[v1, u1] * fu
+    return top * (1 - fv) + bottom * fv
+
+
+@kernel
+def bilinear_at(field, stride: int, row: int, col: int) -> float:
+    """Bilinear value of a level field (stride 2^L) at frame pixel (row, col), clamped to
+    the grid; stride 1 reads the pixel itself."""
+    if stride == 1:
+        return field[row, col]
+    v0, v1, fv = linear_tap(row, stride, field.shape[0])
+    u0, u1, fu = linear_tap(col, stride, field.shape[1])
+    return blend(field, v0, v1, fv, u0, u1, fu)
+
+
+@kernel
+def _bilinear_clamped(field, stride, rows, cols, out) -> None:
+    for k in range(rows.size):
+        out[k] = bilinear_at(field, stride, rows[k], cols[k])
+
+
+def sample_bilinear(level: ScaleLevel, field: np.ndarray, rows, cols) -> np.ndarray:
+    """Bilinear values of a level-grid field at frame pixels (for display maps), shape (K,).
+
+    Coordinates are clamped to the grid (no extrapolation beyond its edge pixels).
+    """
+    if level.level == 0:
+        return field[rows, cols]
+    out = np.empty(np.size(rows), np.float32)
+    _bilinear_clamped(field, level.stride, np.asarray(rows), np.asarray(cols), out)
+    return out
+
+
+def upsample_to_frame(field: np.ndarray, level: int, shape: tuple[int, int]) -> np.ndarray:
+    """A level-grid field resampled (bilinear) onto the frame grid of `shape`."""
+    if level == 0:
+        return field
+    stride = 2**level
+    size = (field.shape[1] * stride, field.shape[0] * stride)
+    full = cv2.resize(field, size, interpolation=cv2.INTER_LINEAR)
+    return full[: shape[0], : shape[1]]

@@ -1,0 +1,218 @@
+"""Flange parameters of a wheel profile in the profile frame (DESIGN.md).
+
+Sh = highest z of the flange; Sd(h) = x of the flange flank (the side facing the tread) at
+z = h, for h = 12 mm (LM wheels) and h = 10 mm (EN); qR = x_flank(10) − x_flank(Sh − 2).
+
+Two estimators with one definition: `curve_flange_parameters` reads them off a clean,
+ordered polyline by linear interpolation (reference tables, the simulator's true profiles);
+`fit_flange_parameters` estimates them from measured, noisy profile points with local
+least-squares fits, so no single noisy point decides a parameter.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.errors import PipelineError
+from pipeline.imaging import GEOMETRY_FLOAT
+
+SD_HEIGHT_MM = 12.0
+SD_EN_HEIGHT_MM = 10.0
+QR_DROP_MM = 2.0
+TOP_HALF_WINDOW_MM = 2.5
+"""Half-width in x of the flange-top fit: a quadratic departs from the R12 top arc of LMA
+by 2.5⁴/(8·12³) = 0.003 mm at its ends, well below the measurement's resolution."""
+TOP_CIRCLE_HALF_WINDOW_MM = 4.0
+"""Half-width in x of the circle fitted to the flange top for its height."""
+FLANK_HALF_WINDOW_MM = 1.0
+"""Half-height in z of the flank fits (quadratic x(z) about the height)."""
+MIN_FIT_POINTS = 5
+OUTLIER_MADS = 3.0
+OUTLIER_FLOOR_MM = 0.03
+OUTLIER_PASSES = 4
+"""Fit points further than 3 robust standard deviations (at least 0.03 mm) from the fit are
+dropped and the fit repeated (up to 4 passes), so a stray spot cannot pull a parameter."""
+
+
+class FlangeNotFoundError(PipelineError):
+    """The profile does not show a flange top or flank where the parameters need them."""
+
+
+@dataclass(frozen=True, slots=True)
+class FlangeParameters:
+    """Flange parameters of one wheel [mm].
+
+    Attributes
+    ----------
+    flange_height_mm : float
+        Sh, flange top above the reference point.
+    flange_thickness_mm : float
+        Sd at z = 12 mm from the back face.
+    flange_thickness_10_mm : float
+        Sd at z = 10 mm (EN variant).
+    qr_mm : float
+        qR = x_flank(10) − x_flank(Sh − 2).
+    """
+
+    flange_height_mm: float
+    flange_thickness_mm: float
+    flange_thickness_10_mm: float
+    qr_mm: float
+
+
+def _check_points(x_mm: object, z_mm: object) -> tuple[np.ndarray, np.ndarray]:
+    x = np.asarray(x_mm, dtype=GEOMETRY_FLOAT)
+    z = np.asarray(z_mm, dtype=GEOMETRY_FLOAT)
+    if x.ndim != 1 or x.shape != z.shape:
+        raise ValueError(f"x_mm and z_mm must be 1-D of equal length, got {x.shape}, {z.shape}")
+    if x.size < 2 or not (np.all(np.isfinite(x)) and np.all(np.isfinite(z))):
+        raise ValueError("x_mm and z_mm must hold at least 2 finite points")
+    return x, z
+
+
+def _crossing_after(x: np.ndarray, z: np.ndarray, start: int, height_mm: float) -> float:
+    """x of the first downward crossing of z = height after index `start` (linear)."""
+    above = z[start:] >= height_mm
+    down = np.flatnonzero(above[:-1] & ~above[1:])
+    if down.size == 0:
+        raise FlangeNotFoundError(f"the profile's flank never crosses z = {height_mm:.2f} mm")
+    i = start + int(down[0])
+    t = (z[i] - height_mm) / (z[i] - z[i + 1])
+    return float(x[i] + t * (x[i + 1] - x[i]))
+
+
+def curve_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameters:
+    """Flange parameters of a clean polyline ordered along the profile (x mostly rising).
+
+    Parameters
+    ----------
+    x_mm, z_mm : ndarray of shape (K,)
+        Profile points in the profile frame, ordered from the back face to the field side [mm].
+
+    Returns
+    -------
+    FlangeParameters
+
+    Raises
+    ------
+    FlangeNotFoundError
+        If the flank does not cross a height the parameters need.
+
+    Examples
+    --------
+    >>> from pipeline.profile.reference import load_reference_profile
+    >>> p = load_reference_profile("LMA")
+    >>> round(curve_flange_parameters(p.x_mm, p.z_mm).flange_thickness_mm, 4)
+    31.9744
+    """
+    x, z = _check_points(x_mm, z_mm)
+    top = int(np.argmax(z))
+    height = float(z[top])
+    flank_12 = _crossing_after(x, z, top, SD_HEIGHT_MM)
+    flank_10 = _crossing_after(x, z, top, SD_EN_HEIGHT_MM)
+    flank_top = _crossing_after(x, z, top, height - QR_DROP_MM)
+    return FlangeParameters(height, flank_12, flank_10, flank_10 - flank_top)
+
+
+def _robust_polyfit(t: np.ndarray, v: np.ndarray, degree: int, what: str) -> np.ndarray:
+    """Least-squares polynomial v(t), refitted without outliers until the inliers settle."""
+    if t.size < MIN_FIT_POINTS:
+        raise FlangeNotFoundError(f"too few profile points on the {what}")
+    inlier = np.ones(t.size, bool)
+    for _ in range(OUTLIER_PASSES):
+        coefficients = np.polyfit(t[inlier], v[inlier], degree)
+        residual = np.abs(v - np.polyval(coefficients, t))
+        limit = max(OUTLIER_MADS * 1.4826 * float(np.median(residual[inlier])), OUTLIER_FLOOR_MM)
+        if np.array_equal(residual <= limit, inlier):
+            return coefficients
+        inlier = residual <= limit
+        if np.count_nonzero(inlier) < MIN_FIT_POINTS:
+            raise FlangeNotFoundError(f"too few consistent profile points on the {what}")
+    return np.polyfit(t[inlier], v[inlier], degree)
+
+
+def _circle(x: np.ndarray, z: np.ndarray) -> tuple[float, float, float]:
+    """Algebraic least-squares circle (Kåsa): centre (x, z) and radius [mm]."""
+    design = np.column_stack([x, z, np.ones_like(x)])
+    a, b, c = np.linalg.lstsq(design, -(x * x + z * z), rcond=None)[0]
+    cx, cz = -a / 2, -b / 2
+    return float(cx), float(cz), float(np.sqrt(max(cx * cx + cz * cz - c, 0.0)))
+
+
+def _fit_top_circle(x: np.ndarray, z: np.ndarray, x_top: float) -> tuple[float, float]:
+    """Flange top as the crest of a circle fitted within ±4 mm of the first estimate."""
+    near = np.flatnonzero(np.abs(x - x_top) <= TOP_CIRCLE_HALF_WINDOW_MM)
+    if near.size < MIN_FIT_POINTS:
+        raise FlangeNotFoundError("too few profile points on the flange top")
+    inlier = np.ones(near.size, bool)
+    for _ in range(OUTLIER_PASSES):
+        cx, cz, radius = _circle(x[near[inlier]], z[near[inlier]])
+        residual = np.abs(np.hypot(x[near] - cx, z[near] - cz) - radius)
+        limit = max(OUTLIER_MADS * 1.4826 * float(np.median(residual[inlier])), OUTLIER_FLOOR_MM)
+        if np.array_equal(residual <= limit, inlier):
+            break
+        inlier = residual <= limit
+        if np.count_nonzero(inlier) < MIN_FIT_POINTS:
+            raise FlangeNotFoundError("too few consistent profile points on the flange top")
+    if cz >= z[near].max() or abs(cx - x_top) > TOP_CIRCLE_HALF_WINDOW_MM:
+        raise FlangeNotFoundError("the flange top is not a crest")
+    return cx, cz + radius
+
+
+def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
+    """(x, z) of the flange top: a quadratic about the highest points locates the crest,
+    then a circle through ±4 mm of it gives its height (the top is an arc, R12 on LMA)."""
+    order = np.argsort(z)[::-1][: max(MIN_FIT_POINTS, z.size // 200)]
+    x_top = float(np.median(x[order]))
+    for _ in range(3):
+        near = np.abs(x - x_top) <= TOP_HALF_WINDOW_MM
+        c2, c1, _ = _robust_polyfit(x[near] - x_top, z[near], 2, "flange top")
+        if c2 >= 0:
+            raise FlangeNotFoundError("the flange top is not a crest (fit curvature ≥ 0)")
+        x_top += float(np.clip(-c1 / (2 * c2), -TOP_HALF_WINDOW_MM, TOP_HALF_WINDOW_MM))
+    return _fit_top_circle(x, z, x_top)
+
+
+def _fit_flank(x: np.ndarray, z: np.ndarray, x_top: float, height_mm: float) -> float:
+    """x of the flank at z = height: quadratic x(z) fitted to flank points about the height."""
+    near = (x > x_top) & (x < x_top + 40.0) & (np.abs(z - height_mm) <= FLANK_HALF_WINDOW_MM)
+    dz = z[near] - height_mm
+    degree = 2 if dz.size and np.ptp(dz) > FLANK_HALF_WINDOW_MM else 1
+    what = f"flank near z = {height_mm:.2f} mm"
+    return float(np.polyval(_robust_polyfit(dz, x[near], degree, what), 0.0))
+
+
+def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameters:
+    """Flange parameters estimated from measured profile points by local least squares.
+
+    Parameters
+    ----------
+    x_mm, z_mm : ndarray of shape (K,)
+        Profile points in the profile frame, in any order [mm].
+
+    Returns
+    -------
+    FlangeParameters
+
+    Raises
+    ------
+    FlangeNotFoundError
+        If the flange top or the flank at a needed height has too few points.
+
+    Notes
+    -----
+    Sh is the vertex of a quadratic z(x) fitted within ±2.5 mm of the highest points. Each
+    flank abscissa is a quadratic x(z) fitted to points on the tread side of the top within
+    ±1 mm of the height, evaluated at that height.
+    """
+    x, z = _check_points(x_mm, z_mm)
+    x_top, height = _fit_top(x, z)
+    if not math.isfinite(height):
+        raise FlangeNotFoundError("the flange top fit failed")
+    flank_12 = _fit_flank(x, z, x_top, SD_HEIGHT_MM)
+    flank_10 = _fit_flank(x, z, x_top, SD_EN_HEIGHT_MM)
+    flank_top = _fit_flank(x, z, x_top, height - QR_DROP_MM)
+    return FlangeParameters(height, flank_12, flank_10, flank_10 - flank_top)

@@ -1,0 +1,359 @@
+"""From track-frame stripe points to one wheel's fused profile in the profile frame.
+
+Both sensors of a wheel land in the one track frame, so fusion is a union plus a consistency
+check. The datum follows DESIGN.md: x from the back face (found in the inner sensor's points
+as the innermost vertical line), z up towards the flange tip, z = 0 at the tread reference
+point x = 70 mm. At the wheel's lowest section a larger radius is a lower track Z, so
+z = Z(x = 70) − Z.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from pipeline.errors import PipelineError
+from pipeline.extraction.hessian import eigen2
+from pipeline.extraction.normal_equations import solve_symmetric3
+from pipeline.imaging import GEOMETRY_FLOAT
+from pipeline.jit import kernel
+
+REFERENCE_X_MM = 70.0
+WHEEL_REACH_MM = (-8.0, 145.0)
+"""Profile-frame x window of a wheel: back face (x = 0) to beyond the field face (≈ 135)."""
+WHEEL_Z_MM = (-45.0, 40.0)
+"""Profile-frame z window: rim faces (to −40) up to a worn flange top (< 36)."""
+SEARCH_U_MM = (560.0, 820.0)
+"""Where a back face can be: |X| of the back face, half back-to-back 1353/2 ± 100 mm."""
+BACK_FACE_Z_MM = (-35.0, 2.0)
+"""Part of the back face used for its fit: below the flange root, above the rim edge."""
+BACK_FACE_BAND_MM = 1.5
+REFERENCE_HALF_WINDOW_MM = 5.0
+"""Tread points within ±5 mm of x = 70 give the reference height (quadratic fit, so a worn
+tread's curvature does not bias it)."""
+OVERLAP_NEIGHBOURS = 8
+MIN_BACK_FACE_POINTS = 20
+CONSENSUS_RADIUS_MM = 2.0
+CONSENSUS_MIN_POINTS = 6
+CONSENSUS_TOLERANCE_MM = 0.12
+"""Where the other sensor has ≥ 6 points within 2 mm of a point, the point must lie near
+their local curve: within 0.12 mm, or more where the two sensors agree less overall."""
+SELF_RADIUS_MM = 3.0
+SELF_TOLERANCE_MM = 0.05
+"""A point is also checked against its own sensor's local quadratic over ±3 mm: a short
+bump (a glint, a spot touching the stripe) leaves it by more than 0.05 mm."""
+LINK_RADIUS_MM = 0.5
+MIN_COMPONENT_POINTS = 40
+"""Profile pieces linked by < 0.5 mm gaps and holding fewer than 40 points (≈ 5 mm of
+stripe) are glints or stray spots, not the wheel."""
+
+
+class DatumError(PipelineError):
+    """The back face or the tread reference point cannot be found in the stripe points."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class FusedProfile:
+    """A wheel's profile from both sensors, in the profile frame, ordered along it.
+
+    Attributes
+    ----------
+    x_mm, z_mm : ndarray of shape (K,), float64
+        Points: the back face bottom-up, then the rest by increasing x [mm].
+    sensor : ndarray of shape (K,), int8
+        0 for the inner sensor, 1 for the outer one.
+    back_face_track_x_mm : float
+        Track-frame X of the back face (for the back-to-back distance) [mm].
+    reference_track_z_mm : float
+        Track-frame Z of the reference point x = 70 mm [mm].
+    overlap_residual_mm : float or None
+        RMS distance of the outer sensor's points from the inner sensor's local profile
+        where both see the wheel (None without overlap) [mm].
+    overlap_points : int
+        Outer points in that overlap.
+    rejected_points : int
+        Points dropped as inconsistent with the other sensor or as stray pieces.
+    """
+
+    x_mm: np.ndarray
+    z_mm: np.ndarray
+    sensor: np.ndarray
+    back_face_track_x_mm: float
+    reference_track_z_mm: float
+    overlap_residual_mm: float | None
+    overlap_points: int
+    rejected_points: int
+
+    def __post_init__(self) -> None:
+        for array in (self.x_mm, self.z_mm, self.sensor):
+            array.flags.writeable = False
+
+
+def _back_face_u(u_inner: np.ndarray) -> float:
+    """Rough back-face position: the 1 mm bin holding most inner points (a vertical line)."""
+    inside = u_inner[(u_inner > SEARCH_U_MM[0]) & (u_inner < SEARCH_U_MM[1])]
+    if inside.size < MIN_BACK_FACE_POINTS:
+        raise DatumError("the inner sensor shows no stripe where a back face can be")
+    edges = np.arange(SEARCH_U_MM[0], SEARCH_U_MM[1] + 1.0, 1.0)
+    counts, _ = np.histogram(inside, edges)
+    best = int(np.argmax(counts))
+    if counts[best] < MIN_BACK_FACE_POINTS:
+        raise DatumError("the inner sensor's stripe shows no vertical back face")
+    near = inside[np.abs(inside - (edges[best] + 0.5)) < BACK_FACE_BAND_MM]
+    return float(np.median(near))
+
+
+def _reference_z(u: np.ndarray, big_z: np.ndarray, u_back: float) -> float:
+    near = np.abs(u - u_back - REFERENCE_X_MM) <= REFERENCE_HALF_WINDOW_MM
+    if np.count_nonzero(near) < MIN_BACK_FACE_POINTS:
+        raise DatumError("no tread points around the reference point x = 70 mm")
+    dx = u[near] - u_back - REFERENCE_X_MM
+    coefficients = np.polyfit(dx, big_z[near], 2)
+    residual = big_z[near] - np.polyval(coefficients, dx)
+    keep = np.abs(residual) <= max(3.0 * 1.4826 * np.median(np.abs(residual)), 0.05)
+    return float(np.polyfit(dx[keep], big_z[near][keep], 2)[2])
+
+
+def _refine_back_face(u: np.ndarray, z: np.ndarray, u_back: float) -> float:
+    face = (
+        (np.abs(u - u_back) < BACK_FACE_BAND_MM) & (z > BACK_FACE_Z_MM[0]) & (z < BACK_FACE_Z_MM[1])
+    )
+    if np.count_nonzero(face) < MIN_BACK_FACE_POINTS:
+        raise DatumError("too few back-face points below the flange root")
+    values = u[face]
+    spread = 1.4826 * np.median(np.abs(values - np.median(values)))
+    return float(np.mean(values[np.abs(values - np.median(values)) <= max(3 * spread, 0.02)]))
+
+
+def overlap_residual(inner_xz: np.ndarray, outer_xz: np.ndarray) -> tuple[float | None, int]:
+    """RMS distance of outer points from local lines through the nearest inner points [mm].
+
+    Only outer points within 0.5 mm of some inner point count (the overlap); the local line
+    is the principal axis of the 8 nearest inner points, so sampling density and the
+    direction of the profile do not matter.
+    """
+    if inner_xz.shape[0] < OVERLAP_NEIGHBOURS or outer_xz.shape[0] == 0:
+        return None, 0
+    tree = cKDTree(inner_xz)
+    distance, index = tree.query(outer_xz, k=OVERLAP_NEIGHBOURS)
+    in_overlap = distance[:, 0] <= 0.5
+    if np.count_nonzero(in_overlap) < OVERLAP_NEIGHBOURS:
+        return None, 0
+    neighbours = inner_xz[index[in_overlap]]
+    centred = neighbours - neighbours.mean(axis=1, keepdims=True)
+    _, _, vt = np.linalg.svd(centred)
+    normal = vt[:, 1, :]
+    offsets = outer_xz[in_overlap] - neighbours.mean(axis=1)
+    residual = np.einsum("ij,ij->i", offsets, normal)
+    return float(np.sqrt(np.mean(residual**2))), int(np.count_nonzero(in_overlap))
+
+
+@kernel
+def _residuals_kernel(points, other, order, radius_mm, min_points, out) -> None:
+    """Per point: offset from the quadratic v(u) through `other`'s points within the radius.
+
+    `order` sorts `other` by x. (u, v) are the principal axes of the local points, v the
+    minor one oriented upwards (z ≥ 0) so that offsets of neighbouring points share a sign.
+    Fewer than 2·radius − 1 mm of extent along u (ptp(u) ≤ 0.5 mm) fits a line instead.
+    """
+    xs = other[order, 0]
+    r2 = radius_mm * radius_mm
+    for i in range(points.shape[0]):
+        px, pz = points[i, 0], points[i, 1]
+        lo = np.searchsorted(xs, px - radius_mm)
+        hi = np.searchsorted(xs, px + radius_mm, side="right")
+        n = 0
+        sx = sz = 0.0
+        for k in range(lo, hi):
+            j = order[k]
+            dx, dz = other[j, 0] - px, other[j, 1] - pz
+            if dx * dx + dz * dz <= r2:
+                n += 1
+                sx += other[j, 0]
+                sz += other[j, 1]
+        if n < min_points:
+            out[i] = np.nan
+            continue
+        cx, cz = sx / n, sz / n
+        cxx = cxz = czz = 0.0
+        for k in range(lo, hi):
+            j = order[k]
+            dx, dz = other[j, 0] - px, other[j, 1] - pz
+            if dx * dx + dz * dz <= r2:
+                ex, ez = other[j, 0] - cx, other[j, 1] - cz
+                cxx += ex * ex
+                cxz += ex * ez
+                czz += ez * ez
+        _, _, ax, az = eigen2(cxx, cxz, czz)  # major axis (λ1 of the covariance ≥ 0)
+        nx, nz = -az, ax
+        if nz < 0 or (nz == 0 and nx < 0):
+            nx, nz = -nx, -nz
+        ux, uz = nz, -nx
+        s0 = s1 = s2 = s3 = s4 = t0 = t1 = t2 = 0.0
+        u_min, u_max = np.inf, -np.inf
+        for k in range(lo, hi):
+            j = order[k]
+            dx, dz = other[j, 0] - px, other[j, 1] - pz
+            if dx * dx + dz * dz <= r2:
+                ex, ez = other[j, 0] - cx, other[j, 1] - cz
+                u = ex * ux + ez * uz
+                v = ex * nx + ez * nz
+                u_min, u_max = min(u_min, u), max(u_max, u)
+                s0 += 1.0
+                s1 += u
+                s2 += u * u
+                s3 += u * u * u
+                s4 += u * u * u * u
+                t0 += v
+                t1 += u * v
+                t2 += u * u * v
+        eu = (px - cx) * ux + (pz - cz) * uz
+        ev = (px - cx) * nx + (pz - cz) * nz
+        if u_max - u_min > 0.5:  # least squares v = a + b·u + c·u²
+            a, b, c = solve_symmetric3(s0, s1, s2, s2, s3, s4, t0, t1, t2)
+            out[i] = ev - (a + b * eu + c * eu * eu)
+        else:  # a line v = a + b·u
+            det = s0 * s2 - s1 * s1
+            a = (t0 * s2 - s1 * t1) / det
+            b = (s0 * t1 - s1 * t0) / det
+            out[i] = ev - (a + b * eu)
+
+
+def _local_residuals(points: np.ndarray, other: np.ndarray, radius_mm: float) -> np.ndarray:
+    """Offset of each point from the local curve of `other` (NaN where it has no say).
+
+    The local curve is a quadratic v(u) in the principal axes of the points of `other`
+    within `radius_mm`, so the curvature of the flange top does not count as offset.
+    """
+    residual = np.full(points.shape[0], np.nan)
+    if points.shape[0] == 0 or other.shape[0] < CONSENSUS_MIN_POINTS:
+        return residual
+    points = np.ascontiguousarray(points, np.float64)
+    other = np.ascontiguousarray(other, np.float64)
+    order = np.argsort(other[:, 0], kind="stable")
+    _residuals_kernel(points, other, order, radius_mm, CONSENSUS_MIN_POINTS, residual)
+    return residual
+
+
+def _outside(residual: np.ndarray, floor_mm: float) -> np.ndarray:
+    """True where |residual| exceeds max(floor, |median| + 4·1.4826·MAD) (NaN → False)."""
+    known = np.isfinite(residual)
+    if not np.any(known):
+        return np.zeros(residual.shape, bool)
+    centre = float(np.median(residual[known]))
+    spread = 1.4826 * float(np.median(np.abs(residual[known] - centre)))
+    tolerance = max(floor_mm, abs(centre) + 4.0 * spread)
+    return known & (np.abs(np.nan_to_num(residual)) > tolerance)
+
+
+def _consistent_with(points: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """False for points that leave the other sensor's local curve AND bend away from their own.
+
+    A bump seen by one sensor only fails both tests; where the two sensors disagree smoothly
+    (a systematic offset, a method's bias) neither sensor's points are dropped, so the flange
+    top is never left without points. Tolerances follow the data: max(floor, |median| +
+    4·1.4826·MAD) of the offsets.
+    """
+    cross = _outside(_local_residuals(points, other, CONSENSUS_RADIUS_MM), CONSENSUS_TOLERANCE_MM)
+    if not np.any(cross):
+        return np.ones(points.shape[0], bool)
+    own = _outside(_local_residuals(points, points, SELF_RADIUS_MM), SELF_TOLERANCE_MM)
+    return ~(cross & own)
+
+
+def _main_components(xz: np.ndarray) -> np.ndarray:
+    """True for points in linked pieces of at least MIN_COMPONENT_POINTS points."""
+    pairs = cKDTree(xz).query_pairs(LINK_RADIUS_MM, output_type="ndarray")
+    graph = coo_matrix(
+        (np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(len(xz), len(xz))
+    )
+    _, labels = connected_components(graph, directed=False)
+    sizes = np.bincount(labels)
+    return sizes[labels] >= MIN_COMPONENT_POINTS
+
+
+def clean_profile_points(xz: np.ndarray, sensor: np.ndarray) -> np.ndarray:
+    """Mask of the profile points kept: cross-sensor consensus, then no small stray pieces.
+
+    Parameters
+    ----------
+    xz : ndarray of shape (K, 2)
+        Profile-frame points [mm].
+    sensor : ndarray of shape (K,), int8
+        0 inner, 1 outer.
+    """
+    keep = np.ones(len(xz), bool)
+    inner, outer = sensor == 0, sensor == 1
+    keep[inner] = _consistent_with(xz[inner], xz[outer])
+    keep[outer] = _consistent_with(xz[outer], xz[inner])
+    if np.count_nonzero(keep) < 2:
+        return keep
+    kept = np.flatnonzero(keep)
+    keep[kept] = _main_components(xz[kept])
+    return keep
+
+
+def fuse_profile(
+    inner_track_mm: np.ndarray, outer_track_mm: np.ndarray, *, side: str
+) -> FusedProfile:
+    """Fuse a wheel's inner and outer track-frame points into its profile.
+
+    Parameters
+    ----------
+    inner_track_mm, outer_track_mm : ndarray of shape (K, 3)
+        Stripe points of the inner and outer sensor in the track frame [mm].
+    side : str
+        "left" or "right": the profile's x runs towards −X or +X.
+
+    Returns
+    -------
+    FusedProfile
+
+    Raises
+    ------
+    DatumError
+        If the back face or the reference point cannot be found.
+    """
+    if side not in ("left", "right"):
+        raise ValueError(f"side must be 'left' or 'right', got {side!r}")
+    sign = 1.0 if side == "right" else -1.0
+    points = np.concatenate([inner_track_mm, outer_track_mm]).astype(GEOMETRY_FLOAT)
+    sensor = np.concatenate(
+        [np.zeros(len(inner_track_mm), np.int8), np.ones(len(outer_track_mm), np.int8)]
+    )
+    u, big_z = sign * points[:, 0], points[:, 2]
+    u_back = _back_face_u(u[sensor == 0])
+    z_ref = _reference_z(u, big_z, u_back)
+    u_back = _refine_back_face(u, z_ref - big_z, u_back)
+    z_ref = _reference_z(u, big_z, u_back)
+    x, z = u - u_back, z_ref - big_z
+    keep = (x > WHEEL_REACH_MM[0]) & (x < WHEEL_REACH_MM[1])
+    keep &= (z > WHEEL_Z_MM[0]) & (z < WHEEL_Z_MM[1])
+    x, z, sensor = x[keep], z[keep], sensor[keep]
+    clean = clean_profile_points(np.column_stack([x, z]), sensor)
+    x, z, sensor = x[clean], z[clean], sensor[clean]
+    on_face = (np.abs(x) < BACK_FACE_BAND_MM) & (z < BACK_FACE_Z_MM[1])
+    order = np.concatenate(
+        [
+            np.flatnonzero(on_face)[np.argsort(z[on_face])],
+            np.flatnonzero(~on_face)[np.argsort(x[~on_face])],
+        ]
+    )
+    residual, count = overlap_residual(
+        np.column_stack([x[sensor == 0], z[sensor == 0]])[~on_face[sensor == 0]],
+        np.column_stack([x[sensor == 1], z[sensor == 1]]),
+    )
+    return FusedProfile(
+        x_mm=x[order],
+        z_mm=z[order],
+        sensor=sensor[order],
+        back_face_track_x_mm=sign * u_back,
+        reference_track_z_mm=z_ref,
+        overlap_residual_mm=residual,
+        overlap_points=count,
+        rejected_points=int(np.count_nonzero(~clean)),
+    )

@@ -1,0 +1,273 @@
+"""Measure wheels: the one chain the CLI, the service's jobs and the benchmarks all call.
+
+`measure_wheel` takes one wheel's frames (in memory) and the calibration, and runs
+centres → undistorted rays → light-plane intersection → track frame → fused profile →
+datum → flange parameters. `measure_pass` does that for every wheel of a validated pass
+archive and adds the back-to-back distance of each axle. A wheel whose frames yield no
+usable stripe is returned as "not measured" with the reason; it never fails the pass.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.archive.manifest import POSITIONS, WheelEntry
+from pipeline.archive.pass_archive import PassArchive
+from pipeline.calibration.geometry import pixels_to_track_points
+from pipeline.calibration.model import SensorCalibration, StationCalibration
+from pipeline.errors import PipelineError
+from pipeline.extraction.centres import Centres, extract_centres
+from pipeline.imaging import validate_image
+from pipeline.profile.flange import FlangeParameters, fit_flange_parameters
+from pipeline.profile.fusion import FusedProfile, fuse_profile
+from pipeline.version import PIPELINE_VERSION
+
+MEASURED = "measured"
+NOT_MEASURED = "not measured"
+MEASURE_METHODS = ("adaptive", "steger")
+MIN_SENSOR_POINTS = 50
+"""A sensor with fewer centre points than this has no usable stripe (a wheel's stripe gives
+over a thousand)."""
+MIN_CHAIN_POINTS = 25
+"""Linked centre chains shorter than this (≈ 3 mm of profile) are stray spots or glints
+beside the stripe, not the profile, and are left out of the measurement."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class FrameCentres:
+    """The centres of one frame, with where the frame came from.
+
+    Attributes
+    ----------
+    sensor : str
+        Sensor name (e.g. "left_inner").
+    frame_index : int
+        Index of the frame in that sensor's list for the wheel.
+    centres : Centres
+        Centres, stripe mask and σ map of the frame.
+    points_track_mm : ndarray of shape (K, 3), float64
+        The centres in the track frame [mm] (same order as the centres).
+    used : ndarray of shape (K,), bool
+        Centres on chains of at least `MIN_CHAIN_POINTS` points, the ones measured.
+    """
+
+    sensor: str
+    frame_index: int
+    centres: Centres
+    points_track_mm: np.ndarray
+    used: np.ndarray
+
+    def __post_init__(self) -> None:
+        self.points_track_mm.flags.writeable = False
+        self.used.flags.writeable = False
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class WheelMeasurement:
+    """Result of measuring one wheel with one extraction method.
+
+    Attributes
+    ----------
+    side : str
+    method : str
+    status : str
+        "measured" or "not measured".
+    reason : str or None
+        Why the wheel was not measured (None when measured).
+    parameters : FlangeParameters or None
+    profile : FusedProfile or None
+        Fused profile points, datum, back-face X and overlap residual.
+    frames : tuple of FrameCentres
+        Every frame's centres and track points, inner frames first.
+    points_inner, points_outer : int
+        Centre points per sensor used in the measurement.
+    pipeline_version : str
+    """
+
+    side: str
+    method: str
+    status: str
+    reason: str | None
+    parameters: FlangeParameters | None
+    profile: FusedProfile | None
+    frames: tuple[FrameCentres, ...]
+    points_inner: int
+    points_outer: int
+    pipeline_version: str = PIPELINE_VERSION
+
+    @property
+    def back_face_track_x_mm(self) -> float | None:
+        """Track-frame X of the back face, when the wheel was measured [mm]."""
+        return None if self.profile is None else self.profile.back_face_track_x_mm
+
+
+def _check_frame(image: object, sensor: SensorCalibration, where: str) -> np.ndarray:
+    image = validate_image(image, name=where)
+    expected = (sensor.image_height_px, sensor.image_width_px)
+    if image.shape != expected or image.dtype != sensor.frame_dtype:
+        raise ValueError(
+            f"{where} must be {sensor.frame_dtype} of shape {expected} for sensor "
+            f"{sensor.name}, got {image.dtype} {image.shape}"
+        )
+    return image
+
+
+def _frame_centres(images, sensor, method, widths) -> list[FrameCentres]:
+    result = []
+    for index, image in enumerate(images):
+        image = _check_frame(image, sensor, f"{sensor.name} frame {index}")
+        centres = extract_centres(image, method=method, width_min=widths[0], width_max=widths[1])
+        points = pixels_to_track_points(centres.x, centres.y, sensor)
+        used = np.zeros(len(centres), bool)
+        for chain in centres.polylines:
+            used[chain] = chain.size >= MIN_CHAIN_POINTS
+        result.append(FrameCentres(sensor.name, index, centres, points, used))
+    return result
+
+
+def _stack(frames: list[FrameCentres]) -> np.ndarray:
+    if not frames:
+        return np.zeros((0, 3))
+    return np.concatenate([f.points_track_mm[f.used] for f in frames])
+
+
+def measure_wheel(
+    frames_inner: Sequence[np.ndarray],
+    frames_outer: Sequence[np.ndarray],
+    calibration: StationCalibration,
+    *,
+    side: str,
+    method: str = "adaptive",
+    width_min: float = 5,
+    width_max: float = 21,
+) -> WheelMeasurement:
+    """Measure one wheel from its inner and outer frames.
+
+    Parameters
+    ----------
+    frames_inner, frames_outer : sequence of ndarray of shape (M, N), uint8 or uint16
+        The wheel's frames from the inner and outer sensor of its side.
+    calibration : StationCalibration
+        Must calibrate `<side>_inner` and `<side>_outer`.
+    side : str
+        "left" or "right".
+    method : str
+        Centre extraction method: "adaptive" or "steger".
+    width_min, width_max : float
+        Stripe width range for the extraction [px].
+
+    Returns
+    -------
+    WheelMeasurement
+        Status "not measured" with the reason when the stripe is unusable (too few points,
+        no back face, no reference point, no flange); never raises for that.
+
+    Raises
+    ------
+    ValueError
+        Bad input: unknown side or method, a frame of the wrong size or dtype for its
+        sensor, a sensor missing from the calibration.
+    """
+    if side not in ("left", "right"):
+        raise ValueError(f"side must be 'left' or 'right', got {side!r}")
+    if method not in MEASURE_METHODS:
+        raise ValueError(f"method must be one of {', '.join(MEASURE_METHODS)}, got {method!r}")
+    sensors = [calibration.sensor(f"{side}_{position}") for position in POSITIONS]
+    inner = _frame_centres(frames_inner, sensors[0], method, (width_min, width_max))
+    outer = _frame_centres(frames_outer, sensors[1], method, (width_min, width_max))
+    inner_points, outer_points = _stack(inner), _stack(outer)
+    counts = (len(inner_points), len(outer_points))
+
+    def not_measured(reason: str) -> WheelMeasurement:
+        return WheelMeasurement(
+            side, method, NOT_MEASURED, reason, None, None, tuple(inner + outer), *counts
+        )
+
+    for position, count in zip(POSITIONS, counts, strict=True):
+        if count < MIN_SENSOR_POINTS:
+            return not_measured(
+                f"no usable stripe from the {position} sensor ({count} centre points)"
+            )
+    try:
+        profile = fuse_profile(inner_points, outer_points, side=side)
+        parameters = fit_flange_parameters(profile.x_mm, profile.z_mm)
+    except PipelineError as exc:
+        return not_measured(str(exc))
+    return WheelMeasurement(
+        side, method, MEASURED, None, parameters, profile, tuple(inner + outer), *counts
+    )
+
+
+def axle_back_to_back(left: WheelMeasurement, right: WheelMeasurement) -> float | None:
+    """Back-to-back distance of an axle from its two measured wheels [mm]; None if either
+    wheel was not measured."""
+    if left.side != "left" or right.side != "right":
+        raise ValueError("axle_back_to_back needs the left wheel first, then the right one")
+    if left.back_face_track_x_mm is None or right.back_face_track_x_mm is None:
+        return None
+    return right.back_face_track_x_mm - left.back_face_track_x_mm
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class PassWheelResult:
+    """One wheel of a pass measured with one method, with its axle's back-to-back."""
+
+    wheel: WheelEntry
+    measurement: WheelMeasurement
+    back_to_back_mm: float | None
+
+
+def measure_pass(
+    archive: PassArchive,
+    *,
+    methods: Sequence[str] = ("adaptive",),
+    calibration: StationCalibration | None = None,
+    progress: Callable[[int, int], None] | None = None,
+) -> tuple[PassWheelResult, ...]:
+    """Measure every wheel of a validated pass with each method.
+
+    Parameters
+    ----------
+    archive : PassArchive
+        From `read_pass_archive`.
+    methods : sequence of str
+        Extraction methods, each of `MEASURE_METHODS`.
+    calibration : StationCalibration, optional
+        Overrides the archive's calibration.
+    progress : callable(done, total), optional
+        Called after each wheel and method.
+
+    Returns
+    -------
+    tuple of PassWheelResult
+        In manifest order, methods inner-most.
+    """
+    calibration = calibration or archive.calibration
+    if calibration is None:
+        raise ValueError("the pass has no calibration.json; give the site's calibration")
+    for method in methods:
+        if method not in MEASURE_METHODS:
+            raise ValueError(f"methods must be among {', '.join(MEASURE_METHODS)}, got {method!r}")
+    total = len(archive.manifest.wheels) * len(methods)
+    measured: dict[tuple[str, int, str, str], WheelMeasurement] = {}
+    for wheel in archive.manifest.wheels:
+        inner = [archive.load_frame(p) for p in wheel.frames_inner]
+        outer = [archive.load_frame(p) for p in wheel.frames_outer]
+        for method in methods:
+            measured[(wheel.vehicle_id, wheel.axle, wheel.side, method)] = measure_wheel(
+                inner, outer, calibration, side=wheel.side, method=method
+            )
+            if progress is not None:
+                progress(len(measured), total)
+    results = []
+    for wheel in archive.manifest.wheels:
+        for method in methods:
+            left = measured.get((wheel.vehicle_id, wheel.axle, "left", method))
+            right = measured.get((wheel.vehicle_id, wheel.axle, "right", method))
+            b2b = axle_back_to_back(left, right) if left and right else None
+            key = (wheel.vehicle_id, wheel.axle, wheel.side, method)
+            results.append(PassWheelResult(wheel, measured[key], b2b))
+    return tuple(results)

@@ -1,0 +1,324 @@
+"""Pass simulator: a train of wheelsets rolling over the simulated station, with ground truth.
+
+A `Train` fixes every wheel (profile, wear, surface) and axle (back-to-back, radius) from a
+seed; each simulated pass of it draws new wheelset offsets and yaw, trigger jitter, lighting,
+speckle, specular spots, stray light and sensor noise, renders every frame physically
+(`pipeline.simulation.render`, `pipeline.simulation.frame_render`) and returns the
+`wheelscan-pass/1` content and the truth read off the true wheel geometry.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+
+import numpy as np
+
+from pipeline.archive.manifest import PassManifest, WheelEntry
+from pipeline.archive.pass_archive import write_pass_archive
+from pipeline.calibration.model import SENSOR_NAMES
+from pipeline.profile.flange import FlangeParameters
+from pipeline.profile.reference import load_reference_profile
+from pipeline.simulation.frame_render import (
+    Appearance,
+    add_specular_spots,
+    add_stray_light,
+    draw_stripe,
+    expose,
+    pass_appearance,
+    stripe_peaks,
+    wheel_appearance,
+)
+from pipeline.simulation.render import WheelPose, plate_section, wheel_section
+from pipeline.simulation.station import NOMINAL_BACK_TO_BACK_MM, Station, build_station
+from pipeline.simulation.wheel import Wear, WheelProfile, wheel_profile
+
+AXLES_PER_VEHICLE = 4
+TRUTH_NAME = "truth.json"
+SPEED_KMH = 5.0
+"""The paper passed its train 9 times at 5 km/h."""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class SimWheel:
+    """One simulated wheel: identity, true outline and surface."""
+
+    vehicle_id: str
+    axle: int
+    side: str
+    profile: WheelProfile
+    appearance: Appearance
+    back_to_back_mm: float
+    radius_mm: float
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Train:
+    """The wheels of a simulated train, in train order (left then right per axle)."""
+
+    vehicles: tuple[str, ...]
+    wheels: tuple[SimWheel, ...]
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class SimulatedPass:
+    """One rendered pass: manifest, frames (archive path → image) and per-wheel truth."""
+
+    manifest: PassManifest
+    frames: dict[str, np.ndarray]
+    truth: dict
+
+
+def build_train(
+    vehicles: int, rng: np.random.Generator, *, axles_per_vehicle: int = AXLES_PER_VEHICLE
+) -> Train:
+    """Draw a train: LMA wheels (S1002 on every second vehicle) with random wear.
+
+    Parameters
+    ----------
+    vehicles : int
+        Number of vehicles, ≥ 1.
+    rng : numpy.random.Generator
+    axles_per_vehicle : int
+        Axles per vehicle (4 for a bogie vehicle; fewer keeps tests small).
+    """
+    if vehicles < 1 or axles_per_vehicle < 1:
+        raise ValueError(
+            f"vehicles and axles_per_vehicle must be ≥ 1, got {vehicles}, {axles_per_vehicle}"
+        )
+    references = {name: load_reference_profile(name) for name in ("LMA", "S1002")}
+    ids = tuple(f"V{v + 1:03d}" for v in range(vehicles))
+    wheels = []
+    for v, vehicle_id in enumerate(ids):
+        family = "S1002" if v % 2 else "LMA"
+        reference = references[family]
+        for axle in range(1, axles_per_vehicle + 1):
+            back_to_back = NOMINAL_BACK_TO_BACK_MM[family] + rng.uniform(-1.5, 1.5)
+            radius = rng.uniform(400.0, 420.0)
+            for side in ("left", "right"):
+                wear = Wear(
+                    flange_height_change_mm=rng.uniform(-0.5, 1.5),
+                    flange_thinning_mm=rng.uniform(0.0, 2.5),
+                    hollow_depth_mm=rng.uniform(0.0, 1.0),
+                )
+                profile = wheel_profile(reference, wear)
+                appearance = wheel_appearance(profile, rng)
+                wheels.append(
+                    SimWheel(vehicle_id, axle, side, profile, appearance, back_to_back, radius)
+                )
+    return Train(vehicles=ids, wheels=tuple(wheels))
+
+
+def _pose(wheel: SimWheel, offset_mm: float, yaw_rad: float, along_mm: float) -> WheelPose:
+    return WheelPose(
+        centre_track_mm=(offset_mm, along_mm, wheel.radius_mm),
+        axle_direction=(float(np.cos(yaw_rad)), float(np.sin(yaw_rad)), 0.0),
+        side_sign=1 if wheel.side == "right" else -1,
+        back_face_axial_mm=wheel.back_to_back_mm / 2,
+        radius_mm=wheel.radius_mm,
+    )
+
+
+def _render_frame(
+    station: Station, name: str, wheel: SimWheel, pose: WheelPose, rng: np.random.Generator
+) -> np.ndarray:
+    sensor = station.calibration.sensor(name)
+    laser = station.laser_origin(name)
+    appearance = pass_appearance(wheel.appearance, rng)
+    samples = wheel_section(wheel.profile, pose, sensor, laser, scatter_mm=appearance.scatter_mm)
+    image = np.zeros((sensor.image_height_px, sensor.image_width_px), np.float32)
+    draw_stripe(
+        image, samples, stripe_peaks(samples, appearance.reflectivity[samples.outline_index])
+    )
+    top_x = wheel.profile.x_mm[np.argmax(wheel.profile.z_mm)]
+    on_flange = np.abs(wheel.profile.x_mm[samples.outline_index] - top_x) < 12.0
+    add_specular_spots(image, samples, on_flange, rng)
+    if name.endswith("outer"):
+        plate_x = pose.side_sign * (pose.back_face_axial_mm + 135.0 + rng.uniform(25.0, 45.0))
+        plate = plate_section(
+            sensor,
+            laser,
+            plate_x_mm=plate_x + pose.centre_track_mm[0],
+            z_range_mm=(20.0, 90.0),
+            scatter_mm=0.5,
+        )
+        draw_stripe(image, plate, stripe_peaks(plate, np.full(plate.width_px.size, 0.5)))
+    add_stray_light(image, rng)
+    return expose(image, sensor.bit_depth, rng)
+
+
+def _truth_row(wheel: SimWheel) -> dict:
+    truth: FlangeParameters = wheel.profile.truth
+    return {
+        "vehicle_id": wheel.vehicle_id,
+        "axle": wheel.axle,
+        "side": wheel.side,
+        "profile": wheel.profile.name,
+        "flange_height_mm": truth.flange_height_mm,
+        "flange_thickness_mm": truth.flange_thickness_mm,
+        "flange_thickness_10_mm": truth.flange_thickness_10_mm,
+        "qr_mm": truth.qr_mm,
+        "back_to_back_mm": wheel.back_to_back_mm,
+    }
+
+
+def simulate_pass(
+    train: Train,
+    station: Station,
+    rng: np.random.Generator,
+    *,
+    started_at: datetime,
+    frames_per_sensor: int = 1,
+    site: str = "sim-station",
+) -> SimulatedPass:
+    """Render one pass of `train` over `station`.
+
+    Parameters
+    ----------
+    train : Train
+    station : Station
+    rng : numpy.random.Generator
+        Draws this pass's offsets, yaw, trigger jitter, lighting and noise.
+    started_at : datetime
+        Timezone-aware start time written to the manifest.
+    frames_per_sensor : int
+        Frames each sensor takes of each wheel (the wheel moves 2 mm between them).
+    site : str
+
+    Returns
+    -------
+    SimulatedPass
+    """
+    frames: dict[str, np.ndarray] = {}
+    entries = []
+    counters = dict.fromkeys(SENSOR_NAMES, 0)
+    axle_motion: dict[tuple[str, int], tuple[float, float, float]] = {}
+    for wheel in train.wheels:
+        key = (wheel.vehicle_id, wheel.axle)
+        if key not in axle_motion:
+            axle_motion[key] = (
+                rng.uniform(-4.0, 4.0),
+                np.deg2rad(rng.uniform(-0.15, 0.15)),
+                rng.uniform(-3, 3),
+            )
+        offset, yaw, along = axle_motion[key]
+        paths: dict[str, list[str]] = {"inner": [], "outer": []}
+        for k in range(frames_per_sensor):
+            pose = _pose(wheel, offset, yaw, along + 2.0 * (k - (frames_per_sensor - 1) / 2))
+            for position in ("inner", "outer"):
+                name = f"{wheel.side}_{position}"
+                counters[name] += 1
+                path = f"frames/{name}/{counters[name]:06d}.png"
+                frames[path] = _render_frame(station, name, wheel, pose, rng)
+                paths[position].append(path)
+        entries.append(
+            WheelEntry(
+                wheel.vehicle_id,
+                wheel.axle,
+                wheel.side,
+                tuple(paths["inner"]),
+                tuple(paths["outer"]),
+            )
+        )
+    manifest = PassManifest(
+        site=site,
+        started_at=started_at,
+        direction="up",
+        speed_kmh=SPEED_KMH,
+        vehicles=train.vehicles,
+        wheels=tuple(entries),
+    )
+    return SimulatedPass(manifest, frames, {"wheels": [_truth_row(w) for w in train.wheels]})
+
+
+def pass_start_time(index: int) -> datetime:
+    """Start time of the index-th simulated pass (fixed, one hour apart)."""
+    return datetime(2026, 11, 23, 8, 0, tzinfo=UTC) + timedelta(hours=index)
+
+
+def write_synthetic_passes(
+    out: str | Path,
+    *,
+    vehicles: int = 1,
+    seed: int = 0,
+    repeat: int = 1,
+    bit_depth: int = 8,
+    axles_per_vehicle: int = AXLES_PER_VEHICLE,
+    frames_per_sensor: int = 1,
+    progress: Callable[[int, int], None] | None = None,
+) -> list[Path]:
+    """Simulate `repeat` passes of one train and write them as pass folders with truth.
+
+    Each folder holds manifest.json, calibration.json (the station's true calibration),
+    frames/ and truth.json. With repeat = 1 the pass is written into `out` itself, otherwise
+    into `out/pass-001`, `out/pass-002`, ….
+
+    Parameters
+    ----------
+    out : str or Path
+        Output folder (created).
+    vehicles, axles_per_vehicle : int
+        Train size.
+    seed : int
+        Fixes the train and every pass: the same seed gives the same files.
+    repeat : int
+        Passes of the same train (new offsets, yaw, lighting, speckle and noise each).
+    bit_depth : int
+        8 or 16.
+    frames_per_sensor : int
+        Frames per sensor and wheel.
+    progress : callable(done, total), optional
+        Called after each pass.
+
+    Returns
+    -------
+    list of Path
+        The pass folders.
+    """
+    if repeat < 1:
+        raise ValueError(f"repeat must be ≥ 1, got {repeat}")
+    station = build_station(bit_depth=bit_depth)
+    train_rng, *pass_rngs = np.random.default_rng(seed).spawn(repeat + 1)
+    train = build_train(vehicles, train_rng, axles_per_vehicle=axles_per_vehicle)
+    out = Path(out)
+    folders = []
+    for index, rng in enumerate(pass_rngs):
+        folder = out if repeat == 1 else out / f"pass-{index + 1:03d}"
+        simulated = simulate_pass(
+            train,
+            station,
+            rng,
+            started_at=pass_start_time(index),
+            frames_per_sensor=frames_per_sensor,
+        )
+        write_pass_archive(
+            folder, simulated.manifest, simulated.frames, calibration=station.calibration
+        )
+        (folder / TRUTH_NAME).write_text(json.dumps(simulated.truth, indent=2) + "\n")
+        folders.append(folder)
+        if progress is not None:
+            progress(index + 1, repeat)
+    return folders
+
+
+def read_truth(folder: str | Path) -> list[dict]:
+    """The per-wheel truth rows of a simulated pass folder (`truth.json` "wheels").
+
+    Raises
+    ------
+    OSError
+        When the folder has no readable truth.json.
+    ValueError
+        When truth.json is not a {"wheels": [...]} document.
+    """
+    path = Path(folder) / TRUTH_NAME
+    try:
+        document = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path} is not valid JSON: {exc}") from None
+    if not isinstance(document, dict) or not isinstance(document.get("wheels"), list):
+        raise ValueError(f"{path} must be {{'wheels': [...]}}")
+    return document["wheels"]
