@@ -5,22 +5,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 
-from pipeline.extraction.band import BLOCK_PX, block_runs, run_starts
-from pipeline.extraction.gaussian import GaussianDerivatives
-from pipeline.extraction.ridges import min_structure_squared, ridge_response
+from pipeline.extraction.blocks import BLOCK_PX, block_runs, run_starts
 from pipeline.extraction.scalespace import (
-    MAX_LEVEL,
     ScaleLevel,
     blend,
     column_taps,
     linear_tap,
-    sample_bilinear,
     sample_derivatives,
-    scale_levels,
-    upsample_to_frame,
 )
 from pipeline.extraction.steger import LineAnalysis, analyse_lines
 from pipeline.jit import kernel
@@ -47,23 +40,6 @@ class LevelResponse:
 
 
 @dataclass(frozen=True, slots=True, eq=False)
-class MultiScaleAnalysis:
-    """Scale space of a frame and its multi-scale ridge response.
-
-    `scales` holds one LevelResponse per scale σ1..σS; `response` (M, N) float32 is
-    V(σA) = max over scales of the ridge response, in [0, 1).
-    """
-
-    sigmas_px: tuple[float, ...]
-    scales: tuple[LevelResponse, ...]
-    response: np.ndarray
-
-    @property
-    def levels(self) -> tuple[ScaleLevel, ...]:
-        return tuple(s.level for s in self.scales)
-
-
-@dataclass(frozen=True, slots=True, eq=False)
 class ScaleChoice:
     """The best scale σB per pixel and the line analysis there; arrays (K,).
 
@@ -86,132 +62,9 @@ def stripe_scales(width_min_px: float, width_max_px: float) -> tuple[float, floa
     )
 
 
-def _frame_units(level: ScaleLevel, index: np.ndarray) -> GaussianDerivatives:
-    """Derivatives at flat level-grid indices, converted to frame units."""
-    d = level.derivatives
-    first = np.float32(1 / level.stride)
-    second = np.float32(1 / level.stride**2)
-    return GaussianDerivatives(
-        sigma_px=level.sigma_px,
-        ix=d.ix.flat[index] * first,
-        iy=d.iy.flat[index] * first,
-        ixx=d.ixx.flat[index] * second,
-        ixy=d.ixy.flat[index] * second,
-        iyy=d.iyy.flat[index] * second,
-    )
-
-
-def _centre_hints(level: ScaleLevel, index: np.ndarray, lines: LineAnalysis, shape) -> np.ndarray:
-    """Frame pixels near centres predicted from level-grid pixels (bool (M, N))."""
-    near = np.abs(lines.offset_px) <= HINT_REACH * level.stride
-    grid_rows, grid_cols = np.divmod(index[near], level.derivatives.ix.shape[1])
-    origin = 0.5 * (level.stride - 1)
-    x = grid_cols * level.stride + origin + lines.offset_px[near] * lines.nx[near]
-    y = grid_rows * level.stride + origin + lines.offset_px[near] * lines.ny[near]
-    rows = np.clip(np.rint(y).astype(np.int64), 0, shape[0] - 1)
-    cols = np.clip(np.rint(x).astype(np.int64), 0, shape[1] - 1)
-    hints = np.zeros(shape, np.uint8)
-    hints[rows, cols] = 1
-    return cv2.dilate(hints, np.ones((3, 3), np.uint8)).astype(bool)
-
-
-def analyse_level(
-    level: ScaleLevel, *, c_grey: float, shape: tuple[int, int], peak_reach_px: float
-) -> LevelResponse:
-    """Ridge response, ridge-peak strength and centre hints of one scale.
-
-    Parameters
-    ----------
-    level : ScaleLevel
-        Derivatives of the scale.
-    c_grey : float
-        Structure constant of the ridge response [grey levels].
-    shape : tuple of int
-        Frame shape (M, N).
-    peak_reach_px : float
-        Half-size [px] of the square over which C = σ²|λ1| is max-filtered: about half the
-        widest stripe, so every pixel of a stripe's cross-section sees the value at its ridge.
-
-    Notes
-    -----
-    V > RIDGE_THRESHOLD needs λ1 < 0 (so Ixx + Iyy < 0) and S² = σ⁴(Ixx² + 2Ixy² + Iyy²) above
-    `min_structure_squared`; S² needs no eigen-decomposition, so the eigen-analysis runs only
-    where the trace is negative and S² exceeds a quarter of that bound (weaker pixels can
-    neither pass the threshold nor matter for σB).
-    """
-    d = level.derivatives
-    norm = np.float32(level.sigma_px**2 / level.stride**2)  # σ² and level→frame units of ∂²
-    trace = d.ixx + d.iyy
-    s2 = (d.ixx * d.ixx + d.iyy * d.iyy + 2 * d.ixy * d.ixy) * (norm * norm)
-    index = np.flatnonzero((trace < 0) & (s2 > 0.25 * min_structure_squared(c_grey)))
-    lines = analyse_lines(_frame_units(level, index))
-    sigma2 = np.float32(level.sigma_px**2)
-    response = np.zeros(d.ix.shape, np.float32)
-    strength = np.zeros(d.ix.shape, np.float32)
-    response.flat[index] = ridge_response(
-        lines.lambda1 * sigma2, lines.lambda2 * sigma2, c_grey=c_grey
-    )
-    strength.flat[index] = -sigma2 * np.minimum(lines.lambda1, 0)
-    half = max(1, round(peak_reach_px / level.stride))
-    peak = cv2.dilate(strength, np.ones((2 * half + 1, 2 * half + 1), np.uint8))
-    hints = _centre_hints(level, index, lines, shape)
-    return LevelResponse(level=level, response=response, peak_strength=peak, hints=hints)
-
-
-def analyse_scales(
-    image: np.ndarray,
-    sigmas_px: tuple[float, ...],
-    *,
-    c_grey: float,
-    peak_reach_px: float,
-    max_level: int = MAX_LEVEL,
-) -> MultiScaleAnalysis:
-    """Gaussian derivatives at every scale and the multi-scale ridge response V.
-
-    Parameters
-    ----------
-    image : ndarray of shape (M, N), float32
-        Grey frame [grey levels].
-    sigmas_px : tuple of float
-        Scales [px].
-    c_grey : float
-        Structure constant of the ridge response [grey levels].
-    peak_reach_px : float
-        Half-size of the max filter of C [px] (see `analyse_level`).
-    max_level : int
-        Coarsest pyramid level for large scales; 0 is the full-resolution reference.
-
-    Returns
-    -------
-    MultiScaleAnalysis
-    """
-    levels = scale_levels(image, sigmas_px, max_level=max_level)
-    scales = tuple(
-        analyse_level(lv, c_grey=c_grey, shape=image.shape, peak_reach_px=peak_reach_px)
-        for lv in levels
-    )
-    response = np.zeros(image.shape, np.float32)
-    for scale in scales:
-        v = upsample_to_frame(scale.response, scale.level.level, image.shape)
-        np.maximum(response, v, out=response)
-    return MultiScaleAnalysis(tuple(float(s) for s in sigmas_px), scales, response)
-
-
 def lines_at(level: ScaleLevel, rows: np.ndarray, cols: np.ndarray) -> LineAnalysis:
     """Line analysis of one scale at frame pixels (rows, cols)."""
     return analyse_lines(sample_derivatives(level, rows, cols))
-
-
-def chosen_index(scales: tuple[LevelResponse, ...], rows, cols) -> np.ndarray:
-    """Index of the scale with the largest ridge-peak strength per pixel, −1 if none > 0."""
-    best = np.zeros(rows.size, np.float32)
-    index = np.full(rows.size, -1, np.int64)
-    for i, scale in enumerate(scales):
-        c = sample_bilinear(scale.level, scale.peak_strength, rows, cols)
-        better = c > best
-        best[better] = c[better]
-        index[better] = i
-    return index
 
 
 def choose_scales(
@@ -219,7 +72,7 @@ def choose_scales(
 ) -> ScaleChoice:
     """Per pixel, the line analysis at the scale σB maximising C(σ) = σ²|λ1| at its ridge.
 
-    `index` is that scale per pixel (`chosen_index`, or `choose_in_band`), −1 for none.
+    `index` is that scale per pixel (`choose_in_band`), −1 for none.
 
     Notes
     -----
@@ -308,9 +161,10 @@ def choose_in_band(
     Returns
     -------
     sigma_map : ndarray of shape (M, N), float32
-        σB per mask pixel (as `scale_map`), 0 elsewhere.
+        σB per mask pixel, 0 elsewhere and where no scale has C > 0.
     rows, cols, index : ndarray of shape (K,), int64
-        Candidates in raster order and their σB index (as `chosen_index`).
+        Candidates in raster order and the index of their σB (the scale with the largest
+        ridge-peak strength C, bilinear on coarser levels), −1 if none has C > 0.
     """
     return _choose_in_band(
         mask,
@@ -320,23 +174,3 @@ def choose_in_band(
         np.asarray(sigmas_px, np.float32),
         blocks,
     )
-
-
-def scale_map(
-    scales: tuple[LevelResponse, ...],
-    sigmas_px: tuple[float, ...],
-    rows: np.ndarray,
-    cols: np.ndarray,
-    shape: tuple[int, int],
-) -> np.ndarray:
-    """σB at the mask pixels (rows, cols), as `choose_scales` picks it; 0 elsewhere.
-
-    Returns
-    -------
-    ndarray of shape `shape`, float32
-    """
-    index = chosen_index(scales, rows, cols)
-    sigmas = np.asarray((0.0, *sigmas_px), np.float32)
-    out = np.zeros(shape, np.float32)
-    out[rows, cols] = sigmas[index + 1]
-    return out

@@ -14,11 +14,15 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.extraction.segmentation import KEEP_FRACTION, component_shapes
-from pipeline.jit import kernel
-
-BLOCK_PX = 8
-"""Side of a band block [px of its level]."""
+from pipeline.extraction.blocks import BLOCK_PX, all_blocks, block_grid, pool_blocks
+from pipeline.extraction.components import (
+    label_extents,
+    label_runs,
+    paint_runs,
+    row_runs,
+    shapes_from_moments,
+)
+from pipeline.extraction.segmentation import KEEP_FRACTION
 
 BAND_SEED_RESPONSE = 0.1
 """Coarsest-scale V above which a pixel may belong to a stripe (the mask needs V > 0.5 at
@@ -47,7 +51,7 @@ SMALL_MARGIN = 0.8
 stripe's by a few margins at most. Regions left out are sized against this share of it."""
 
 MAX_BAND_FRACTION = 0.4
-"""A band covering more of the frame than this saves nothing: the full-frame path runs."""
+"""A band covering more of the frame than this saves nothing: the whole frame is analysed."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -73,101 +77,6 @@ def band_ring(blocks: np.ndarray) -> np.ndarray:
     return near & ~blocks
 
 
-@kernel
-def block_runs(blocks):
-    """Runs of consecutive True blocks along each block row: rows of (block_row, first, stop)."""
-    runs = np.empty((blocks.size // 2 + blocks.shape[0], 3), np.int64)
-    count = 0
-    for br in range(blocks.shape[0]):
-        bc = 0
-        while bc < blocks.shape[1]:
-            if not blocks[br, bc]:
-                bc += 1
-                continue
-            start = bc
-            while bc < blocks.shape[1] and blocks[br, bc]:
-                bc += 1
-            runs[count, 0], runs[count, 1], runs[count, 2] = br, start, bc
-            count += 1
-    return runs[:count]
-
-
-@kernel
-def run_starts(runs, rows):
-    """Where each of `rows` block rows begins in `runs` (sorted by row): (rows + 1,) int64,
-    so the runs of block row br are runs[starts[br]:starts[br + 1]]."""
-    return np.searchsorted(runs[:, 0], np.arange(rows + 1))
-
-
-@kernel
-def zero_blocks(field, blocks) -> None:
-    """Set the pixels of the given blocks to 0."""
-    height, width = field.shape
-    for br, first, stop in block_runs(blocks):
-        c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
-        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-            field[r, c0:c1] = 0
-
-
-def block_grid(shape: tuple[int, int]) -> tuple[int, int]:
-    """Shape of the block grid over an image of `shape` (rows, columns)."""
-    return math.ceil(shape[0] / BLOCK_PX), math.ceil(shape[1] / BLOCK_PX)
-
-
-@kernel
-def _pool(band, ratio, rows, cols):
-    out = np.zeros((rows, cols), np.bool_)
-    for r in range(band.shape[0]):
-        for c in range(band.shape[1]):
-            if band[r, c]:
-                out[min(r // ratio, rows - 1), min(c // ratio, cols - 1)] = True
-    return out
-
-
-def pool_blocks(flags: np.ndarray, ratio: int, grid: tuple[int, int]) -> np.ndarray:
-    """Blocks of `ratio` × `ratio` pixels of `flags` that hold any True pixel (bool `grid`)."""
-    return _pool(flags, ratio, grid[0], grid[1])
-
-
-@kernel
-def blocks_holding(flags, blocks):
-    """Which of the band's blocks hold a True pixel of `flags` (same grid as `blocks`)."""
-    height, width = flags.shape
-    out = np.zeros(blocks.shape, np.bool_)
-    for br, first, stop in block_runs(blocks):
-        for bc in range(first, stop):
-            r1 = min(br * BLOCK_PX + BLOCK_PX, height)
-            c1 = min(bc * BLOCK_PX + BLOCK_PX, width)
-            out[br, bc] = flags[br * BLOCK_PX : r1, bc * BLOCK_PX : c1].any()
-    return out
-
-
-@kernel
-def _label_sides(labels, count):
-    """Bounding-box height and width − 1 of each label 1..count − 1: (count, 2) int64, row 0
-    (the background) unset."""
-    low = np.full((count, 2), labels.size, np.int64)
-    high = np.zeros((count, 2), np.int64)
-    for r in range(labels.shape[0]):
-        for c in range(labels.shape[1]):
-            k = labels[r, c]
-            if k:
-                low[k, 0], high[k, 0] = min(low[k, 0], r), max(high[k, 0], r)
-                low[k, 1], high[k, 1] = min(low[k, 1], c), max(high[k, 1], c)
-    return high - low
-
-
-@kernel
-def _without(band, labels, drop):
-    """`band` with the pixels of the labels marked in `drop` cleared."""
-    out = band.copy()
-    for r in range(band.shape[0]):
-        for c in range(band.shape[1]):
-            if drop[labels[r, c]]:
-                out[r, c] = 0
-    return out
-
-
 def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, float]:
     """The separate regions of a widened seed grid too small to hold a stripe piece.
 
@@ -178,16 +87,19 @@ def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, float]:
     the grid without them and the largest extent D left out [px of the frame], which the
     caller checks against the stripe's actual length (the regions are the seeds widened).
     """
-    count, labels = cv2.connectedComponents(band, connectivity=8)
+    runs = row_runs(band.view(np.bool_), all_blocks(band.shape))
+    label, moments = label_runs(runs)
+    count = moments.shape[0]
     if count <= 2:
         return band, 0.0
-    sides = _label_sides(labels, count)
-    extent = stride * np.hypot(sides[1:, 0] + 1.0, sides[1:, 1] + 1.0)
-    length = stride * component_shapes(labels, count).length_px[1:]
+    sides = label_extents(runs, label, count)
+    extent = stride * np.hypot(sides[1:, 0], sides[1:, 1]).astype(np.float64)
+    length = stride * shapes_from_moments(*moments.T).length_px[1:]
     small = math.sqrt(3.0) * extent < KEEP_FRACTION * SMALL_MARGIN * length.max()
     if not small.any():
         return band, 0.0
-    return _without(band, labels, np.concatenate(([False], small))), float(extent[small].max())
+    kept = ~np.concatenate(([False], small))[label]
+    return paint_runs(runs, kept, band.shape), float(extent[small].max())
 
 
 def locate_band(
@@ -238,24 +150,3 @@ def locate_band(
         fraction=float(blocks[0].mean()),
         left_out_px=left_out,
     )
-
-
-@kernel
-def band_pixels(flags, blocks):
-    """Rows and columns of the True pixels of `flags` inside the band's blocks, raster order."""
-    height, width = flags.shape
-    runs = block_runs(blocks)
-    starts = run_starts(runs, blocks.shape[0])
-    most = int(blocks.sum()) * BLOCK_PX * BLOCK_PX
-    rows = np.empty(most, np.int64)
-    cols = np.empty(most, np.int64)
-    count = 0
-    for r in range(height):
-        br = r // BLOCK_PX
-        for k in range(starts[br], starts[br + 1]):
-            for c in range(runs[k, 1] * BLOCK_PX, min(runs[k, 2] * BLOCK_PX, width)):
-                if flags[r, c]:
-                    rows[count] = r
-                    cols[count] = c
-                    count += 1
-    return rows[:count].copy(), cols[:count].copy()

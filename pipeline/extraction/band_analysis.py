@@ -1,11 +1,11 @@
-"""The multi-scale analysis inside the stripe band: per scale V, C, its ridge-peak value and
-the centre hints on the band's blocks only (as `analyse_level`), and the stripe mask.
+"""The multi-scale analysis of a frame: per scale V, C, its ridge-peak value and the centre
+hints on the blocks of a band, and the stripe mask.
 
-The camera-rate path of the adaptive method. The coarsest scale is analysed over its whole
-(16× decimated) grid and locates the band; the finer scales are filtered on the band's
-blocks only. Inside the band every figure equals the full-frame analysis (the same kernels,
-summed in another order); a stripe component reaching the band's edge sends the frame to
-the full-frame path, which stays the reference.
+The one implementation of the adaptive method's analysis. The coarsest scale is analysed
+over its whole (16× decimated) grid and locates the band; the finer scales are filtered on
+the band's blocks only. The whole frame is the band of all blocks: the same kernels, so
+inside the band every figure equals the whole frame's, bit for bit. A stripe component
+reaching the band's edge sends the frame to the whole frame ("fallback").
 """
 
 from __future__ import annotations
@@ -19,20 +19,23 @@ import numpy as np
 from pipeline.extraction.adaptive import HINT_REACH, LevelResponse
 from pipeline.extraction.band import (
     BAND_MARGIN_PX,
-    BLOCK_PX,
     MAX_BAND_FRACTION,
     WIDER_MARGIN_PX,
     StripeBand,
     band_ring,
-    block_grid,
-    block_runs,
-    blocks_holding,
     locate_band,
-    pool_blocks,
-    zero_blocks,
 )
 from pipeline.extraction.band_filters import band_derivatives
 from pipeline.extraction.band_segmentation import segment_band
+from pipeline.extraction.blocks import (
+    BLOCK_PX,
+    all_blocks,
+    block_grid,
+    block_runs,
+    blocks_holding,
+    pool_blocks,
+    zero_blocks,
+)
 from pipeline.extraction.hessian import eigen2
 from pipeline.extraction.ridges import min_structure_squared, ridge_value
 from pipeline.extraction.scalespace import (
@@ -277,17 +280,126 @@ def _left_out_safely(band: StripeBand, stripe_length_px: float) -> bool:
 class BandAnalysis:
     """The multi-scale analysis of a frame inside its stripe band.
 
-    `scales` as `MultiScaleAnalysis.scales` (fields valid on the band, 0 elsewhere); `mask`
-    (M, N) bool the stripe mask, None when the band cannot be trusted; `reason` says why not
-    (empty when it can); `widened` whether the wider band was needed.
+    `scales` one LevelResponse per scale σ1..σS (fields valid on the band, 0 on its ring);
+    `band` the band (None for the whole frame); `blocks` the frame's (level-0) blocks
+    analysed; `mask` (M, N) bool the stripe mask; `path` "band", "wide band" (the wider
+    band was needed), "full" (the whole frame, asked for) or "fallback" (the whole frame
+    because no band could be trusted, `reason` says why).
     """
 
     sigmas_px: tuple[float, ...]
     scales: tuple[LevelResponse, ...]
     band: StripeBand | None
-    mask: np.ndarray | None
-    reason: str
-    widened: bool = False
+    blocks: np.ndarray
+    mask: np.ndarray
+    path: str
+    reason: str = ""
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class _Pyramid:
+    """The frame's pyramid and the level of each scale."""
+
+    image: np.ndarray
+    levels: tuple[np.ndarray, ...]
+    shapes: tuple[tuple[int, int], ...]
+    scale_levels: tuple[int, ...]
+
+
+def _pyramid(image: np.ndarray, sigmas_px: tuple[float, ...], max_level: int) -> _Pyramid:
+    scale_levels = tuple(level_for(s, max_level) for s in sigmas_px)
+    coarsest = max(scale_levels)
+    levels = build_pyramid(image, coarsest)
+    levels[0] = image
+    return _Pyramid(image, tuple(levels), level_shapes(image.shape, coarsest), scale_levels)
+
+
+def _analysed(
+    pyramid: _Pyramid, sigma_px: float, level: int, blocks, ring, c_grey: float
+) -> LevelResponse:
+    """One scale's V, C and hints on the blocks of its level."""
+    residual = math.sqrt(sigma_px**2 - decimated_variance(level)) / 2**level
+    derivatives = band_derivatives(pyramid.levels[level], residual, blocks, ring)
+    return analyse_band_level(
+        ScaleLevel(float(sigma_px), level, derivatives),
+        blocks,
+        ring,
+        c_grey=c_grey,
+        frame_shape=pyramid.image.shape,
+    )
+
+
+def analyse_fixed_scale(
+    image: np.ndarray, sigma_px: float, *, c_grey: float, max_level: int = MAX_LEVEL
+) -> LevelResponse:
+    """One scale's V, C (not max-filtered) and centre hints over the whole frame.
+
+    Parameters
+    ----------
+    image : ndarray of shape (M, N), uint8, uint16 or float
+        Grey frame [grey levels], validated.
+    sigma_px : float
+        Scale [px], on the coarsest pyramid level ≤ `max_level` it fits (`level_for`).
+    c_grey : float
+        Structure constant of the ridge response [grey levels].
+    """
+    pyramid = _pyramid(image, (sigma_px,), max_level)
+    level = pyramid.scale_levels[0]
+    blocks = all_blocks(pyramid.shapes[level])
+    return _analysed(pyramid, sigma_px, level, blocks, ~blocks, c_grey)
+
+
+def _with_peaks(
+    scales, levels, shapes, mask: np.ndarray, blocks: np.ndarray, peak_reach_px: float
+) -> tuple[LevelResponse, ...]:
+    """Each scale with C max-filtered on the blocks holding the mask (see `with_peak_strength`)."""
+    held = blocks_holding(mask, blocks)
+    peaked = []
+    for scale, level in zip(scales, levels, strict=True):
+        mask_blocks = held
+        if level:
+            mask_blocks = pool_blocks(held, 2**level, block_grid(shapes[level]))
+            mask_blocks = cv2.dilate(mask_blocks.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        peaked.append(with_peak_strength(scale, mask_blocks, peak_reach_px=peak_reach_px))
+    return tuple(peaked)
+
+
+def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey):
+    """The stripe mask inside the band located on the coarsest scale: (band, scales, mask,
+    widened), or the reason why no band can be trusted (a str)."""
+    coarsest = pyramid.scale_levels[seed_index]
+    strides = tuple(2**lv for lv in pyramid.scale_levels)
+
+    def attempt(margin: float, leave_out_small: bool):
+        band = locate_band(
+            seed.response,
+            coarsest,
+            pyramid.shapes,
+            margin_px=margin,
+            leave_out_small=leave_out_small,
+        )
+        if band.fraction > MAX_BAND_FRACTION:
+            return band, [], None
+        scales = [
+            seed
+            if i == seed_index
+            else _analysed(pyramid, sigma, lv, band.blocks[lv], band.rings[lv], c_grey)
+            for i, (sigma, lv) in enumerate(zip(sigmas_px, pyramid.scale_levels, strict=True))
+        ]
+        responses = tuple(sc.response for sc in scales)
+        return band, scales, segment_band(responses, strides, band.blocks[0], pyramid.image.shape)
+
+    # A stripe the band cuts (a spot fused to its edge, a faint end) gets one wider band.
+    for margin in (BAND_MARGIN_PX, WIDER_MARGIN_PX):
+        band, scales, found = attempt(margin, True)
+        # The regions left out must be too small for a piece of the stripe actually found.
+        if found is not None and not _left_out_safely(band, found.stripe_length_px):
+            band, scales, found = attempt(margin, False)
+        if found is None:
+            return f"the band covers {100 * band.fraction:.0f} % of the frame"
+        if found.inside:
+            return band, scales, found.mask, margin != BAND_MARGIN_PX
+    return "a stripe component reaches the band's edge"
 
 
 def analyse_band(
@@ -296,9 +408,10 @@ def analyse_band(
     *,
     c_grey: float,
     peak_reach_px: float,
+    full_frame: bool = False,
     max_level: int = MAX_LEVEL,
 ) -> BandAnalysis:
-    """Multi-scale analysis and stripe mask of a frame, computed inside its stripe band.
+    """Multi-scale analysis and stripe mask of a frame, inside its stripe band.
 
     Parameters
     ----------
@@ -311,80 +424,60 @@ def analyse_band(
         Structure constant of the ridge response [grey levels].
     peak_reach_px : float
         Half-size of the max filter of C [px].
+    full_frame : bool
+        Analyse the band of all blocks (the whole frame) without locating a band.
     max_level : int
         Coarsest pyramid level.
 
     Returns
     -------
     BandAnalysis
-        With `mask` None (and the reason) when the coarsest scale is on the frame grid, the
+        On the whole frame ("fallback") when the coarsest scale is on the frame grid, the
         band covers most of the frame, or a stripe component reaches the band's edge.
+
+    Notes
+    -----
+    The whole frame is the band of every block: the same kernels, so a frame whose stripe
+    lies inside its band gets the same fields, mask and centres on either path.
     """
-    levels = [level_for(s, max_level) for s in sigmas_px]
-    coarsest = max(levels)
-    if coarsest == 0:
-        return BandAnalysis(tuple(sigmas_px), (), None, None, "no scale on a decimated grid")
-    pyramid = build_pyramid(image, coarsest)
-    pyramid[0] = image
-    shapes = level_shapes(image.shape, coarsest)
-
-    def analysed(index: int, blocks: np.ndarray, ring: np.ndarray) -> LevelResponse:
-        sigma, level = sigmas_px[index], levels[index]
-        residual = math.sqrt(sigma**2 - decimated_variance(level)) / 2**level
-        derivatives = band_derivatives(pyramid[level], residual, blocks, ring)
-        return analyse_band_level(
-            ScaleLevel(float(sigma), level, derivatives),
-            blocks,
-            ring,
-            c_grey=c_grey,
-            frame_shape=image.shape,
-        )
-
+    pyramid = _pyramid(image, sigmas_px, max_level)
+    levels, shapes = pyramid.scale_levels, pyramid.shapes
+    everywhere = tuple(all_blocks(shape) for shape in shapes)
     seed_index = max(range(len(levels)), key=lambda i: (levels[i], sigmas_px[i]))
-    seed_blocks = np.ones(block_grid(shapes[coarsest]), np.bool_)
-    seed = analysed(seed_index, seed_blocks, ~seed_blocks)
+    seed = None
+    reason = "asked for"
+    if not full_frame and levels[seed_index] == 0:
+        reason = "no scale on a decimated grid"
+    elif not full_frame:
+        grid = everywhere[levels[seed_index]]
+        seed = _analysed(pyramid, sigmas_px[seed_index], levels[seed_index], grid, ~grid, c_grey)
+        found = _in_band(pyramid, sigmas_px, seed_index, seed, c_grey)
+        if not isinstance(found, str):
+            band, scales, mask, widened = found
+            return BandAnalysis(
+                tuple(float(s) for s in sigmas_px),
+                _with_peaks(scales, levels, shapes, mask, band.blocks[0], peak_reach_px),
+                band,
+                band.blocks[0],
+                mask,
+                "wide band" if widened else "band",
+            )
+        reason = found
+    scales = [
+        seed
+        if seed is not None and i == seed_index
+        else _analysed(pyramid, sigma, lv, everywhere[lv], ~everywhere[lv], c_grey)
+        for i, (sigma, lv) in enumerate(zip(sigmas_px, levels, strict=True))
+    ]
     strides = tuple(2**lv for lv in levels)
-
-    def attempt(margin: float, leave_out_small: bool):
-        band = locate_band(
-            seed.response, coarsest, shapes, margin_px=margin, leave_out_small=leave_out_small
-        )
-        if band.fraction > MAX_BAND_FRACTION:
-            return band, [], None
-        scales = [
-            seed if i == seed_index else analysed(i, band.blocks[lv], band.rings[lv])
-            for i, lv in enumerate(levels)
-        ]
-        responses = tuple(sc.response for sc in scales)
-        return band, scales, segment_band(responses, strides, band.blocks[0], image.shape)
-
-    # A stripe the band cuts (a spot fused to its edge, a faint end) gets one wider band.
-    for margin in (BAND_MARGIN_PX, WIDER_MARGIN_PX):
-        band, scales, found = attempt(margin, True)
-        # The regions left out must be too small for a piece of the stripe actually found.
-        if found is not None and not _left_out_safely(band, found.stripe_length_px):
-            band, scales, found = attempt(margin, False)
-        if found is None:
-            reason = f"the band covers {100 * band.fraction:.0f} % of the frame"
-            return BandAnalysis(tuple(sigmas_px), (), band, None, reason)
-        if found.inside:
-            break
-    else:
-        reason = "a stripe component reaches the band's edge"
-        return BandAnalysis(tuple(sigmas_px), (), band, None, reason)
-    held = blocks_holding(found.mask, band.blocks[0])
-    peaked = []
-    for scale, level in zip(scales, levels, strict=True):
-        grid = block_grid(shapes[level])
-        mask_blocks = pool_blocks(held, 2**level, grid) if level else held
-        if level:
-            mask_blocks = cv2.dilate(mask_blocks.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-        peaked.append(with_peak_strength(scale, mask_blocks, peak_reach_px=peak_reach_px))
+    responses = tuple(sc.response for sc in scales)
+    mask = segment_band(responses, strides, everywhere[0], image.shape).mask
     return BandAnalysis(
         tuple(float(s) for s in sigmas_px),
-        tuple(peaked),
-        band,
-        found.mask,
-        "",
-        widened=margin != BAND_MARGIN_PX,
+        _with_peaks(scales, levels, shapes, mask, everywhere[0], peak_reach_px),
+        None,
+        everywhere[0],
+        mask,
+        "full" if full_frame else "fallback",
+        reason,
     )

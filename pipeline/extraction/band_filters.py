@@ -1,10 +1,10 @@
-"""Gaussian derivatives on the blocks of a band only: the separable filters of
-`pipeline.extraction.gaussian`, evaluated where the stripe can be.
+"""Gaussian derivatives on the blocks of a band: the one separable filtering of the pipeline
+with the kernels of `pipeline.extraction.gaussian`, evaluated where the stripe can be.
 
 A band is a boolean grid of BLOCK_PX × BLOCK_PX blocks over one pyramid level. The x pass
 runs on every row the y pass reads (the band's blocks widened by the kernel radius), the
 y pass on the band's blocks. Inside the band the derivatives are those of the full frame
-(the same kernels and reflect border, summed in another order); outside they are 0.
+(the band of all blocks), bit for bit; outside they are 0.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from pipeline.extraction.band import BLOCK_PX, block_runs, zero_blocks
+from pipeline.extraction.blocks import BLOCK_PX, block_runs, zero_blocks
 from pipeline.extraction.gaussian import GaussianDerivatives, gaussian_kernels
 from pipeline.jit import kernel
 

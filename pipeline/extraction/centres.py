@@ -9,26 +9,23 @@ import numpy as np
 
 from pipeline.extraction.adaptive import (
     LevelResponse,
-    analyse_level,
-    analyse_scales,
     choose_in_band,
     choose_scales,
-    chosen_index,
     lines_at,
-    scale_map,
     stripe_scales,
 )
-from pipeline.extraction.band import band_pixels
-from pipeline.extraction.band_analysis import analyse_band
+from pipeline.extraction.band_analysis import analyse_band, analyse_fixed_scale
+from pipeline.extraction.blocks import all_blocks
+from pipeline.extraction.classic import segment_classic
+from pipeline.extraction.components import band_pixels
 from pipeline.extraction.curvature import remove_curvature_bias
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
 from pipeline.extraction.linking import link_points
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
-from pipeline.extraction.scalespace import ScaleLevel, scale_levels
-from pipeline.extraction.segmentation import segment_classic, segment_ridges
+from pipeline.extraction.scalespace import ScaleLevel
 from pipeline.extraction.steger import centre_pixels, newton_step
 from pipeline.extraction.widths import stripe_widths
-from pipeline.imaging import GEOMETRY_FLOAT, to_float_image, validate_image
+from pipeline.imaging import GEOMETRY_FLOAT, validate_image
 
 METHODS = ("adaptive", "steger", "classic")
 """Extraction methods of `extract_centres`."""
@@ -67,8 +64,9 @@ class Centres:
     path : str
         How the frame was analysed: "band" (inside the stripe band located on the coarsest
         scale, the camera-rate path), "wide band" (the same in a wider band, because a stripe
-        component reached the first one's edge), "full" (the whole frame, the reference), or
-        "fallback" (the whole frame because no band could be trusted for this frame).
+        component reached the first one's edge), "full" (the whole frame, the band of all
+        blocks, asked for), or "fallback" (the whole frame because no band could be trusted
+        for this frame).
 
     All arrays are read-only.
     """
@@ -147,17 +145,10 @@ def _select_adaptive(
     scales: tuple[LevelResponse, ...],
     sigmas_px: tuple[float, ...],
     mask: np.ndarray,
-    blocks: np.ndarray | None,
+    blocks: np.ndarray,
 ) -> tuple[_Selected, np.ndarray]:
     """Centre pixels at σB, and the σ map (σB per mask pixel, exact at the candidates)."""
-    if blocks is None:
-        hinted = np.logical_or.reduce([scale.hints for scale in scales])
-        rows, cols = np.nonzero(mask & hinted)
-        index = chosen_index(scales, rows, cols)
-        mask_rows, mask_cols = np.nonzero(mask)
-        sigma_map = scale_map(scales, sigmas_px, mask_rows, mask_cols, mask.shape)
-    else:
-        sigma_map, rows, cols, index = choose_in_band(scales, sigmas_px, mask, blocks)
+    sigma_map, rows, cols, index = choose_in_band(scales, sigmas_px, mask, blocks)
     choice = choose_scales(scales, rows, cols, index)
     lines = choice.lines
     ok = centre_pixels(rows, cols, lines, choice.strength, mask.shape)
@@ -177,15 +168,8 @@ def _select_adaptive(
     return selected, sigma_map
 
 
-def _fixed_scale(image: np.ndarray, sigma_px: float, c_grey: float) -> LevelResponse:
-    frame = to_float_image(image)
-    level = scale_levels(frame, (sigma_px,))[0]
-    return analyse_level(level, c_grey=c_grey, shape=frame.shape, peak_reach_px=0)
-
-
-def _select_fixed(scale: LevelResponse, mask: np.ndarray, blocks: np.ndarray | None) -> _Selected:
-    flags = mask & scale.hints
-    rows, cols = np.nonzero(flags) if blocks is None else band_pixels(flags, blocks)
+def _select_fixed(scale: LevelResponse, mask: np.ndarray, blocks: np.ndarray) -> _Selected:
+    rows, cols = band_pixels(mask & scale.hints, blocks)
     level = scale.level
     lines = lines_at(level, rows, cols)
     ok = centre_pixels(rows, cols, lines, -lines.lambda1, mask.shape)
@@ -308,9 +292,11 @@ def extract_centres(
         σ = 7.5 px, R = 100 px). Default: on for "adaptive", off for "steger" and "classic",
         which stay the paper's baselines.
     full_frame : bool
-        Analyse the whole frame (the reference) instead of the stripe band located on the
-        coarsest scale (the camera-rate path, "adaptive" and "steger"); the band path falls
-        back to the whole frame by itself when it cannot trust the band (see `Centres.path`).
+        Analyse the whole frame (every block) instead of the stripe band located on the
+        coarsest scale (the camera-rate path, "adaptive" and "steger"); the same kernels,
+        so a frame whose stripe lies inside its band gets the same result either way. The
+        band path falls back to the whole frame by itself when it cannot trust the band
+        (see `Centres.path`).
 
     Returns
     -------
@@ -359,19 +345,25 @@ def extract_centres(
     c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
     correct = method == "adaptive" if curvature_correction is None else curvature_correction
     sigma_map = None
-    blocks = None
-    path = "full"
     if method == "classic":
         mask = segment_classic(image)
-        selected = _select_fixed(_fixed_scale(image, fixed_sigma, c_grey), mask, None)
+        scale = analyse_fixed_scale(image, fixed_sigma, c_grey=c_grey)
+        selected = _select_fixed(scale, mask, all_blocks(mask.shape))
+        path = "full"
     else:
-        scales, mask, blocks, path = _analyse(image, sigmas, c_grey, width_max, full_frame)
+        analysis = analyse_band(
+            image, sigmas, c_grey=c_grey, peak_reach_px=width_max / 2, full_frame=full_frame
+        )
+        mask, blocks, path = analysis.mask, analysis.blocks, analysis.path
         if method == "steger":
-            reuse = [sc for sc in scales if sc.level.sigma_px == fixed_sigma]
-            scale = reuse[0] if reuse else _fixed_scale(image, fixed_sigma, c_grey)
-            selected = _select_fixed(scale, mask, blocks if reuse else None)
+            reuse = [sc for sc in analysis.scales if sc.level.sigma_px == fixed_sigma]
+            if reuse:
+                selected = _select_fixed(reuse[0], mask, blocks)
+            else:
+                scale = analyse_fixed_scale(image, fixed_sigma, c_grey=c_grey)
+                selected = _select_fixed(scale, mask, all_blocks(mask.shape))
         else:
-            selected, sigma_map = _select_adaptive(scales, sigmas, mask, blocks)
+            selected, sigma_map = _select_adaptive(analysis.scales, sigmas, mask, blocks)
     return _assemble(
         selected,
         mask,
@@ -381,31 +373,4 @@ def extract_centres(
         width_max=width_max,
         curvature_correction=bool(correct),
         path=path,
-    )
-
-
-def _analyse(image, sigmas, c_grey, width_max, full_frame):
-    """Scales, stripe mask, band blocks (None: whole frame) and the path taken.
-
-    The band path reads the frame in its own dtype; only the full frame is converted to
-    float32 (a frame-sized pass the band path does without).
-    """
-    peak_reach = width_max / 2
-    if not full_frame:
-        band = analyse_band(image, sigmas, c_grey=c_grey, peak_reach_px=peak_reach)
-        if band.mask is not None and band.band is not None:
-            return (
-                band.scales,
-                band.mask,
-                band.band.blocks[0],
-                "wide band" if band.widened else "band",
-            )
-    analysis = analyse_scales(
-        to_float_image(image), sigmas, c_grey=c_grey, peak_reach_px=peak_reach
-    )
-    return (
-        analysis.scales,
-        segment_ridges(analysis.response),
-        None,
-        "full" if full_frame else "fallback",
     )

@@ -1,4 +1,5 @@
-"""Gaussian derivative filtering at any scale: sampled, moment-normalised, separable, float32."""
+"""Gaussian derivative kernels at any scale: sampled and moment-normalised (the separable
+filtering with them is `band_filters.band_derivatives`)."""
 
 from __future__ import annotations
 
@@ -7,8 +8,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-
-from pipeline.imaging import IMAGE_FLOAT
 
 TRUNCATE_SIGMAS = 4.0
 """Kernel half-width in σ. The Gaussian tail beyond 4σ holds 6e-5 of its mass, far below the
@@ -89,44 +88,3 @@ def gaussian_kernels(sigma_px: float) -> GaussianKernels:
     g2 -= g0 * g2.sum()
     g2 /= 0.5 * np.sum(k**2 * g2)
     return GaussianKernels(sigma_px=float(sigma_px), radius_px=radius_px, g0=g0, g1=g1, g2=g2)
-
-
-def _filter_1d(image: np.ndarray, kernel: np.ndarray, axis: int) -> np.ndarray:
-    """Convolve a float32 image along one axis (1 = x/columns, 0 = y/rows), reflect border."""
-    # cv2 filters correlate; reversing the kernel turns the correlation into a convolution.
-    taps = np.ascontiguousarray(kernel[::-1], dtype=IMAGE_FLOAT)
-    one = np.ones(1, dtype=IMAGE_FLOAT)
-    kernel_x, kernel_y = (taps, one) if axis == 1 else (one, taps)
-    return cv2.sepFilter2D(image, cv2.CV_32F, kernel_x, kernel_y, borderType=BORDER)
-
-
-def gaussian_derivatives(image: np.ndarray, sigma_px: float) -> GaussianDerivatives:
-    """Compute Ix, Iy, Ixx, Ixy, Iyy of a float32 image at scale `sigma_px`.
-
-    Parameters
-    ----------
-    image : ndarray of shape (M, N), float32
-        Grey frame [grey levels], C-contiguous (see `pipeline.imaging.to_float_image`).
-    sigma_px : float
-        Gaussian scale [px].
-
-    Returns
-    -------
-    GaussianDerivatives
-        Five float32 (M, N) derivative images.
-
-    Notes
-    -----
-    Separable: three passes along x (G, G', G'') and five along y, reflect border.
-    """
-    kernels = gaussian_kernels(sigma_px)
-    along_x = [_filter_1d(image, kern, axis=1) for kern in (kernels.g0, kernels.g1, kernels.g2)]
-    smooth_x, d1_x, d2_x = along_x
-    return GaussianDerivatives(
-        sigma_px=kernels.sigma_px,
-        ix=_filter_1d(d1_x, kernels.g0, axis=0),
-        iy=_filter_1d(smooth_x, kernels.g1, axis=0),
-        ixx=_filter_1d(d2_x, kernels.g0, axis=0),
-        ixy=_filter_1d(d1_x, kernels.g1, axis=0),
-        iyy=_filter_1d(smooth_x, kernels.g2, axis=0),
-    )

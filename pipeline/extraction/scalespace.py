@@ -4,7 +4,7 @@ A scale σ [px of the frame] is computed on the coarsest pyramid level L whose r
 σ_L = √(σ² − v_L)/2^L stays ≥ MIN_LEVEL_SIGMA_PX, where v_L is the variance the 2×2 means
 already applied. The derivative fields then cost 4^L times less; values at frame pixels are
 read back with bicubic interpolation, which is exact to O(h⁴) on fields this smooth.
-Level 0 is the frame itself, so `max_level=0` is the full-resolution reference.
+Level 0 is the frame itself, so `max_level=0` computes every scale at full resolution.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from pipeline.extraction.gaussian import BORDER, GaussianDerivatives, gaussian_derivatives
+from pipeline.extraction.gaussian import BORDER, GaussianDerivatives
 from pipeline.jit import kernel
 
 MIN_LEVEL_SIGMA_PX = 2.0
@@ -105,35 +105,6 @@ def level_shapes(shape: tuple[int, int], levels: int) -> tuple[tuple[int, int], 
     stride = 2**levels
     padded = (-(-shape[0] // stride) * stride, -(-shape[1] // stride) * stride)
     return (shape, *((padded[0] >> k, padded[1] >> k) for k in range(1, levels + 1)))
-
-
-def scale_levels(
-    image: np.ndarray, sigmas_px: tuple[float, ...], *, max_level: int = MAX_LEVEL
-) -> tuple[ScaleLevel, ...]:
-    """Gaussian derivatives of a float32 frame at each scale, each on its pyramid level.
-
-    Parameters
-    ----------
-    image : ndarray of shape (M, N), float32
-        Grey frame [grey levels].
-    sigmas_px : tuple of float
-        Scales [px of the frame].
-    max_level : int
-        Coarsest pyramid level allowed; 0 computes every scale at full resolution.
-
-    Returns
-    -------
-    tuple of ScaleLevel
-        One per scale, in order.
-    """
-    levels = [level_for(s, max_level) for s in sigmas_px]
-    pyramid = build_pyramid(image, max(levels, default=0))
-    out = []
-    for sigma, level in zip(sigmas_px, levels, strict=True):
-        residual = math.sqrt(sigma**2 - decimated_variance(level)) / 2**level
-        grid = pyramid[level] if level else image
-        out.append(ScaleLevel(float(sigma), level, gaussian_derivatives(grid, residual)))
-    return tuple(out)
 
 
 @kernel
@@ -359,42 +330,3 @@ def blend(field, v0: int, v1: int, fv: float, u0: int, u1: int, fu: float) -> fl
     top = field[v0, u0] * (1 - fu) + field[v0, u1] * fu
     bottom = field[v1, u0] * (1 - fu) + field[v1, u1] * fu
     return top * (1 - fv) + bottom * fv
-
-
-@kernel
-def bilinear_at(field, stride: int, row: int, col: int) -> float:
-    """Bilinear value of a level field (stride 2^L) at frame pixel (row, col), clamped to
-    the grid; stride 1 reads the pixel itself."""
-    if stride == 1:
-        return field[row, col]
-    v0, v1, fv = linear_tap(row, stride, field.shape[0])
-    u0, u1, fu = linear_tap(col, stride, field.shape[1])
-    return blend(field, v0, v1, fv, u0, u1, fu)
-
-
-@kernel
-def _bilinear_clamped(field, stride, rows, cols, out) -> None:
-    for k in range(rows.size):
-        out[k] = bilinear_at(field, stride, rows[k], cols[k])
-
-
-def sample_bilinear(level: ScaleLevel, field: np.ndarray, rows, cols) -> np.ndarray:
-    """Bilinear values of a level-grid field at frame pixels (for display maps), shape (K,).
-
-    Coordinates are clamped to the grid (no extrapolation beyond its edge pixels).
-    """
-    if level.level == 0:
-        return field[rows, cols]
-    out = np.empty(np.size(rows), np.float32)
-    _bilinear_clamped(field, level.stride, np.asarray(rows), np.asarray(cols), out)
-    return out
-
-
-def upsample_to_frame(field: np.ndarray, level: int, shape: tuple[int, int]) -> np.ndarray:
-    """A level-grid field resampled (bilinear) onto the frame grid of `shape`."""
-    if level == 0:
-        return field
-    stride = 2**level
-    size = (field.shape[1] * stride, field.shape[0] * stride)
-    full = cv2.resize(field, size, interpolation=cv2.INTER_LINEAR)
-    return full[: shape[0], : shape[1]]

@@ -1,0 +1,195 @@
+"""Connected components of a binary field held as row runs: the runs, their 8-connected
+labels and pixel moments, and the shape figures of each component.
+
+One implementation for every mask of the pipeline: the ridge-response mask inside a band (or
+the band of all blocks, the whole frame), the classic baseline's mask and the band's seed
+regions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from pipeline.extraction.blocks import BLOCK_PX, block_runs, run_starts
+from pipeline.jit import kernel
+
+
+@kernel
+def append_runs(line, row, first, stop, runs, count) -> int:
+    """Write the runs of True in line[first:stop] as (row, first, stop) from runs[count];
+    returns the new count. `runs` must have room (`room_for_runs`)."""
+    inside = False
+    start = first
+    for c in range(first, stop):
+        if line[c] != inside:
+            if inside:
+                runs[count, 0], runs[count, 1], runs[count, 2] = row, start, c
+                count += 1
+            else:
+                start = c
+            inside = not inside
+    if inside:
+        runs[count, 0], runs[count, 1], runs[count, 2] = row, start, stop
+        count += 1
+    return count
+
+
+@kernel
+def room_for_runs(band, height):
+    """An empty (K, 3) run array with room for every run the band's rows can hold: a row
+    stretch of n pixels holds at most (n + 1) // 2."""
+    most = 0
+    for k in range(band.shape[0]):
+        rows = min(BLOCK_PX, height - band[k, 0] * BLOCK_PX)
+        most += rows * (((band[k, 2] - band[k, 1]) * BLOCK_PX + 1) // 2)
+    return np.empty((most, 3), np.int64)
+
+
+@kernel
+def _find(parent, p):
+    while parent[p] != p:
+        parent[p] = parent[parent[p]]
+        p = parent[p]
+    return p
+
+
+@kernel
+def row_runs(binary, blocks):
+    """Runs of True pixels along the band's rows, raster order: rows of (row, first, stop)."""
+    height, width = binary.shape
+    band = block_runs(blocks)
+    starts = run_starts(band, blocks.shape[0])
+    runs = room_for_runs(band, height)
+    count = 0
+    for r in range(height):
+        br = r // BLOCK_PX
+        for k in range(starts[br], starts[br + 1]):
+            c0, c1 = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
+            count = append_runs(binary[r], r, c0, c1, runs, count)
+    return runs[:count].copy()
+
+
+@kernel
+def band_pixels(flags, blocks):
+    """Rows and columns of the True pixels of `flags` inside the band's blocks, raster order."""
+    runs = row_runs(flags, blocks)
+    most = 0
+    for k in range(runs.shape[0]):
+        most += runs[k, 2] - runs[k, 1]
+    rows = np.empty(most, np.int64)
+    cols = np.empty(most, np.int64)
+    count = 0
+    for k in range(runs.shape[0]):
+        for c in range(runs[k, 1], runs[k, 2]):
+            rows[count], cols[count] = runs[k, 0], c
+            count += 1
+    return rows, cols
+
+
+@kernel
+def label_runs(runs):
+    """8-connected components of row runs (raster order): each run's label and the moments.
+
+    Runs of consecutive rows touch when their column spans overlap or meet at a corner.
+    Union-find with the earlier run as root, so labels follow the components' first pixels.
+    `moments[k]` holds the area and the sums of r, c, r², c², r·c of component k (row 0, the
+    background, stays 0).
+    """
+    count = runs.shape[0]
+    parent = np.arange(count)
+    previous = 0  # first run of the previous row
+    for k in range(count):
+        r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2]
+        while previous < k and runs[previous, 0] < r - 1:
+            previous += 1
+        j = previous
+        while j < k and runs[j, 0] == r - 1:
+            if runs[j, 1] <= c1 and c0 <= runs[j, 2]:
+                a, b = _find(parent, k), _find(parent, j)
+                if a != b:
+                    parent[max(a, b)] = min(a, b)
+            j += 1
+    label = np.empty(count, np.int64)
+    components = 1
+    for k in range(count):
+        root = _find(parent, k)
+        if root == k:
+            label[k] = components
+            components += 1
+        else:
+            label[k] = label[root]
+    moments = np.zeros((components, 6))
+    for k in range(count):
+        r, c0, c1 = float(runs[k, 0]), float(runs[k, 1]), float(runs[k, 2])
+        n = c1 - c0
+        sum_c = n * (c0 + c1 - 1) / 2
+        sum_cc = ((c1 - 1) * c1 * (2 * c1 - 1) - (c0 - 1) * c0 * (2 * c0 - 1)) / 6
+        lab = label[k]
+        moments[lab, 0] += n
+        moments[lab, 1] += r * n
+        moments[lab, 2] += sum_c
+        moments[lab, 3] += r * r * n
+        moments[lab, 4] += sum_cc
+        moments[lab, 5] += r * sum_c
+    return label, moments
+
+
+@kernel
+def paint_runs(runs, chosen, shape):
+    """A uint8 mask (0/1) with the chosen runs set."""
+    out = np.zeros(shape, np.uint8)
+    for k in range(runs.shape[0]):
+        if chosen[k]:
+            out[runs[k, 0], runs[k, 1] : runs[k, 2]] = 1
+    return out
+
+
+@kernel
+def label_extents(runs, label, count):
+    """Bounding-box height and width [px] of each label 1..count − 1 of labelled runs:
+    (count, 2) int64, row 0 (the background) 0."""
+    low = np.full((count, 2), np.iinfo(np.int64).max, np.int64)
+    high = np.full((count, 2), -1, np.int64)
+    for k in range(runs.shape[0]):
+        lab = label[k]
+        low[lab, 0], high[lab, 0] = min(low[lab, 0], runs[k, 0]), max(high[lab, 0], runs[k, 0])
+        low[lab, 1], high[lab, 1] = min(low[lab, 1], runs[k, 1]), max(high[lab, 1], runs[k, 2] - 1)
+    out = high - low + 1
+    out[0] = 0
+    return out
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class ComponentShapes:
+    """Shape figures of the labelled components 1..K (index 0 is the background)."""
+
+    area_px: np.ndarray
+    length_px: np.ndarray
+    elongation: np.ndarray
+
+
+def shapes_from_moments(
+    area: np.ndarray,
+    sum_r: np.ndarray,
+    sum_c: np.ndarray,
+    sum_rr: np.ndarray,
+    sum_cc: np.ndarray,
+    sum_rc: np.ndarray,
+) -> ComponentShapes:
+    """Area, equivalent bar length and elongation from each component's pixel moments.
+
+    Notes
+    -----
+    With λmax the largest eigenvalue of the pixel-coordinate covariance, L = √(12·λmax) is
+    the length of a uniform bar with that variance, and the elongation is L²/A.
+    """
+    safe = np.maximum(area, 1)
+    mr, mc = sum_r / safe, sum_c / safe
+    vrr = sum_rr / safe - mr**2
+    vcc = sum_cc / safe - mc**2
+    vrc = sum_rc / safe - mr * mc
+    lam_max = 0.5 * (vrr + vcc) + np.sqrt(0.25 * (vrr - vcc) ** 2 + vrc**2)
+    length = np.sqrt(12 * np.maximum(lam_max, 0))
+    return ComponentShapes(area_px=area, length_px=length, elongation=length**2 / safe)
