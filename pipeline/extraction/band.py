@@ -60,6 +60,7 @@ class StripeBand:
 
     `blocks[L]` is the bool block grid of pyramid level L, `rings[L]` the RING_BLOCKS
     blocks around it; `fraction` the share of the frame's level-0 blocks in the band;
+    `left_out` (bool, the seed level's grid) those regions, None when none were;
     `left_out_px` the largest extent (bounding-box diagonal [px]) of the small seed regions
     left out of it (see `locate_band`), 0 when none were.
     """
@@ -68,6 +69,7 @@ class StripeBand:
     rings: tuple[np.ndarray, ...]
     fraction: float
     left_out_px: float = 0.0
+    left_out: np.ndarray | None = None
 
 
 def band_ring(blocks: np.ndarray) -> np.ndarray:
@@ -77,29 +79,31 @@ def band_ring(blocks: np.ndarray) -> np.ndarray:
     return near & ~blocks
 
 
-def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, float]:
+def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarray | None, float]:
     """The separate regions of a widened seed grid too small to hold a stripe piece.
 
     A component kept as part of the stripe is at least KEEP_FRACTION of the longest one's
     length L = √(12·λmax) (`segmentation.stripe_components`), and any pixel set of
     extent D holds none longer than √3·D. Regions with √3·D < KEEP_FRACTION · SMALL_MARGIN ·
     the longest region's L (stray spots, another part's short stripe) are left out. Returns
-    the grid without them and the largest extent D left out [px of the frame], which the
-    caller checks against the stripe's actual length (the regions are the seeds widened).
+    the grid without them, those regions (None when none) and the largest extent D left out
+    [px of the frame], which the caller checks against the stripe found (the regions are the
+    seeds widened).
     """
     runs = row_runs(band.view(np.bool_), all_blocks(band.shape))
     label, moments = label_runs(runs)
     count = moments.shape[0]
     if count <= 2:
-        return band, 0.0
+        return band, None, 0.0
     sides = label_extents(runs, label, count)
     extent = stride * np.hypot(sides[1:, 0], sides[1:, 1]).astype(np.float64)
     length = stride * shapes_from_moments(*moments.T).length_px[1:]
     small = math.sqrt(3.0) * extent < KEEP_FRACTION * SMALL_MARGIN * length.max()
     if not small.any():
-        return band, 0.0
-    kept = ~np.concatenate(([False], small))[label]
-    return paint_runs(runs, kept, band.shape), float(extent[small].max())
+        return band, None, 0.0
+    dropped = np.concatenate(([False], small))[label]
+    left_out = paint_runs(runs, dropped, band.shape).view(np.bool_)
+    return paint_runs(runs, ~dropped, band.shape), left_out, float(extent[small].max())
 
 
 def locate_band(
@@ -135,9 +139,9 @@ def locate_band(
     reach = max(1, math.ceil(margin_px / stride))
     disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
     band = cv2.dilate(seeds, disc)
-    left_out = 0.0
+    left_out, left_out_px = None, 0.0
     if leave_out_small:
-        band, left_out = _small_regions(band, stride)
+        band, left_out, left_out_px = _small_regions(band, stride)
     flags = band.view(np.bool_)
     blocks = []
     for level, shape in enumerate(level_shapes):
@@ -148,5 +152,6 @@ def locate_band(
         blocks=tuple(blocks),
         rings=rings,
         fraction=float(blocks[0].mean()),
-        left_out_px=left_out,
+        left_out_px=left_out_px,
+        left_out=left_out,
     )

@@ -26,7 +26,7 @@ from pipeline.extraction.band import (
     locate_band,
 )
 from pipeline.extraction.band_filters import band_derivatives
-from pipeline.extraction.band_segmentation import segment_band
+from pipeline.extraction.band_segmentation import BandMask, segment_band
 from pipeline.extraction.blocks import (
     BLOCK_PX,
     all_blocks,
@@ -46,7 +46,7 @@ from pipeline.extraction.scalespace import (
     level_for,
     level_shapes,
 )
-from pipeline.extraction.segmentation import KEEP_FRACTION
+from pipeline.extraction.segmentation import CONTINUITY_GAP_PX, KEEP_FRACTION
 from pipeline.jit import kernel
 
 
@@ -268,12 +268,26 @@ def with_peak_strength(
     return replace(scale, peak_strength=peak)
 
 
-def _left_out_safely(band: StripeBand, stripe_length_px: float) -> bool:
-    """Whether no region left out of the band could hold a kept stripe component: one of
-    extent D holds none of length ≥ √3·D, and kept ones are ≥ KEEP_FRACTION of the stripe's."""
-    if not band.left_out_px:
+def _left_out_safely(band: StripeBand, found: BandMask, stride: int) -> bool:
+    """Whether no region left out of the band could hold a piece of the stripe found in it.
+
+    A left-out region of extent D holds no component of length ≥ √3·D, and components kept
+    by length are ≥ KEEP_FRACTION of the stripe's; and none may lie within
+    CONTINUITY_GAP_PX of the mask (pieces there would continue it).
+
+    Not checked: whether a left-out region holds a line stronger than the strongest
+    candidate in the band, which on the whole frame would raise the mask's floor
+    (`segmentation.MASK_FLOOR`); bounding it from the seed's scale alone keeps the spots of
+    a cluttered frame in the band and doubles its time.
+    """
+    if band.left_out is None:
         return True
-    return math.sqrt(3.0) * band.left_out_px < KEEP_FRACTION * stripe_length_px
+    if math.sqrt(3.0) * band.left_out_px >= KEEP_FRACTION * found.stripe_length_px:
+        return False
+    reach = math.ceil(CONTINUITY_GAP_PX / stride) + 1
+    near = pool_blocks(found.mask, stride, band.left_out.shape)
+    near = cv2.dilate(near.astype(np.uint8), np.ones((2 * reach + 1,) * 2, np.uint8)) > 0
+    return not (near & band.left_out).any()
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -364,11 +378,22 @@ def _with_peaks(
     return tuple(peaked)
 
 
+def _segment(scales, levels, blocks, shape):
+    """`segment_band` of the scales' V and C (C not yet max-filtered); `blocks` per level."""
+    return segment_band(
+        tuple(sc.response for sc in scales),
+        tuple(sc.peak_strength for sc in scales),
+        tuple(2**lv for lv in levels),
+        tuple(blocks[lv] for lv in levels),
+        blocks[0],
+        shape,
+    )
+
+
 def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey):
     """The stripe mask inside the band located on the coarsest scale: (band, scales, mask,
     widened), or the reason why no band can be trusted (a str)."""
     coarsest = pyramid.scale_levels[seed_index]
-    strides = tuple(2**lv for lv in pyramid.scale_levels)
 
     def attempt(margin: float, leave_out_small: bool):
         band = locate_band(
@@ -386,19 +411,22 @@ def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey):
             else _analysed(pyramid, sigma, lv, band.blocks[lv], band.rings[lv], c_grey)
             for i, (sigma, lv) in enumerate(zip(sigmas_px, pyramid.scale_levels, strict=True))
         ]
-        responses = tuple(sc.response for sc in scales)
-        return band, scales, segment_band(responses, strides, band.blocks[0], pyramid.image.shape)
+        return (
+            band,
+            scales,
+            _segment(scales, pyramid.scale_levels, band.blocks, pyramid.image.shape),
+        )
 
     # A stripe the band cuts (a spot fused to its edge, a faint end) gets one wider band.
     for margin in (BAND_MARGIN_PX, WIDER_MARGIN_PX):
         band, scales, found = attempt(margin, True)
         # The regions left out must be too small for a piece of the stripe actually found.
-        if found is not None and not _left_out_safely(band, found.stripe_length_px):
+        if found is not None and not _left_out_safely(band, found, 2**coarsest):
             band, scales, found = attempt(margin, False)
         if found is None:
             return f"the band covers {100 * band.fraction:.0f} % of the frame"
         if found.inside:
-            return band, scales, found.mask, margin != BAND_MARGIN_PX
+            return band, scales, found, margin != BAND_MARGIN_PX
     return "a stripe component reaches the band's edge"
 
 
@@ -453,13 +481,13 @@ def analyse_band(
         seed = _analysed(pyramid, sigmas_px[seed_index], levels[seed_index], grid, ~grid, c_grey)
         found = _in_band(pyramid, sigmas_px, seed_index, seed, c_grey)
         if not isinstance(found, str):
-            band, scales, mask, widened = found
+            band, scales, inside, widened = found
             return BandAnalysis(
                 tuple(float(s) for s in sigmas_px),
-                _with_peaks(scales, levels, shapes, mask, band.blocks[0], peak_reach_px),
+                _with_peaks(scales, levels, shapes, inside.mask, band.blocks[0], peak_reach_px),
                 band,
                 band.blocks[0],
-                mask,
+                inside.mask,
                 "wide band" if widened else "band",
             )
         reason = found
@@ -469,15 +497,13 @@ def analyse_band(
         else _analysed(pyramid, sigma, lv, everywhere[lv], ~everywhere[lv], c_grey)
         for i, (sigma, lv) in enumerate(zip(sigmas_px, levels, strict=True))
     ]
-    strides = tuple(2**lv for lv in levels)
-    responses = tuple(sc.response for sc in scales)
-    mask = segment_band(responses, strides, everywhere[0], image.shape).mask
+    whole = _segment(scales, levels, everywhere, image.shape)
     return BandAnalysis(
         tuple(float(s) for s in sigmas_px),
-        _with_peaks(scales, levels, shapes, mask, everywhere[0], peak_reach_px),
+        _with_peaks(scales, levels, shapes, whole.mask, everywhere[0], peak_reach_px),
         None,
         everywhere[0],
-        mask,
+        whole.mask,
         "full" if full_frame else "fallback",
         reason,
     )

@@ -16,6 +16,7 @@ import numpy as np
 
 from pipeline.extraction.blocks import BLOCK_PX, block_runs, zero_blocks
 from pipeline.extraction.gaussian import GaussianDerivatives, gaussian_kernels
+from pipeline.extraction.scalespace import fold_index
 from pipeline.jit import kernel
 
 
@@ -29,17 +30,6 @@ def _row_needs(blocks, reach_px, padded_rows):
                 stop = min(br * BLOCK_PX + BLOCK_PX + 2 * reach_px, padded_rows)
                 need[br * BLOCK_PX : stop, bc] = True
     return need
-
-
-@kernel
-def _fold(index: int, size: int) -> int:
-    """An index folded into [0, size) as cv2.BORDER_REFLECT (edge pixel repeated), as
-    often as it takes."""
-    if size == 1:
-        return 0
-    while index < 0 or index >= size:
-        index = -index - 1 if index < 0 else 2 * size - index - 1
-    return index
 
 
 @functools.cache
@@ -67,15 +57,15 @@ def _passes(radius: int) -> tuple[Callable[..., None], ...]:
         scratch = np.empty(width + 2 * radius, np.float32)
         for rp, bc0, bc1 in block_runs(need):  # need: one row of blocks per x-pass row
             c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
-            row = _fold(rp - radius, height) * width
+            row = fold_index(rp - radius, height) * width
             lo, hi = max(c0 - radius, 0), min(c1 + radius, width)
             for j in range(lo - (c0 - radius)):  # folded columns left of the frame
-                scratch[j] = source[row + _fold(c0 - radius + j, width)]
+                scratch[j] = source[row + fold_index(c0 - radius + j, width)]
             into, start = np.uint64(lo - (c0 - radius)), np.uint64(row + lo)
             for j in range(np.uint64(hi - lo)):
                 scratch[into + j] = source[start + j]
             for j in range(hi - (c0 - radius), c1 - c0 + 2 * radius):  # right of the frame
-                scratch[j] = source[row + _fold(c0 - radius + j, width)]
+                scratch[j] = source[row + fold_index(c0 - radius + j, width)]
             out_at = np.uint64(rp * width + c0)
             for i in range(np.uint64(c1 - c0)):
                 at = np.uint64(radius) + i

@@ -12,15 +12,18 @@ from pipeline.extraction.closing import close_runs
 from pipeline.extraction.components import (
     append_runs,
     label_runs,
+    labels_within,
     room_for_runs,
     shapes_from_moments,
 )
 from pipeline.extraction.ridges import RIDGE_THRESHOLD
-from pipeline.extraction.scalespace import column_taps, linear_tap
+from pipeline.extraction.scalespace import blend, column_taps, linear_tap
 from pipeline.extraction.segmentation import (
-    MIN_COMPONENT_AREA_PX,
-    MIN_ELONGATION,
+    CONTINUITY_GAP_PX,
+    MASK_FLOOR,
+    candidates,
     stripe_components,
+    strong_candidates,
 )
 from pipeline.jit import kernel
 
@@ -107,6 +110,39 @@ def _stripe_runs(responses, strides, blocks, shape):
 
 
 @kernel
+def _run_strengths(runs, strengths, strides):
+    """Largest C = max over scales of σ²|λ1| (bilinear on coarser levels, as V) on each run."""
+    out = np.zeros(runs.shape[0])
+    for k in range(runs.shape[0]):
+        r = runs[k, 0]
+        for i in range(len(strengths)):
+            field, stride = strengths[i], strides[i]
+            if stride == 1:
+                for c in range(runs[k, 1], runs[k, 2]):
+                    out[k] = max(out[k], field[r, c])
+                continue
+            v0, v1, fv = linear_tap(r, stride, field.shape[0])
+            for c in range(runs[k, 1], runs[k, 2]):
+                u0, u1, fu = linear_tap(c, stride, field.shape[1])
+                out[k] = max(out[k], blend(field, v0, v1, fv, u0, u1, fu))
+    return out
+
+
+@kernel
+def _floored(response, strength, blocks, floor):
+    """V where C ≥ floor on the given blocks, 0 elsewhere (a new array)."""
+    height, width = response.shape
+    out = np.zeros((height, width), np.float32)
+    for br, first, stop in block_runs(blocks):
+        c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
+        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+            for c in range(c0, c1):
+                if strength[r, c] >= floor:
+                    out[r, c] = response[r, c]
+    return out
+
+
+@kernel
 def runs_near_band_edge(runs, blocks, reach):
     """Whether a pixel of each run has a pixel outside the band within `reach` (Chebyshev;
     beyond the frame counts as band): whether a block the run's square neighbourhood
@@ -131,8 +167,22 @@ EDGE_REACH_PX = 5
 reaches 4 px (one stride of level 2)."""
 
 
+def _components(responses, strengths, strides, blocks, shape):
+    """Runs of V > RIDGE_THRESHOLD, their labels, the components' shapes and strengths."""
+    runs = _stripe_runs(responses, strides, blocks, shape)
+    label, moments = label_runs(runs)
+    strength = np.zeros(moments.shape[0])
+    np.maximum.at(strength, label, _run_strengths(runs, strengths, strides))
+    return runs, label, shapes_from_moments(*moments.T), strength
+
+
 def segment_band(
-    responses: tuple[np.ndarray, ...], strides: tuple[int, ...], blocks: np.ndarray, shape
+    responses: tuple[np.ndarray, ...],
+    strengths: tuple[np.ndarray, ...],
+    strides: tuple[int, ...],
+    blocks: tuple[np.ndarray, ...],
+    frame_blocks: np.ndarray,
+    shape: tuple[int, int],
 ) -> BandMask:
     """Stripe mask from the scales' ridge responses inside the band.
 
@@ -140,9 +190,13 @@ def segment_band(
     ----------
     responses : tuple of ndarray, float32
         V of each scale on its level's grid (0 outside the band).
+    strengths : tuple of ndarray, float32
+        C = σ²|λ1| of each scale on its level's grid [grey levels] (0 outside the band).
     strides : tuple of int
         Each level's stride 2^L.
-    blocks : ndarray of bool
+    blocks : tuple of ndarray of bool
+        The band's blocks on each scale's level grid.
+    frame_blocks : ndarray of bool
         The band's frame (level-0) blocks.
     shape : tuple of int
         Frame shape (M, N).
@@ -153,23 +207,35 @@ def segment_band(
 
     Notes
     -----
-    With every block in the band (the whole frame) no component comes near the band's edge:
-    the frame's edge counts as band.
+    V > RIDGE_THRESHOLD, 8-connected components; the strongest candidate's C sets the floor
+    MASK_FLOOR·C below which a scale's V does not count (the faint ridges of texture and
+    outlines around the stripe, which would join it into one component); the components
+    again, the stripe's among them (`segmentation.stripe_components`), closed. With every
+    block in the band (the whole frame) no component comes near the band's edge: the
+    frame's edge counts as band.
     """
-    runs = _stripe_runs(responses, strides, blocks, shape)
-    label, moments = label_runs(runs)
-    shapes = shapes_from_moments(*moments.T)
-    keep = stripe_components(shapes)
-    # A component the band may have cut: one kept, or one shaped like a stripe piece. A round
-    # spot (a specular reflection beside the stripe) is neither, whole or cut, so it may.
+    runs, _, shapes, strength = _components(responses, strengths, strides, frame_blocks, shape)
+    shaped = candidates(shapes)
+    reference = float(strength[shaped].max()) if shaped.any() else 0.0
+    floored = tuple(
+        _floored(v, c, b, np.float32(MASK_FLOOR * reference))
+        for v, c, b in zip(responses, strengths, blocks, strict=True)
+    )
+    runs, label, shapes, strength = _components(floored, strengths, strides, frame_blocks, shape)
+    near = labels_within(runs, label, strong_candidates(shapes, strength), CONTINUITY_GAP_PX)
+    keep = stripe_components(shapes, strength, near)
+    # A component the band may have cut: one shaped like a stripe piece (kept ones are). A
+    # round spot (a specular reflection beside the stripe) is not, whole or cut, so it may.
+    piece = candidates(shapes)
     touching = np.zeros(keep.size, bool)
-    near = runs_near_band_edge(runs, blocks, EDGE_REACH_PX)
-    touching[label[near]] = True
-    piece = (shapes.area_px >= MIN_COMPONENT_AREA_PX) & (shapes.elongation >= MIN_ELONGATION)
-    inside = not (touching & (keep | piece)).any()
+    touching[label[runs_near_band_edge(runs, frame_blocks, EDGE_REACH_PX)]] = True
+    inside = not (touching & piece).any()
     if inside:
-        mask = close_runs(runs, keep[label], blocks, shape)
+        mask = close_runs(runs, keep[label], frame_blocks, shape)
     else:
         mask = np.zeros(shape, np.bool_)
-    length = float(shapes.length_px[keep].max()) if keep.any() else 0.0
-    return BandMask(mask=mask, inside=inside, stripe_length_px=length)
+    return BandMask(
+        mask=mask,
+        inside=inside,
+        stripe_length_px=float(shapes.length_px[keep].max()) if keep.any() else 0.0,
+    )

@@ -20,9 +20,11 @@ from pipeline.extraction.classic import segment_classic
 from pipeline.extraction.components import band_pixels
 from pipeline.extraction.curvature import remove_curvature_bias
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
+from pipeline.extraction.line_test import is_line, line_profiles
 from pipeline.extraction.linking import link_points
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
 from pipeline.extraction.scalespace import ScaleLevel
+from pipeline.extraction.segmentation import CHAIN_FRACTION
 from pipeline.extraction.steger import centre_pixels, newton_step
 from pipeline.extraction.widths import stripe_widths
 from pipeline.imaging import GEOMETRY_FLOAT, validate_image
@@ -67,6 +69,10 @@ class Centres:
         component reached the first one's edge), "full" (the whole frame, the band of all
         blocks, asked for), or "fallback" (the whole frame because no band could be trusted
         for this frame).
+    rejected_x, rejected_y : ndarray of shape (R,), float64
+        Sub-pixel positions [px] of the candidate centres inside the mask that the
+        line-vs-edge test rejected (`pipeline.extraction.line_test`): the grey does not
+        fall off on both sides of them.
 
     All arrays are read-only.
     """
@@ -84,12 +90,17 @@ class Centres:
     method: str
     sigmas_px: tuple[float, ...]
     path: str
+    rejected_x: np.ndarray
+    rejected_y: np.ndarray
 
     def __post_init__(self) -> None:
         arrays = [self.x, self.y, self.nx, self.ny, self.sigma, self.strength, self.width_px]
         if len({a.shape for a in arrays}) != 1:
             raise ValueError("Centres point arrays must have equal lengths")
-        for array in [*arrays, self.mask, self.sigma_map, *self.polylines]:
+        if self.rejected_x.shape != self.rejected_y.shape:
+            raise ValueError("Centres rejected_x and rejected_y must have equal lengths")
+        rejected = [self.rejected_x, self.rejected_y]
+        for array in [*arrays, *rejected, self.mask, self.sigma_map, *self.polylines]:
             if array is not None:
                 array.flags.writeable = False
 
@@ -199,17 +210,8 @@ def _orient_normals(nx: np.ndarray, ny: np.ndarray, chains: list[np.ndarray]) ->
         ny[chain] = cy * sign
 
 
-def _assemble(
-    selected: _Selected,
-    mask: np.ndarray,
-    *,
-    sigma_map: np.ndarray | None,
-    method: str,
-    sigmas_px: tuple[float, ...],
-    width_max: float,
-    curvature_correction: bool,
-    path: str,
-) -> Centres:
+def _subpixel(selected: _Selected) -> tuple[np.ndarray, ...]:
+    """Sub-pixel centres x, y and normals nx, ny (float64) of the selected pixels."""
     nx = selected.nx.astype(GEOMETRY_FLOAT)
     ny = selected.ny.astype(GEOMETRY_FLOAT)
     offset = selected.offset.astype(GEOMETRY_FLOAT)
@@ -222,7 +224,65 @@ def _assemble(
         step = newton_step(level, x[at], y[at], nx[at], ny[at])
         x[at] += step * nx[at]
         y[at] += step * ny[at]
+    return x, y, nx, ny
+
+
+def _lines_only(
+    image: np.ndarray, selected: _Selected, width_min: float | None
+) -> tuple[_Selected, tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray]:
+    """The candidates that are bright lines (`line_test.is_line`; all when `width_min` is
+    None), their sub-pixel centres, normals and heights above the brighter side [grey
+    levels; NaN when not tested], and the rejected ones' centres (x, y)."""
+    x, y, nx, ny = _subpixel(selected)
+    line = np.ones(x.size, bool)
+    height = np.full(x.size, np.nan)
+    if width_min is not None:
+        profiles = line_profiles(image, x, y, nx, ny, selected.sigma, width_min_px=width_min)
+        line = is_line(profiles)
+        height = profiles[2]
+    kept = _Selected(
+        **{
+            name: getattr(selected, name)[line]
+            for name in ("rows", "cols", "sigma", "strength", "nx", "ny", "offset", "level_index")
+        },
+        levels=selected.levels,
+    )
+    return kept, (x[line], y[line], nx[line], ny[line]), height[line], x[~line], y[~line]
+
+
+def _bright_chains(
+    chains: list[np.ndarray], height: np.ndarray
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """The chains whose highest line is at least CHAIN_FRACTION of the highest of all
+    (`segmentation.CHAIN_FRACTION`; every chain when the heights are NaN), and the points
+    of the others."""
+    if not chains or np.isnan(height).all():
+        return chains, np.zeros(0, np.int64)
+    least = CHAIN_FRACTION * max(height[c].max() for c in chains)
+    bright = [c for c in chains if height[c].max() >= least]
+    dim = [c for c in chains if height[c].max() < least]
+    return bright, np.concatenate(dim) if dim else np.zeros(0, np.int64)
+
+
+def _assemble(
+    image: np.ndarray,
+    candidates: _Selected,
+    mask: np.ndarray,
+    *,
+    sigma_map: np.ndarray | None,
+    method: str,
+    sigmas_px: tuple[float, ...],
+    width_min: float | None,
+    width_max: float,
+    curvature_correction: bool,
+    path: str,
+) -> Centres:
+    lines = _lines_only(image, candidates, width_min)
+    selected, (x, y, nx, ny), height, rejected_x, rejected_y = lines
     chains = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
+    chains, weak = _bright_chains(chains, height)
+    rejected_x = np.concatenate([rejected_x, x[weak]])
+    rejected_y = np.concatenate([rejected_y, y[weak]])
     _orient_normals(nx, ny, chains)
     order = np.concatenate(chains) if chains else np.zeros(0, np.int64)
     widths = np.full(order.size, np.nan)
@@ -254,6 +314,8 @@ def _assemble(
         method=method,
         sigmas_px=sigmas_px,
         path=path,
+        rejected_x=rejected_x,
+        rejected_y=rejected_y,
     )
 
 
@@ -365,11 +427,13 @@ def extract_centres(
         else:
             selected, sigma_map = _select_adaptive(analysis.scales, sigmas, mask, blocks)
     return _assemble(
+        image,
         selected,
         mask,
         sigma_map=sigma_map,
         method=method,
         sigmas_px=sigmas if method == "adaptive" else (fixed_sigma,),
+        width_min=None if method == "classic" else width_min,
         width_max=width_max,
         curvature_correction=bool(correct),
         path=path,

@@ -193,3 +193,30 @@ def shapes_from_moments(
     lam_max = 0.5 * (vrr + vcc) + np.sqrt(0.25 * (vrr - vcc) ** 2 + vrc**2)
     length = np.sqrt(12 * np.maximum(lam_max, 0))
     return ComponentShapes(area_px=area, length_px=length, elongation=length**2 / safe)
+
+
+@kernel
+def labels_within(runs, label, consider, gap_px):
+    """Pairs of the considered labels with pixels within `gap_px` of each other (Euclidean,
+    pixel centres): (count, count) bool, symmetric, from labelled runs in raster order."""
+    count = consider.size
+    near = np.zeros((count, count), np.bool_)
+    reach = int(np.floor(gap_px))
+    gap2 = gap_px * gap_px
+    first = 0
+    for k in range(runs.shape[0]):
+        a = label[k]
+        if not consider[a]:
+            continue
+        r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2]
+        while runs[first, 0] < r - reach:
+            first += 1
+        for j in range(first, k):
+            b = label[j]
+            if b == a or not consider[b] or near[a, b]:
+                continue
+            dy = r - runs[j, 0]
+            dx = max(0, runs[j, 1] - (c1 - 1), c0 - (runs[j, 2] - 1))
+            if dx * dx + dy * dy <= gap2:
+                near[a, b] = near[b, a] = True
+    return near

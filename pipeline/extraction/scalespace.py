@@ -141,6 +141,17 @@ def reflect_index(index: int, size: int) -> int:
 
 
 @kernel
+def fold_index(index: int, size: int) -> int:
+    """An index folded into [0, size) as cv2.BORDER_REFLECT (edge pixel repeated), as
+    often as it takes."""
+    if size == 1:
+        return 0
+    while index < 0 or index >= size:
+        index = -index - 1 if index < 0 else 2 * size - index - 1
+    return index
+
+
+@kernel
 def cubic_taps(u: float, v: float, height: int, width: int):
     """Rows, columns (reflected) and Keys weights of the 4 × 4 taps around (u, v)."""
     u0 = np.floor(u)

@@ -1,4 +1,13 @@
-"""Which components of a ridge-response mask are the stripe: size, elongation and length."""
+"""Which components of a ridge-response mask are the stripe: shape, ridge strength, length
+and continuity.
+
+The laser stripe is the brightest narrow ridge of a frame. A component is a stripe piece
+when it is shaped like one (not a spot), its ridge strength is comparable to the strongest
+piece's (a dimmer outline, texture, a ghost stripe are not), and it is either long beside
+the other strong pieces or continues one of those kept (the pieces of a stripe broken at
+depth steps). Another part's bright stripe, long or continuing, may still pass here;
+measurement rejects it later by its place in the track frame.
+"""
 
 from __future__ import annotations
 
@@ -9,25 +18,84 @@ from pipeline.extraction.components import ComponentShapes
 MIN_COMPONENT_AREA_PX = 40
 """Components smaller than this [px²] are noise or stray spots, never a stripe."""
 
-MIN_ELONGATION = 3.0
+MIN_ELONGATION = 2.0
 """Least elongation L²/A of a stripe component (L: length of the uniform bar with the same
-second moment, A: area). A disc or a square has about 1, an L:w bar L/w."""
+second moment, A: area). A disc has 0.95, a square 1, an L:w bar L/w: a short piece of a
+wide stripe (a 19 px stripe cut to 50 px, its mask ≈ 25 px wide) still has 2."""
+
+STRONG_FRACTION = 0.4
+"""A stripe piece's ridge strength (its largest C = σ²|λ1| [grey levels]) is at least this
+share of the strongest candidate's. A Gaussian line of peak A has C ≈ 0.385·A at its best
+scale whatever its width, so this is a share of the peak contrast: a ghost at 10–30 %, the
+texture and the outlines of a lit scene (C ≲ 0.15 of the laser's) fall below it; a laser
+stretch dimmed to 25 % stays kept with the component it belongs to."""
+
+MASK_FLOOR = 0.15
+"""A scale's V counts towards the mask only where its C is at least this share of the
+strongest candidate's: the faint ridges of a lit scene's texture and outlines (C ≲ 0.15 of
+the laser's) would otherwise join the stripe into one component; a laser stretch dimmed to
+25 % of the peak stays above it."""
+
+CHAIN_FRACTION = 0.5
+"""A linked chain of centres is the stripe's when its highest line (the unsmoothed profile's
+height above the brighter side, `line_test.line_profiles`) is at least this share of the
+highest chain's. Inside a kept component, texture ridges and bits of outline beside the
+laser are linked apart from the laser's own chain and are a fraction of its height; the
+dimmest piece of a broken stripe (0.8 of the peak beside one at 1.25) has 0.64."""
 
 KEEP_FRACTION = 0.3
-"""Components at least this fraction of the main stripe's length (area for the classic
-baseline) are kept as parts of the stripe; shorter elongated ones (another part's stripe,
-reflections) are dropped."""
+"""Strong components at least this share of the longest strong one's length are kept as
+stripe pieces; shorter ones only when they continue a kept piece."""
+
+CONTINUITY_GAP_PX = 16.0
+"""A strong piece within this distance [px] of a kept one continues it (the cuts of a
+stripe broken at depth steps hide up to 16 px of it, and the pieces shift sideways by up
+to 12 px)."""
 
 
-def stripe_components(shapes: ComponentShapes) -> np.ndarray:
+def stripe_components(
+    shapes: ComponentShapes, strength: np.ndarray, near: np.ndarray
+) -> np.ndarray:
     """Which components (index 0: background, never) are parts of the stripe (bool (K,)).
 
-    Candidates have area ≥ MIN_COMPONENT_AREA_PX and elongation ≥ MIN_ELONGATION; the longest
-    is the stripe, and further candidates at least KEEP_FRACTION of its length are its pieces.
+    Parameters
+    ----------
+    shapes : ComponentShapes
+        Area, length and elongation of components 0..K − 1.
+    strength : ndarray of shape (K,)
+        Largest ridge strength C = σ²|λ1| on each component [grey levels].
+    near : ndarray of shape (K, K), bool
+        Which strong candidates lie within CONTINUITY_GAP_PX of each other
+        (`components.labels_within`).
+
+    Notes
+    -----
+    Candidates have area ≥ MIN_COMPONENT_AREA_PX and elongation ≥ MIN_ELONGATION; strong ones
+    a strength ≥ STRONG_FRACTION of the strongest candidate's. Strong ones at least
+    KEEP_FRACTION of the longest strong one's length are kept, then every strong one within
+    CONTINUITY_GAP_PX of a kept one, until none is added.
     """
-    candidate = (shapes.area_px >= MIN_COMPONENT_AREA_PX) & (shapes.elongation >= MIN_ELONGATION)
-    candidate[0] = False
-    if not candidate.any():
-        return candidate
-    main_length = shapes.length_px[candidate].max()
-    return candidate & (shapes.length_px >= KEEP_FRACTION * main_length)
+    strong = strong_candidates(shapes, strength)
+    if not strong.any():
+        return strong
+    keep = strong & (shapes.length_px >= KEEP_FRACTION * shapes.length_px[strong].max())
+    while True:
+        grown = keep | (strong & near[keep].any(axis=0))
+        if (grown == keep).all():
+            return keep
+        keep = grown
+
+
+def candidates(shapes: ComponentShapes) -> np.ndarray:
+    """Components shaped like a stripe piece (bool (K,), index 0 False)."""
+    shaped = (shapes.area_px >= MIN_COMPONENT_AREA_PX) & (shapes.elongation >= MIN_ELONGATION)
+    shaped[0] = False
+    return shaped
+
+
+def strong_candidates(shapes: ComponentShapes, strength: np.ndarray) -> np.ndarray:
+    """Candidates whose strength is ≥ STRONG_FRACTION of the strongest candidate's."""
+    shaped = candidates(shapes)
+    if not shaped.any():
+        return shaped
+    return shaped & (strength >= STRONG_FRACTION * strength[shaped].max())

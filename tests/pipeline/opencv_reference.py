@@ -3,7 +3,8 @@ band kernels are checked against.
 
 Separable filtering (cv2.sepFilter2D), the max filter of C (cv2.dilate), the bilinear
 upsampling of coarser levels (cv2.resize INTER_LINEAR), 8-connected components
-(cv2.connectedComponents) and the 5×5 closing (cv2.morphologyEx). The pipeline runs none of
+(cv2.connectedComponents, used by the tests directly) and the 5×5 closing
+(cv2.morphologyEx). The pipeline runs none of
 these; it runs its kernels over a band, the whole frame being the band of all blocks.
 """
 
@@ -17,7 +18,6 @@ import numpy as np
 
 from pipeline.extraction.adaptive import HINT_REACH
 from pipeline.extraction.closing import CLOSING_PX
-from pipeline.extraction.components import shapes_from_moments
 from pipeline.extraction.gaussian import BORDER, GaussianDerivatives, gaussian_kernels
 from pipeline.extraction.ridges import RIDGE_THRESHOLD, min_structure_squared, ridge_response
 from pipeline.extraction.scalespace import (
@@ -27,7 +27,6 @@ from pipeline.extraction.scalespace import (
     decimated_variance,
     level_for,
 )
-from pipeline.extraction.segmentation import stripe_components
 from pipeline.extraction.steger import LineAnalysis, analyse_lines
 
 
@@ -149,28 +148,6 @@ def close_holes(mask: np.ndarray) -> np.ndarray:
     return cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_CLOSE, disc).astype(bool)
 
 
-def label_moments(labels: np.ndarray, count: int) -> np.ndarray:
-    """Area and the sums of r, c, r², c², r·c of each label: (count, 6) float64."""
-    rows, cols = np.indices(labels.shape)
-    flat = labels.ravel()
-    weights = (np.ones(flat.size), rows, cols, rows**2, cols**2, rows * cols)
-    moments = np.stack(
-        [np.bincount(flat, w.ravel().astype(float), minlength=count) for w in weights], axis=1
-    )
-    moments[0] = 0
-    return moments
-
-
-def segment_ridges(response: np.ndarray) -> np.ndarray:
-    """V > RIDGE_THRESHOLD, 8-connected components, the stripe's among them, closing."""
-    binary = (response > RIDGE_THRESHOLD).astype(np.uint8)
-    count, labels = cv2.connectedComponents(binary, connectivity=8, ltype=cv2.CV_32S)
-    keep = stripe_components(shapes_from_moments(*label_moments(labels, count).T))
-    if not keep.any():
-        return np.zeros(response.shape, dtype=bool)
-    return close_holes(keep[labels])
-
-
 def _bilinear(field: np.ndarray, stride: int, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """Bilinear values of a level field at frame pixels, pixel centres aligned, clamped."""
     if stride == 1:
@@ -195,18 +172,26 @@ def _bilinear(field: np.ndarray, stride: int, rows: np.ndarray, cols: np.ndarray
 
 @dataclass(frozen=True, slots=True, eq=False)
 class ReferenceAnalysis:
-    """The whole-frame analysis: per-scale fields, V = max over scales, mask and σ map."""
+    """The whole-frame analysis: per-scale fields, V = max over scales, V > RIDGE_THRESHOLD
+    and the σ map over a given mask."""
 
     scales: tuple[LevelFields, ...]
     response: np.ndarray
-    mask: np.ndarray
+    ridges: np.ndarray
     sigma_map: np.ndarray
 
 
 def analyse_frame(
-    image: np.ndarray, sigmas_px: tuple[float, ...], *, c_grey: float, peak_reach_px: float
+    image: np.ndarray,
+    sigmas_px: tuple[float, ...],
+    *,
+    c_grey: float,
+    peak_reach_px: float,
+    mask: np.ndarray,
 ) -> ReferenceAnalysis:
-    """The adaptive method's analysis of a whole frame, up to the mask and the σ map."""
+    """The adaptive method's analysis of a whole frame: the fields, V > RIDGE_THRESHOLD
+    (the pixels the components are made of) and σB over `mask` (the stripe's selection is
+    the pipeline's own, `segmentation.stripe_components`)."""
     frame = np.ascontiguousarray(image, np.float32)
     levels = scale_levels(frame, sigmas_px)
     scales = tuple(
@@ -220,7 +205,6 @@ def analyse_frame(
             upsample_to_frame(scale.response, scale.level.level, frame.shape),
             out=response,
         )
-    mask = segment_ridges(response)
     rows, cols = np.nonzero(mask)
     best = np.zeros(rows.size, np.float32)
     index = np.full(rows.size, -1)
@@ -230,4 +214,4 @@ def analyse_frame(
         best[better], index[better] = c[better], i
     sigma_map = np.zeros(frame.shape, np.float32)
     sigma_map[rows, cols] = np.asarray((0.0, *sigmas_px), np.float32)[index + 1]
-    return ReferenceAnalysis(scales, response, mask, sigma_map)
+    return ReferenceAnalysis(scales, response, response > RIDGE_THRESHOLD, sigma_map)

@@ -131,12 +131,13 @@ def test_a_short_stripe_left_out_beside_a_faint_long_ridge_is_taken_back(monkeyp
 
 
 def _stripe_with_faint_branch(branch_px: float) -> np.ndarray:
-    """A bright stripe (w 9 px) and, off its side, a faint thin line (w 3 px, peak 20) of
-    `branch_px`: the finest scale sees the line (V > 0.5), the coarsest hardly (V < 0.1),
-    so the band located on the coarsest scale ends where the line goes on."""
+    """A stripe (w 9 px, peak 40) and, off its side, a fainter thin line (w 3 px, peak 16)
+    of `branch_px`: the finest scale sees the line (V > 0.5, C above the mask's floor), the
+    coarsest hardly (V < 0.1), so the band located on the coarsest scale ends where the
+    line goes on."""
     rows, cols = np.mgrid[0:600, 0:800].astype(np.float64)
-    image = 12 + 170 * np.exp(-8 * ((rows - 300) / 9) ** 2) * ((cols > 100) & (cols < 700))
-    image += 20 * np.exp(-8 * ((cols - 400) / 3) ** 2) * ((rows > 300) & (rows < 300 + branch_px))
+    image = 12 + 40 * np.exp(-8 * ((rows - 300) / 9) ** 2) * ((cols > 100) & (cols < 700))
+    image += 16 * np.exp(-8 * ((cols - 400) / 3) ** 2) * ((rows > 300) & (rows < 300 + branch_px))
     return np.rint(image).astype(np.uint8)
 
 

@@ -1,0 +1,172 @@
+"""Lines, not edges: a candidate centre is a bright line's only when the grey falls off on
+both sides of it.
+
+A bright step edge has λ1 < 0 on its bright side and a ridge response near 1, and so has a
+thin highlight along an edge; the Hessian alone does not ask whether the grey falls off on
+*both* sides. The test reads the frame's profile along the normal, smoothed at the scale the
+centre was found at, at the centre and at ±SIDE_REACH_SIGMAS·σ, where the line the scale
+matches (w = √3·σ) has fallen to e⁻² of its smoothed peak; and it asks the unsmoothed
+profile whether the line is as wide as the narrowest stripe expected.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pipeline.extraction.scalespace import fold_index
+from pipeline.jit import kernel
+
+SIDE_REACH_SIGMAS = 2.0 * math.sqrt(1.0 + 3.0 / 16.0)
+"""Where the sides are read, in units of the centre's σ: a Gaussian line of 1/e² width
+w = √3·σ (s = w/4) smoothed at σ has the standard deviation √(σ² + s²) = 1.09·σ, and twice
+that (2.18·σ) is where its smoothed profile is down to e⁻² ≈ 0.14 of its peak."""
+
+SIDE_FLOOR = 0.5
+"""A line's weaker side falls off by at least this share of its stronger side's fall-off.
+A line on a flat background has 1, on a lit ramp or across a plate edge a little less; the
+bright side of a step edge has about 0, and a highlight thinner than the narrowest stripe
+along a plate edge (w 2.5 px, 30–60 grey levels of step) has 0.15–0.4 at σ1."""
+
+SHOULDER_WIDTHS = 0.3
+"""Where the line's shoulders are read on the unsmoothed profile, as a share of the narrowest
+stripe width w_min: at ±0.3·w_min a Gaussian line of width w keeps exp(−0.72·(w_min/w)²) of
+its height, 0.49 at w = w_min, 0.06 at w = w_min/2."""
+
+SHOULDER_FLOOR = 0.25
+"""A line's shoulders keep at least this share of its height above the brighter side: the
+line is at least 0.72·w_min wide (a thin highlight along a lit edge is not)."""
+
+TANGENT_OFFSETS_PX = (-1.0, 0.0, 1.0)
+"""The profile is averaged over three parallel lines this far along the tangent [px]."""
+
+
+@kernel
+def _bilinear_pixel(image, x: float, y: float, inside: bool) -> float:
+    """Bilinear grey of the frame at (x, y) [px]; reflect border (folded as often as it
+    takes) unless the caller knows all four taps lie `inside` the frame."""
+    height, width = image.shape
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = x - x0, y - y0
+    c0, r0 = int(x0), int(y0)
+    if inside:
+        c1, r1 = c0 + 1, r0 + 1
+    else:
+        c1, r1 = fold_index(c0 + 1, width), fold_index(r0 + 1, height)
+        c0, r0 = fold_index(c0, width), fold_index(r0, height)
+    top = float(image[r0, c0]) * (1 - fx) + float(image[r0, c1]) * fx
+    bottom = float(image[r1, c0]) * (1 - fx) + float(image[r1, c1]) * fx
+    return top * (1 - fy) + bottom * fy
+
+
+@kernel
+def _profile_at(image, x, y, nx, ny, t, inside) -> float:
+    """Mean grey at t [px] along the normal from (x, y), over the lines TANGENT_OFFSETS_PX
+    along the tangent."""
+    grey = 0.0
+    for u in TANGENT_OFFSETS_PX:
+        grey += _bilinear_pixel(image, x + t * nx - u * ny, y + t * ny + u * nx, inside)
+    return grey / len(TANGENT_OFFSETS_PX)
+
+
+SMOOTHING_TAPS = 6
+"""The profile is smoothed by a Gaussian of the centre's σ sampled at 2·SMOOTHING_TAPS + 1
+taps σ/2 apart (±3σ): each tap a bilinear read, so the cost does not grow with σ."""
+
+
+@kernel
+def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, out) -> None:
+    """Per centre: out[0], out[1] the fall-off to +d·n and −d·n of the profile smoothed along
+    the normal by a Gaussian of the centre's σ (SMOOTHING_TAPS); out[2] the unsmoothed
+    profile's height at the centre and out[3] the lower of its heights at ±shoulder_px,
+    both above the brighter smoothed side."""
+    height, width = image.shape
+    weights = np.empty(2 * SMOOTHING_TAPS + 1)
+    for j in range(-SMOOTHING_TAPS, SMOOTHING_TAPS + 1):
+        weights[j + SMOOTHING_TAPS] = np.exp(-0.125 * j * j)  # taps σ/2 apart
+    weights /= weights.sum()
+    for k in range(x.size):
+        s = sigma[k]
+        reach = SIDE_REACH_SIGMAS * s
+        # Every read lies within `extent` of the centre: no folding needed inside the frame.
+        extent = reach + 0.5 * SMOOTHING_TAPS * s + 1.0 + max(TANGENT_OFFSETS_PX)
+        inside = extent <= x[k] < width - 1 - extent and extent <= y[k] < height - 1 - extent
+        minus = centre = plus = 0.0
+        for j in range(-SMOOTHING_TAPS, SMOOTHING_TAPS + 1):
+            weight = weights[j + SMOOTHING_TAPS]
+            t = 0.5 * j * s
+            minus += weight * _profile_at(image, x[k], y[k], nx[k], ny[k], t - reach, inside)
+            centre += weight * _profile_at(image, x[k], y[k], nx[k], ny[k], t, inside)
+            plus += weight * _profile_at(image, x[k], y[k], nx[k], ny[k], t + reach, inside)
+        out[0, k] = centre - plus
+        out[1, k] = centre - minus
+        side = max(minus, plus)
+        out[2, k] = _profile_at(image, x[k], y[k], nx[k], ny[k], 0.0, inside) - side
+        shoulder = min(
+            _profile_at(image, x[k], y[k], nx[k], ny[k], shoulder_px, inside),
+            _profile_at(image, x[k], y[k], nx[k], ny[k], -shoulder_px, inside),
+        )
+        out[3, k] = shoulder - side
+
+
+def line_profiles(
+    image: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    nx: np.ndarray,
+    ny: np.ndarray,
+    sigma: np.ndarray,
+    *,
+    width_min_px: float,
+) -> np.ndarray:
+    """The profile across candidate centres: how far the grey falls off on each side, and
+    the line's height at its centre and shoulders.
+
+    Parameters
+    ----------
+    image : ndarray of shape (M, N), uint8, uint16 or float
+        The frame [grey levels].
+    x, y, nx, ny : ndarray of shape (K,)
+        Centres [px] and unit normals.
+    sigma : ndarray of shape (K,)
+        The scale each centre was found at [px].
+    width_min_px : float
+        The narrowest stripe width expected [px].
+
+    Returns
+    -------
+    ndarray of shape (4, K), float64
+        [grey levels] Rows 0 and 1: fall-off of the profile smoothed at σ (along the normal,
+        SMOOTHING_TAPS) from the centre to
+        +d·n and to −d·n, d = SIDE_REACH_SIGMAS·σ (negative where the side is brighter).
+        Rows 2 and 3: the unsmoothed profile at the centre and the lower of it at
+        ±SHOULDER_WIDTHS·width_min_px, above the brighter smoothed side. Every profile is the
+        mean over lines TANGENT_OFFSETS_PX along the tangent, read bilinearly, reflect border.
+    """
+    out = np.empty((4, np.size(x)))
+    fx, fy, fnx, fny, fsigma = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny, sigma))
+    _line_profiles(
+        np.ascontiguousarray(image),
+        fx,
+        fy,
+        fnx,
+        fny,
+        fsigma,
+        SHOULDER_WIDTHS * width_min_px,
+        out,
+    )
+    return out
+
+
+def is_line(profiles: np.ndarray) -> np.ndarray:
+    """Whether each candidate is a bright stripe's line (bool (K,)).
+
+    Its weaker side falls off by more than 0 and by at least SIDE_FLOOR of its stronger
+    side's fall-off (a line, not an edge), and its shoulders keep at least SHOULDER_FLOOR
+    of its height (not thinner than the stripes expected).
+    """
+    falls = profiles[:2]
+    weaker, stronger = falls.min(axis=0), falls.max(axis=0)
+    wide = profiles[3] >= SHOULDER_FLOOR * profiles[2]
+    return (weaker > 0) & (weaker >= SIDE_FLOOR * stronger) & wide
