@@ -14,6 +14,7 @@ import functools
 import pytest
 
 from pipeline import extract_centres
+from tests.pipeline.bars import bar_params
 from tests.pipeline.stripe_images import StripeCase, make_stripe
 from tests.pipeline.stripe_scores import Score, score_centres
 
@@ -28,6 +29,7 @@ HARSH = [
         "field-all", read_noise=3, shot_noise=True, scene="lit", broken=True, ghost_ratio=0.2
     ),
 ]
+CASES = {case.name: case for case in HARSH}
 NOISE_CASE = "noise-peak120"
 COVERAGE_BAR_PCT = 99.0
 RMS_BAR_PX = 0.05
@@ -82,22 +84,10 @@ def adaptive_score(case: StripeCase) -> Score:
     return score_centres(stripe, centres.x, centres.y)
 
 
-def _bars():
-    return [
-        pytest.param(
-            metric,
-            case,
-            id=f"{case.name}-{metric}",
-            marks=[pytest.mark.xfail(strict=True, reason=NOT_YET[case.name, metric])]
-            if (case.name, metric) in NOT_YET
-            else [],
-        )
-        for case in HARSH
-        for metric in ("coverage", "false", "rms")
-    ]
-
-
-@pytest.mark.parametrize(("metric", "case"), _bars())
-def test_adaptive_meets_the_bar(metric: str, case: StripeCase) -> None:
+@pytest.mark.parametrize(
+    ("metric", "name"), bar_params(CASES, ("coverage", "false", "rms"), NOT_YET)
+)
+def test_adaptive_meets_the_bar(metric: str, name: str) -> None:
+    case = CASES[name]
     score = adaptive_score(case)
     assert metric not in missed_bars(case, score), score
