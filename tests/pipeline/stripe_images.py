@@ -20,11 +20,11 @@ from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
-from scipy.ndimage import map_coordinates
+from scipy.ndimage import gaussian_filter, map_coordinates
 from scipy.spatial import cKDTree
 from scipy.special import erfc
 
-from tests.pipeline.stripe_scenes import EDGE_BLUR_PX, HIGHLIGHT_WIDTH_PX, lit_scene
+from tests.pipeline.stripe_scenes import EDGE_BLUR_PX, lit_scene
 
 TRUTH_STEP_PX = 0.05
 """Spacing of the dense truth samples along the centre line [px]."""
@@ -49,15 +49,16 @@ BROKEN_WIDTHS_PX = (7.0, 15.0, 5.0, 19.0, 10.0, 13.0)
 BROKEN_GAINS = (1.0, 1.2, 0.8, 0.9, 1.25, 0.95)
 """Peak of each segment relative to the case's peak (surface angle and reflectance)."""
 
+SPECKLE_SIGMA_PX = 1.2
+"""Correlation of the laser speckle on the stripe: Gaussian σ of its smoothed white noise [px]
+(the grain seen along the real frames' lines)."""
+
 GHOST_SPAN = (0.72, 0.97)
 """Stretch of the line reflected as a ghost, as fractions of its arc inside the frame: the
 tread next to the flange."""
 GHOST_SHIFT_PX = 30.0
 GHOST_WIDENING = 1.4
 """The ghost lies GHOST_SHIFT_PX below the stripe [px], GHOST_WIDENING× as wide (diffuse)."""
-
-HIGHLIGHT_PEAK_GREY = 140.0
-"""Peak of an edge highlight above the scene (8-bit levels)."""
 
 
 @dataclass(frozen=True)
@@ -81,11 +82,14 @@ class StripeCase:
     broken: bool = False
     ghost_ratio: float = 0.0
     asymmetry: float = 1.0
+    speckle: float = 0.0
     """Field-harsh options: `peak_grey` the stripe's peak above the background (8-bit
-    levels); `scene` "dark" (BACKGROUND_GREY), "lit" (lit plates beside the stripe) or
-    "lit-crossing" (plate edges crossing it); `broken` the stripe cut into BROKEN_* segments;
-    `ghost_ratio` the ghost's peak relative to the stripe's (0: none); `asymmetry` the
-    reflectance left of the centre relative to the right's (1: symmetric)."""
+    levels); `scene` "dark" (BACKGROUND_GREY), "lit" (lit plates beside the stripe),
+    "lit-crossing" (plate edges crossing it) or "lit-specular" ("lit" with specular glints);
+    `broken` the stripe cut into BROKEN_* segments; `ghost_ratio` the ghost's peak relative to
+    the stripe's (0: none); `asymmetry` the reflectance left of the centre relative to the
+    right's (1: symmetric); `speckle` the standard deviation of the laser speckle multiplying
+    the stripe, relative to its mean (correlated over SPECKLE_SIGMA_PX)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -350,11 +354,11 @@ def noise_bound_px(amplitude, background, width_px, *, read_noise, shot_noise, b
 
 
 def _background(case: StripeCase):
-    """The scene behind the stripe (grey, 8-bit scale) and its highlight polylines."""
+    """The scene behind the stripe (grey, 8-bit scale) and its bright lines."""
     if case.scene == "dark":
         return BACKGROUND_GREY, []
     scene = lit_scene(np.random.default_rng([case.seed, 1]), case.shape, case.scene, TRUTH_STEP_PX)
-    return scene.grey, scene.highlights
+    return scene.grey, scene.lines
 
 
 def _truth(
@@ -403,7 +407,7 @@ def make_stripe(case: StripeCase) -> SyntheticStripe:
         peak *= 2.5
     whole = _Piece(line, arc, width, peak)
     pieces = _broken(case.shape, whole) if case.broken else [whole]
-    background, highlights = _background(case)
+    background, scene_lines = _background(case)
     laser = np.zeros(case.shape)
     laser_mask = np.zeros(case.shape, bool)
     for piece in pieces:
@@ -417,6 +421,11 @@ def make_stripe(case: StripeCase) -> SyntheticStripe:
         )
         laser += grey
         laser_mask |= lit
+    if case.speckle:
+        grain = gaussian_filter(
+            np.random.default_rng([case.seed, 2]).normal(size=case.shape), SPECKLE_SIGMA_PX
+        )
+        laser *= np.clip(1 + case.speckle * grain / grain.std(), 0, None)
     image = background + laser
     extras = []
     if case.other_part:
@@ -429,15 +438,12 @@ def make_stripe(case: StripeCase) -> SyntheticStripe:
         ghost = _ghost(case.shape, whole, case.ghost_ratio)
         image += _render_line(case.shape, ghost.line, ghost.width, ghost.peak)[0]
         extras.append(ghost.line)
-    for highlight in highlights:
-        n = len(highlight)
+    for bright in scene_lines:
+        n = len(bright.xy)
         image += _render_line(
-            case.shape,
-            highlight,
-            np.full(n, HIGHLIGHT_WIDTH_PX),
-            np.full(n, HIGHLIGHT_PEAK_GREY),
+            case.shape, bright.xy, np.full(n, bright.width_px), np.full(n, bright.peak_grey)
         )[0]
-        extras.append(highlight)
+        extras.append(bright.xy)
     if case.clutter:
         image += _clutter(rng, case.shape, line)
     if case.shot_noise:

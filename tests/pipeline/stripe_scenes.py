@@ -32,13 +32,37 @@ EDGE_BLUR_PX = 0.8
 HIGHLIGHT_WIDTH_PX = 2.5
 """1/e² full width of an edge highlight [px]: narrower than the narrowest stripe (5 px)."""
 
+HIGHLIGHT_PEAK_GREY = 140.0
+"""Peak of an edge highlight above the scene (8-bit levels)."""
+
+
+@dataclass(frozen=True, eq=False)
+class SceneLine:
+    """A bright line of the scene: dense samples (x, y) [px], 1/e² width [px], peak [grey]."""
+
+    xy: np.ndarray
+    width_px: float
+    peak_grey: float
+
 
 @dataclass(frozen=True, eq=False)
 class Scene:
-    """A lit scene: its grey image (float, 8-bit scale) and the polylines of its highlights."""
+    """A lit scene: its grey image (float, 8-bit scale) and its bright lines, to be drawn."""
 
     grey: np.ndarray
-    highlights: list[np.ndarray]
+    lines: list[SceneLine]
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Plates (corners (x, y) [px], interior left of each edge in (x, y): reading order on the
+    image, top left, top right, bottom right, bottom left), the (plate, edge) pairs that carry
+    a highlight (edge k from corner k to k + 1), and glints: specular lines (start, end,
+    1/e² width [px], peak above the scene [grey])."""
+
+    plates: tuple[tuple[tuple[float, float], ...], ...]
+    highlight_edges: tuple[tuple[int, int], ...]
+    glints: tuple[tuple[tuple[float, float], tuple[float, float], float, float], ...] = ()
 
 
 def _polygon_inside(shape, corners: np.ndarray) -> np.ndarray:
@@ -67,32 +91,42 @@ def _edge_samples(a: np.ndarray, b: np.ndarray, inset_px: float, step_px: float)
 LAYOUT_SHAPE = (400, 640)
 """Frame (rows, cols) the layouts are drawn for."""
 
-LAYOUTS: dict[str, tuple[list[list[tuple[float, float]]], list[tuple[int, int]]]] = {
+_BESIDE = (
+    ((380, 352), (660, 352), (660, 420), (380, 420)),
+    ((-20, 40), (60, 40), (60, 420), (-20, 420)),
+    ((175, 160), (290, 160), (290, 330), (175, 330)),
+    ((430, 170), (610, 170), (610, 265), (430, 265)),
+)
+_BESIDE_EDGES = ((0, 0), (1, 1), (2, 3), (3, 2))
+
+LAYOUTS = {
     # Plates beside the stripe, none crossing it: a rail head 35 px below the tread (its gauge
     # corner lit), a web plate left of the flange back, a lit patch inside the flange's curve
     # and a brake block above the tread, with highlights on the edges nearest the stripe.
-    "lit": (
-        [
-            [(380, 352), (660, 352), (660, 420), (380, 420)],
-            [(-20, 40), (60, 40), (60, 420), (-20, 420)],
-            [(175, 160), (290, 160), (290, 330), (175, 330)],
-            [(430, 170), (610, 170), (610, 265), (430, 265)],
-        ],
-        [(0, 0), (1, 1), (2, 3), (3, 2)],
-    ),
+    "lit": Layout(_BESIDE, _BESIDE_EDGES),
     # Plate edges crossing the stripe: a slanted edge across the tread and a level one across
     # the flange back, each with its highlight; the stripe runs on the lit plates beyond them.
-    "lit-crossing": (
-        [
-            [(470, 200), (660, 200), (660, 420), (520, 420)],
-            [(-20, 250), (200, 250), (200, 420), (-20, 420)],
-        ],
-        [(0, 3), (1, 0)],
+    "lit-crossing": Layout(
+        (
+            ((470, 200), (660, 200), (660, 420), (520, 420)),
+            ((-20, 250), (200, 250), (200, 420), (-20, 420)),
+        ),
+        ((0, 3), (1, 0)),
+    ),
+    # The "lit" plates with specular lines as the real frames show them: a polished rod above
+    # the tread (a brake rod, an axle-box bolt) with a bright narrow glint and a dimmer second
+    # one, and the rail head's polished running band, longer than the stripe's pieces.
+    "lit-specular": Layout(
+        (*_BESIDE, ((505, -20), (555, -20), (555, 150), (505, 150))),
+        _BESIDE_EDGES,
+        (
+            ((520, -20), (520, 148), 8.0, 170.0),
+            ((542, -20), (542, 148), 5.0, 90.0),
+            ((380, 388), (660, 388), 12.0, 110.0),
+        ),
     ),
 }
-"""Plates of each lit scene: corners (x, y) [px], interior left of each edge in (x, y) (reading
-order on the image: top left, top right, bottom right, bottom left), and the (plate, edge)
-pairs that carry a highlight."""
+"""The lit scenes' layouts, drawn for LAYOUT_SHAPE frames."""
 
 
 def lit_scene(
@@ -107,16 +141,17 @@ def lit_scene(
     shape : tuple of int
         Frame (rows, cols): LAYOUT_SHAPE, the frame the plates are placed for around the
         stripe of `stripe_images.wheel_line` (whose shape does not scale with the frame).
-    layout : {"lit", "lit-crossing"}
-        Plates and highlighted edges (LAYOUTS). Each plate is lit 2.2× the ambient level
-        behind it; a highlight runs 1.5 px inside its edge, which goes from corner k to k + 1.
+    layout : {"lit", "lit-crossing", "lit-specular"}
+        Plates, highlighted edges and glints (LAYOUTS). Each plate is lit 2.2× the ambient
+        level behind it; a highlight runs 1.5 px inside its edge, HIGHLIGHT_WIDTH_PX wide and
+        HIGHLIGHT_PEAK_GREY above the scene.
     step_px : float
-        Spacing of the highlight polylines' samples [px].
+        Spacing of the bright lines' samples [px].
     """
     if tuple(shape) != LAYOUT_SHAPE:
         raise ValueError(f"lit scenes are laid out for {LAYOUT_SHAPE} frames, got {shape}")
-    corners, highlight_edges = LAYOUTS[layout]
-    plates = [np.asarray(c, float) for c in corners]
+    plan = LAYOUTS[layout]
+    plates = [np.asarray(c, float) for c in plan.plates]
     rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]].astype(float)
     ambient = 26.0 + 14.0 * (cols / shape[1]) + 8.0 * np.sin(rows / shape[0] * np.pi)
     for plate in plates:
@@ -124,8 +159,15 @@ def lit_scene(
     texture = gaussian_filter(rng.normal(size=shape), TEXTURE_SIGMA_PX, mode="reflect")
     texture *= TEXTURE_CONTRAST / texture.std()
     grey = np.clip(ambient * (1.0 + texture), *SCENE_GREY_RANGE)
-    highlights = [
-        _edge_samples(plates[p][e], np.roll(plates[p], -1, axis=0)[e], 1.5, step_px)
-        for p, e in highlight_edges
+    lines = [
+        SceneLine(
+            _edge_samples(plates[p][e], np.roll(plates[p], -1, axis=0)[e], 1.5, step_px),
+            HIGHLIGHT_WIDTH_PX,
+            HIGHLIGHT_PEAK_GREY,
+        )
+        for p, e in plan.highlight_edges
     ]
-    return Scene(grey, highlights)
+    for start, end, width_px, peak_grey in plan.glints:
+        a, b = np.asarray(start, float), np.asarray(end, float)
+        lines.append(SceneLine(_edge_samples(a, b, 0.0, step_px), width_px, peak_grey))
+    return Scene(grey, lines)

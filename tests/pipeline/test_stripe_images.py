@@ -115,14 +115,27 @@ def test_lit_scene_grey_range_and_texture_correlation(layout: str) -> None:
     assert 0.2 < lag5 < 0.55  # e^(-25/(4·2.5²)) = 0.37
 
 
-def test_highlights_stay_beside_the_stripe_or_cross_it() -> None:
-    beside = make_stripe(StripeCase("lit", scene="lit", **QUIET))
-    crossing = make_stripe(StripeCase("crossing", scene="lit-crossing", **QUIET))
-    for stripe, crosses in ((beside, False), (crossing, True)):
-        tree = cKDTree(stripe.line_xy)
-        nearest = [tree.query(h)[0].min() for h in stripe.extras]
-        assert all((d < 1) == crosses for d in nearest), nearest
-        assert all(d > 20 for d in nearest) or crosses
+@pytest.mark.parametrize(
+    ("layout", "crosses"), [("lit", False), ("lit-specular", False), ("lit-crossing", True)]
+)
+def test_scene_lines_stay_beside_the_stripe_or_cross_it(layout: str, crosses: bool) -> None:
+    stripe = make_stripe(StripeCase(layout, scene=layout, **QUIET))
+    tree = cKDTree(stripe.line_xy)
+    nearest = [tree.query(line)[0].min() for line in stripe.extras]
+    if crosses:
+        assert all(d < 1 for d in nearest), nearest
+    else:
+        assert min(nearest) > 20, nearest
+
+
+def test_speckle_modulates_the_stripe_by_its_contrast() -> None:
+    plain = make_stripe(StripeCase("plain", **QUIET))
+    grainy = make_stripe(StripeCase("speckle", speckle=0.1, **QUIET))
+    lit = plain.laser_mask
+    ratio = (grainy.image[lit] / 257 - BACKGROUND_GREY) / (plain.image[lit] / 257 - BACKGROUND_GREY)
+    assert ratio.mean() == pytest.approx(1, abs=0.01)
+    assert ratio.std() == pytest.approx(0.1, rel=0.1)
+    assert np.array_equal(grainy.line_xy, plain.line_xy)
 
 
 def test_noise_of_the_noise_case() -> None:
