@@ -6,7 +6,8 @@ Three tables, each one run with every method side by side:
    adaptive method on its band path (the default) and on the full frame (the reference),
    Steger and the classic baseline; then the field-harsh cases
    (tests/pipeline/test_harsh_cases.py): adaptive, Steger and classic on each frame.
-2. 1600×1200 synthetic wheel frames (clean, varying width, clutter, noise σ 10): ms per
+2. 1600×1200 synthetic wheel frames (clean, varying width, clutter, noise σ 10, a lit scene
+   with glints): ms per
    frame and its ratio to one full-frame float32 `cv2.GaussianBlur` at σ 7.5 px timed in
    the same run (each the least of BACK_TO_BACK runs in a row, methods interleaved, median
    of REPEATS), with each method's accuracy on that frame and the path it took. Issue 8
@@ -51,6 +52,10 @@ SPEED_CASES = [
         shape=FULL_FRAME,
     ),
     replace(StripeCase("noise σ 10", read_noise=10, shot_noise=True), shape=FULL_FRAME),
+    replace(
+        StripeCase("lit scene, glints", read_noise=3, shot_noise=True, scene="lit-specular"),
+        shape=FULL_FRAME,
+    ),
 ]
 HARSH_METHODS = ("adaptive", "steger", "classic")
 REAL_BAR_PCT = 95.0
