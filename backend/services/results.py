@@ -22,6 +22,14 @@ REFERENCE_POINT_X_MM = 70.0
 """Tread reference point (z = 0) of the profile frame [mm]."""
 STORED_DECIMALS = 4
 """Profile coordinates are stored to 0.1 µm: far below the measurement's resolution."""
+PARAMETER_NAMES = (
+    "flange_height_mm",
+    "flange_thickness_mm",
+    "flange_thickness_en_mm",
+    "qr_mm",
+    "back_to_back_mm",
+)
+"""The wheel parameters of a measurement [mm]: its columns and the API's fields."""
 
 
 @lru_cache(maxsize=1)
@@ -146,15 +154,6 @@ def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> M
 def apply_alarms(row: Measurement, fleet: str, session: Session) -> None:
     """(Re)compute the alarms of a measurement against its fleet's current limits."""
     family = profile_family(row.reference_profile)
-    parameters = {
-        name: getattr(row, name)
-        for name in (
-            "flange_height_mm",
-            "flange_thickness_mm",
-            "flange_thickness_en_mm",
-            "qr_mm",
-            "back_to_back_mm",
-        )
-    }
+    parameters = {name: getattr(row, name) for name in PARAMETER_NAMES}
     row.alarms = evaluate_alarms(parameters, limits_for(session, fleet, family), family)
     row.alarm_count = len(row.alarms)
