@@ -43,7 +43,7 @@ def _worker_context(database_url: str, data_dir: str) -> tuple[sessionmaker[Sess
     from backend.config import Settings
 
     settings = Settings(data_dir=Path(data_dir), database_url=database_url)
-    return make_session_factory(make_engine(database_url)), make_worker_store(settings.frames_dir)
+    return make_session_factory(make_engine(database_url)), make_worker_store(settings)
 
 
 def claim_pass_wheel(session: Session, pass_wheel_id: int) -> bool:
