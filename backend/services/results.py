@@ -29,7 +29,9 @@ PARAMETER_NAMES = (
     "qr_mm",
     "back_to_back_mm",
 )
-"""The wheel parameters of a measurement [mm]: its columns and the API's fields."""
+"""The wheel parameters of a measurement [mm]: its columns and the API's fields.
+`flange_thickness_en_mm` is the pipeline's `flange_thickness_10_mm` (Sd at the EN height,
+z = 10 mm above the tread reference point); `flange_thickness_mm` is Sd at z = 12 mm."""
 
 
 @lru_cache(maxsize=1)
