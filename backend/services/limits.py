@@ -1,9 +1,9 @@
 """Fleet alarm limits: defaults, lookup, and the comparison of wheel parameters with them.
 
-EN defaults (issue 5): flange height Sh 27.5–36 mm, flange thickness Sd 22–33 mm measured at
-the EN height of 10 mm, qR ≥ 6.5 mm, back-to-back 1357–1363 mm. LM defaults follow the
-operator's rules for LM-profile wheelsets (Sd measured at 12 mm; wheelset inner distance
-1353 ± 3 mm); both are editable per fleet through the API.
+EN defaults (docs/numbers.md, "Alarms"): flange height Sh 27.5–36 mm, flange thickness Sd
+22–33 mm measured at the EN height of 10 mm, qR ≥ 6.5 mm, back-to-back 1357–1363 mm. LM
+defaults follow the operator's rules for LM-profile wheelsets (Sd measured at 12 mm;
+wheelset inner distance 1353 ± 3 mm); both are editable per fleet through the API.
 """
 
 from __future__ import annotations

@@ -46,7 +46,7 @@ def closest_reference(x_mm: np.ndarray) -> str | None:
     differ by less than wear does, so the service matches the rim width: the measured
     profile's extent from the back face against each reference table's (LMA 135 mm, S1002
     130 mm). This picks the limit set (LM or EN) and the curve drawn behind the profile; it
-    changes no measured parameter. A vehicle register would replace it (see issue 5 notes).
+    changes no measured parameter. A vehicle register would replace it.
     """
     if x_mm.size == 0:
         return None
