@@ -63,23 +63,48 @@ def ts_type(schema: dict[str, Any]) -> str:
     return {**names, "null": "null"}.get(kind or "", "unknown")
 
 
-def ts_interface(name: str, schema: dict[str, Any]) -> str:
+def _fields(schema: dict[str, Any]) -> dict[str, str]:
+    """Each property's declaration line ("  name?: type;"), comments aside, by name."""
+    required = set(schema.get("required", []))
+    lines = {}
+    for field, prop in schema.get("properties", {}).items():
+        optional = "" if field in required else "?"
+        name = json.dumps(field) if "-" in field else field
+        lines[field] = f"  {name}{optional}: {ts_type(prop)};"
+    return lines
+
+
+def _base(name: str, schemas: dict[str, dict[str, Any]]) -> str | None:
+    """The largest other schema whose fields `name` repeats exactly (at least 3): `name`
+    extends it instead of declaring them again."""
+    own = _fields(schemas[name])
+    best, size = None, 2
+    for other in sorted(schemas):
+        theirs = _fields(schemas[other])
+        if other != name and len(theirs) > size and len(theirs) < len(own):
+            if all(own.get(field) == line for field, line in theirs.items()):
+                best, size = other, len(theirs)
+    return best
+
+
+def ts_interface(name: str, schemas: dict[str, dict[str, Any]]) -> str:
     """One `export interface` (or `export type` for a schema without properties)."""
+    schema = schemas[name]
     lines = []
     if "description" in schema:
         lines.append(f"/** {' '.join(schema['description'].split())} */")
     properties = schema.get("properties")
     if not properties:
         return "\n".join([*lines, f"export type {name} = {ts_type(schema)};"])
-    lines.append(f"export interface {name} {{")
-    required = set(schema.get("required", []))
-    for field, prop in properties.items():
-        if "description" in prop:
-            lines.append(f"  /** {' '.join(prop['description'].split())} */")
-        optional = "" if field in required else "?"
-        lines.append(
-            f"  {json.dumps(field) if '-' in field else field}{optional}: {ts_type(prop)};"
-        )
+    base = _base(name, schemas)
+    inherited = set(_fields(schemas[base])) if base else set()
+    lines.append(f"export interface {name}{f' extends {base}' if base else ''} {{")
+    for field, line in _fields(schema).items():
+        if field in inherited:
+            continue
+        if "description" in properties[field]:
+            lines.append(f"  /** {' '.join(properties[field]['description'].split())} */")
+        lines.append(line)
     lines.append("}")
     return "\n".join(lines)
 
@@ -104,7 +129,7 @@ def responses(document: dict[str, Any]) -> str:
 def render(document: dict[str, Any]) -> str:
     """The whole .d.ts text."""
     schemas = document["components"]["schemas"]
-    blocks = [ts_interface(name, schemas[name]) for name in sorted(schemas)]
+    blocks = [ts_interface(name, schemas) for name in sorted(schemas)]
     return HEADER + "\n" + "\n\n".join([*blocks, responses(document)]) + "\n\nexport {};\n"
 
 

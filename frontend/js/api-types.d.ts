@@ -98,16 +98,9 @@ export interface JobRead {
   finished_at: string | null;
 }
 
-export interface LimitsRead {
+export interface LimitsRead extends LimitsUpdate {
   fleet: string;
   wheel_profile: "EN" | "LM";
-  flange_height_min_mm: number;
-  flange_height_max_mm: number;
-  flange_thickness_min_mm: number;
-  flange_thickness_max_mm: number;
-  qr_min_mm: number;
-  back_to_back_min_mm: number;
-  back_to_back_max_mm: number;
   updated_at: string;
 }
 
@@ -187,13 +180,8 @@ export interface PassSummary {
   frames_removed_at?: string | null;
 }
 
-export interface PassWheelRead {
+export interface PassWheelRead extends WheelStateRead {
   wheel_id: number;
-  vehicle_id: string;
-  axle: number;
-  side: "left" | "right";
-  state: string;
-  reason: string | null;
   missing_sensors: string[];
   /** frame count per sensor */
   frames: Record<string, number>;
@@ -241,23 +229,13 @@ export interface TokenCreate {
   expires_at?: string | null;
 }
 
-export interface TokenCreated {
-  id: number;
-  name: string;
-  role: "viewer" | "operator" | "admin";
-  prefix: string;
-  created_at: string;
-  expires_at: string | null;
-  revoked_at: string | null;
+export interface TokenCreated extends TokenRead {
   /** the bearer token; shown only once */
   token: string;
 }
 
-export interface TokenRead {
+export interface TokenRead extends Me {
   id: number;
-  name: string;
-  role: "viewer" | "operator" | "admin";
-  prefix: string;
   created_at: string;
   expires_at: string | null;
   revoked_at: string | null;
