@@ -46,9 +46,10 @@ WIDER_MARGIN_PX = 36.0
 """Margin of the one wider band tried when a stripe component reaches the first band's
 edge [px]."""
 
-SMALL_MARGIN = 0.8
-"""The longest seed region is the stripe widened by its margin; its length L overstates the
-stripe's by a few margins at most. Regions left out are sized against this share of it."""
+SEED_LENGTH_SHARE = 0.8
+"""Share (0–1) of the longest seed region's length L that regions left out are sized
+against: that region is the stripe widened by its margin, so L overstates the stripe's
+length by a few margins at most."""
 
 MAX_BAND_FRACTION = 0.4
 """A band covering more of the frame than this saves nothing: the whole frame is analysed."""
@@ -84,7 +85,7 @@ def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarra
 
     A component kept as part of the stripe is at least KEEP_FRACTION of the longest one's
     length L = √(12·λmax) (`segmentation.stripe_components`), and any pixel set of
-    extent D holds none longer than √3·D. Regions with √3·D < KEEP_FRACTION · SMALL_MARGIN ·
+    extent D holds none longer than √3·D. Regions with √3·D < KEEP_FRACTION · SEED_LENGTH_SHARE ·
     the longest region's L (stray spots, another part's short stripe) are left out. Returns
     the grid without them, those regions (None when none) and the largest extent D left out
     [px of the frame], which the caller checks against the stripe found (the regions are the
@@ -98,7 +99,7 @@ def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, np.ndarra
     sides = label_extents(runs, label, count)
     extent = stride * np.hypot(sides[1:, 0], sides[1:, 1]).astype(np.float64)
     length = stride * shapes_from_moments(*moments.T).length_px[1:]
-    small = math.sqrt(3.0) * extent < KEEP_FRACTION * SMALL_MARGIN * length.max()
+    small = math.sqrt(3.0) * extent < KEEP_FRACTION * SEED_LENGTH_SHARE * length.max()
     if not small.any():
         return band, None, 0.0
     dropped = np.concatenate(([False], small))[label]

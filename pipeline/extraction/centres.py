@@ -24,7 +24,7 @@ from pipeline.extraction.line_test import is_line, line_profiles
 from pipeline.extraction.linking import link_points
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
 from pipeline.extraction.scalespace import ScaleLevel
-from pipeline.extraction.segmentation import CHAIN_FRACTION
+from pipeline.extraction.segmentation import CHAIN_FRACTION, CHAIN_MIN_POINTS
 from pipeline.extraction.steger import centre_pixels, newton_step
 from pipeline.extraction.widths import stripe_widths
 from pipeline.imaging import GEOMETRY_FLOAT, validate_image
@@ -70,9 +70,11 @@ class Centres:
         blocks, asked for), or "fallback" (the whole frame because no band could be trusted
         for this frame).
     rejected_x, rejected_y : ndarray of shape (R,), float64
-        Sub-pixel positions [px] of the candidate centres inside the mask that the
-        line-vs-edge test rejected (`pipeline.extraction.line_test`): the grey does not
-        fall off on both sides of them.
+        Sub-pixel positions [px] of the candidate centres inside the mask that "adaptive"
+        rejected: the line-vs-edge test's (`pipeline.extraction.line_test`: the grey does
+        not fall off on both sides, or the line is thinner than width_min allows) and those
+        of short, dim chains (`segmentation.CHAIN_FRACTION`). Empty for "steger" and
+        "classic", the paper's baselines.
 
     All arrays are read-only.
     """
@@ -253,14 +255,15 @@ def _lines_only(
 def _bright_chains(
     chains: list[np.ndarray], height: np.ndarray
 ) -> tuple[list[np.ndarray], np.ndarray]:
-    """The chains whose highest line is at least CHAIN_FRACTION of the highest of all
-    (`segmentation.CHAIN_FRACTION`; every chain when the heights are NaN), and the points
-    of the others."""
+    """The chains that are long (≥ CHAIN_MIN_POINTS) or whose highest line is at least
+    CHAIN_FRACTION of the highest of all (`segmentation`; every chain when the heights are
+    NaN), and the points of the others."""
     if not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
     least = CHAIN_FRACTION * max(height[c].max() for c in chains)
-    bright = [c for c in chains if height[c].max() >= least]
-    dim = [c for c in chains if height[c].max() < least]
+    kept = [c.size >= CHAIN_MIN_POINTS or height[c].max() >= least for c in chains]
+    dim = [c for c, k in zip(chains, kept, strict=True) if not k]
+    bright = [c for c, k in zip(chains, kept, strict=True) if k]
     return bright, np.concatenate(dim) if dim else np.zeros(0, np.int64)
 
 
@@ -377,8 +380,13 @@ def extract_centres(
     -----
     A pixel (r, c) inside the mask holds a centre when λ1 < 0 and the Taylor step
     t = −(nx·Ix + ny·Iy)/(nx²·Ixx + 2nx·ny·Ixy + ny²·Iyy) satisfies |t·nx| ≤ 0.5 and
-    |t·ny| ≤ 0.5; the point is (c + t·nx, r + t·ny) [1] (paper eqs. (8)–(10)). Points are then
-    linked into polylines and their widths measured between the gradient maxima.
+    |t·ny| ≤ 0.5; the point is (c + t·nx, r + t·ny) [1] (paper eqs. (8)–(10)). "adaptive"
+    then keeps the candidates that are lines, not edges (`line_test.is_line`). Points are
+    linked into polylines ("adaptive" drops short chains far dimmer than the brightest) and
+    their widths measured between the gradient maxima. Which stage rejects what: the mask
+    (`segmentation`) spots, dim outlines, texture, ghosts and short pieces of other parts'
+    stripes; the line test step edges and highlights thinner than the stripe; measurement
+    another part's long bright stripe, by its place in the track frame.
     The σ map and the mask are those of the pixels, before the sub-pixel step.
 
     References
@@ -433,7 +441,7 @@ def extract_centres(
         sigma_map=sigma_map,
         method=method,
         sigmas_px=sigmas if method == "adaptive" else (fixed_sigma,),
-        width_min=None if method == "classic" else width_min,
+        width_min=width_min if method == "adaptive" else None,
         width_max=width_max,
         curvature_correction=bool(correct),
         path=path,

@@ -23,6 +23,7 @@ SIDE_REACH_SIGMAS = 2.0 * math.sqrt(1.0 + 3.0 / 16.0)
 w = √3·σ (s = w/4) smoothed at σ has the standard deviation √(σ² + s²) = 1.09·σ, and twice
 that (2.18·σ) is where its smoothed profile is down to e⁻² ≈ 0.14 of its peak."""
 
+
 SIDE_FLOOR = 0.5
 """A line's weaker side falls off by at least this share of its stronger side's fall-off.
 A line on a flat background has 1, on a lit ramp or across a plate edge a little less; the
@@ -79,8 +80,8 @@ taps σ/2 apart (±3σ): each tap a bilinear read, so the cost does not grow wit
 def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, out) -> None:
     """Per centre: out[0], out[1] the fall-off to +d·n and −d·n of the profile smoothed along
     the normal by a Gaussian of the centre's σ (SMOOTHING_TAPS); out[2] the unsmoothed
-    profile's height at the centre and out[3] the lower of its heights at ±shoulder_px,
-    both above the brighter smoothed side."""
+    profile's height at the centre and out[3] the lower of its heights at ±shoulder_px, both
+    above the brighter smoothed side."""
     height, width = image.shape
     weights = np.empty(2 * SMOOTHING_TAPS + 1)
     for j in range(-SMOOTHING_TAPS, SMOOTHING_TAPS + 1):
@@ -138,8 +139,8 @@ def line_profiles(
     -------
     ndarray of shape (4, K), float64
         [grey levels] Rows 0 and 1: fall-off of the profile smoothed at σ (along the normal,
-        SMOOTHING_TAPS) from the centre to
-        +d·n and to −d·n, d = SIDE_REACH_SIGMAS·σ (negative where the side is brighter).
+        SMOOTHING_TAPS) from the centre to +d·n and to −d·n, d = SIDE_REACH_SIGMAS·σ
+        (negative where the side is brighter).
         Rows 2 and 3: the unsmoothed profile at the centre and the lower of it at
         ±SHOULDER_WIDTHS·width_min_px, above the brighter smoothed side. Every profile is the
         mean over lines TANGENT_OFFSETS_PX along the tangent, read bilinearly, reflect border.

@@ -30,18 +30,24 @@ scale whatever its width, so this is a share of the peak contrast: a ghost at 10
 texture and the outlines of a lit scene (C ≲ 0.15 of the laser's) fall below it; a laser
 stretch dimmed to 25 % stays kept with the component it belongs to."""
 
-MASK_FLOOR = 0.15
+MASK_FLOOR = 0.08
 """A scale's V counts towards the mask only where its C is at least this share of the
-strongest candidate's: the faint ridges of a lit scene's texture and outlines (C ≲ 0.15 of
-the laser's) would otherwise join the stripe into one component; a laser stretch dimmed to
-25 % of the peak stays above it."""
+strongest candidate's: the faint ridges of a lit scene's texture and outlines would
+otherwise join the stripe into one component. A simulated wheel's flank, dimmed where the
+laser grazes it, needs it below 0.15 (measured: 0.05 and 0.08 keep it, 0.15 loses it)."""
 
 CHAIN_FRACTION = 0.5
-"""A linked chain of centres is the stripe's when its highest line (the unsmoothed profile's
-height above the brighter side, `line_test.line_profiles`) is at least this share of the
-highest chain's. Inside a kept component, texture ridges and bits of outline beside the
-laser are linked apart from the laser's own chain and are a fraction of its height; the
-dimmest piece of a broken stripe (0.8 of the peak beside one at 1.25) has 0.64."""
+"""A short linked chain of centres is the stripe's only when its highest line (the
+unsmoothed profile's height above the brighter side, `line_test.line_profiles`) is at least
+this share of the highest chain's. Inside a kept component, texture ridges and bits of
+outline beside the laser are linked apart from the laser's own chain, short and a fraction
+of its height; the dimmest piece of a broken stripe (0.8 of the peak beside one at 1.25)
+has 0.64."""
+
+CHAIN_MIN_POINTS = 30
+"""A chain of at least this many centres (about as many px along the stripe) is kept
+whatever its height: a dim stretch of the laser linked apart from its bright parts (on real
+frames a quarter of their height) is long, texture ridges are not."""
 
 KEEP_FRACTION = 0.3
 """Strong components at least this share of the longest strong one's length are kept as
