@@ -1,4 +1,5 @@
-"""PNG renderings for the browser: frames, stripe masks and coloured σ maps (downscaled)."""
+"""PNG renderings for the browser: frames, stripe masks (with the rejected candidates) and
+coloured σ maps (downscaled)."""
 
 from __future__ import annotations
 
@@ -15,6 +16,10 @@ from pipeline import Centres
 from pipeline.archive.pass_archive import decode_frame
 
 SIGMA_COLORMAP = "viridis"
+
+REJECTED_GREY = 96
+"""Grey of the rejected candidate centres in the mask PNG (the stripe is 255, the rest 0):
+below half grey, so a reader that knows only the mask leaves them out."""
 
 
 def _downscale(image: np.ndarray, max_width_px: int | None, *, nearest: bool) -> np.ndarray:
@@ -42,9 +47,15 @@ def frame_png(png_bytes: bytes, max_width_px: int | None) -> bytes:
     return encode_png(_downscale(image, max_width_px, nearest=False))
 
 
-def mask_png(mask: np.ndarray, max_width_px: int | None) -> bytes:
-    """The stripe mask as an 8-bit PNG: 255 on the stripe, 0 elsewhere."""
+def mask_png(mask: np.ndarray, rejected_xy: np.ndarray, max_width_px: int | None) -> bytes:
+    """The stripe mask as an 8-bit PNG: 255 on the stripe, REJECTED_GREY on a 3×3 square
+    around each rejected candidate centre (x, y [px]), 0 elsewhere."""
     image = np.where(mask, 255, 0).astype(np.uint8)
+    cols = np.clip(np.rint(rejected_xy[:, 0]).astype(np.int64), 0, mask.shape[1] - 1)
+    rows = np.clip(np.rint(rejected_xy[:, 1]).astype(np.int64), 0, mask.shape[0] - 1)
+    spots = np.zeros(mask.shape, np.uint8)
+    spots[rows, cols] = 1
+    image[cv2.dilate(spots, np.ones((3, 3), np.uint8)) > 0] = REJECTED_GREY
     return encode_png(_downscale(image, max_width_px, nearest=True))
 
 
@@ -89,7 +100,7 @@ def layer_png(store: BlobStore, sha256: str, layer: str, max_width_px: int | Non
     """The "mask" or "sigma" layer of a frame's artefacts as PNG (rendered once, cached)."""
     artefacts = cached_artefacts(store, sha256)
     if layer == "mask":
-        return LayerPng(mask_png(artefacts.mask, max_width_px), 0.0, 0.0)
+        return LayerPng(mask_png(artefacts.mask, artefacts.rejected_xy, max_width_px), 0.0, 0.0)
     if artefacts.sigma_map is None:
         raise ValueError(f"artefacts {sha256[:12]}… have no σ map (a fixed-σ method)")
     low, high = sigma_scale(artefacts.sigma_map)
@@ -103,7 +114,10 @@ def prerender_layers(store: BlobStore, centres: Centres) -> dict[str, str | floa
     sigma_max_px (the σ ones None for fixed-σ methods).
     """
     layers: dict[str, str | float | None] = {
-        "mask_png_sha256": store.put(mask_png(centres.mask, None), ".png"),
+        "mask_png_sha256": store.put(
+            mask_png(centres.mask, np.stack([centres.rejected_x, centres.rejected_y], 1), None),
+            ".png",
+        ),
         "sigma_png_sha256": None,
         "sigma_min_px": None,
         "sigma_max_px": None,

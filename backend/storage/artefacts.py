@@ -1,4 +1,5 @@
-"""Per-frame measurement artefacts (centres, stripe mask, σ map) as compressed .npz blobs.
+"""Per-frame measurement artefacts (centres, stripe mask, σ map, rejected candidates) as
+compressed .npz blobs.
 
 One blob per (measurement, sensor, frame) in the content-addressed store: the arrays of a
 `pipeline.Centres` needed to review the extraction, without re-running it.
@@ -30,11 +31,15 @@ class FrameArtefacts:
         Stripe mask.
     sigma_map : ndarray of shape (M, N), float32, or None
         σB per mask pixel [px], 0 elsewhere; None for fixed-σ methods.
+    rejected_xy : ndarray of shape (R, 2), float64
+        Candidate centres the extraction rejected (x, y [px], `Centres.rejected_x/y`);
+        empty for artefacts stored before they were kept.
     """
 
     points: dict[str, np.ndarray]
     mask: np.ndarray
     sigma_map: np.ndarray | None
+    rejected_xy: np.ndarray
 
 
 def save_artefacts(store: BlobStore, centres: Centres) -> str:
@@ -47,6 +52,7 @@ def save_artefacts(store: BlobStore, centres: Centres) -> str:
     arrays["mask_shape"] = np.array(mask.shape, np.int64)
     if centres.sigma_map is not None:
         arrays["sigma_map"] = np.asarray(centres.sigma_map, np.float32)
+    arrays["rejected_xy"] = np.stack([centres.rejected_x, centres.rejected_y], axis=1)
     buffer = io.BytesIO()
     np.savez_compressed(buffer, **arrays)  # type: ignore[arg-type]
     return store.put(buffer.getvalue(), ARTEFACT_SUFFIX)
@@ -58,8 +64,10 @@ def load_artefacts(store: BlobStore, sha256: str) -> FrameArtefacts:
         shape = tuple(int(v) for v in data["mask_shape"])
         mask = np.unpackbits(data["mask_bits"], count=shape[0] * shape[1]).astype(bool)
         sigma_map = data["sigma_map"] if "sigma_map" in data.files else None
+        rejected = data["rejected_xy"] if "rejected_xy" in data.files else np.zeros((0, 2))
         return FrameArtefacts(
             points={name: data[name] for name in POINT_FIELDS},
             mask=mask.reshape(shape),
             sigma_map=sigma_map,
+            rejected_xy=rejected,
         )

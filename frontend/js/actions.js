@@ -14,6 +14,10 @@ const JOB_ENDS = ['done', 'failed'];
 /** Tint of the stripe mask layer (RGBA): translucent magenta, visible on grey frames. */
 const MASK_TINT = /** @type {[number, number, number, number]} */ ([236, 72, 153, 110]);
 
+/** Tint of the candidate centres the extraction rejected (RGBA): opaque amber, a third colour
+ * beside the mask and the centres. */
+const REJECTED_TINT = /** @type {[number, number, number, number]} */ ([245, 158, 11, 230]);
+
 /**
  * @typedef {ReturnType<typeof createActions>} Actions
  */
@@ -236,6 +240,6 @@ async function maskLayer(bitmap) {
   const ctx = /** @type {OffscreenCanvasRenderingContext2D} */ (canvas.getContext('2d'));
   ctx.drawImage(bitmap, 0, 0);
   const pixels = ctx.getImageData(0, 0, bitmap.width, bitmap.height);
-  const tinted = new ImageData(tintMask(pixels.data, MASK_TINT), bitmap.width, bitmap.height);
+  const tinted = new ImageData(tintMask(pixels.data, MASK_TINT, REJECTED_TINT), bitmap.width, bitmap.height);
   return createImageBitmap(tinted);
 }

@@ -379,12 +379,12 @@ def _with_peaks(
 
 
 def _segment(scales, levels, blocks, shape):
-    """`segment_band` of the scales' V and C (C not yet max-filtered); `blocks` per level."""
+    """`segment_band` of the scales' V and C (C not yet max-filtered); `blocks` per level,
+    the frame's first."""
     return segment_band(
         tuple(sc.response for sc in scales),
         tuple(sc.peak_strength for sc in scales),
         tuple(2**lv for lv in levels),
-        tuple(blocks[lv] for lv in levels),
         blocks[0],
         shape,
     )

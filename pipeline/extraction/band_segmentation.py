@@ -110,36 +110,55 @@ def _stripe_runs(responses, strides, blocks, shape):
 
 
 @kernel
-def _run_strengths(runs, strengths, strides):
-    """Largest C = max over scales of σ²|λ1| (bilinear on coarser levels, as V) on each run."""
-    out = np.zeros(runs.shape[0])
+def _pixel_strengths(runs, strengths, strides):
+    """C = max over scales of σ²|λ1| (bilinear on coarser levels, as V) at every pixel of the
+    runs, run after run: (Σ run lengths,) float64."""
+    total = 0
     for k in range(runs.shape[0]):
-        r = runs[k, 0]
+        total += runs[k, 2] - runs[k, 1]
+    out = np.zeros(total)
+    at = 0
+    for k in range(runs.shape[0]):
+        r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2]
         for i in range(len(strengths)):
             field, stride = strengths[i], strides[i]
             if stride == 1:
-                for c in range(runs[k, 1], runs[k, 2]):
-                    out[k] = max(out[k], field[r, c])
+                for c in range(c0, c1):
+                    out[at + c - c0] = max(out[at + c - c0], field[r, c])
                 continue
             v0, v1, fv = linear_tap(r, stride, field.shape[0])
-            for c in range(runs[k, 1], runs[k, 2]):
+            for c in range(c0, c1):
                 u0, u1, fu = linear_tap(c, stride, field.shape[1])
-                out[k] = max(out[k], blend(field, v0, v1, fv, u0, u1, fu))
+                value = blend(field, v0, v1, fv, u0, u1, fu)
+                out[at + c - c0] = max(out[at + c - c0], value)
+        at += c1 - c0
     return out
 
 
 @kernel
-def _floored(response, strength, blocks, floor):
-    """V where C ≥ floor on the given blocks, 0 elsewhere (a new array)."""
-    height, width = response.shape
-    out = np.zeros((height, width), np.float32)
-    for br, first, stop in block_runs(blocks):
-        c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
-        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-            for c in range(c0, c1):
-                if strength[r, c] >= floor:
-                    out[r, c] = response[r, c]
-    return out
+def _split_runs(runs, pixel_strength, floor):
+    """The stretches of the runs whose pixels have C ≥ floor, raster order, and the largest C
+    on each: ((K, 3) int64, (K,) float64)."""
+    out = np.empty((pixel_strength.size, 3), np.int64)
+    peak = np.empty(pixel_strength.size)
+    count = 0
+    at = 0
+    for k in range(runs.shape[0]):
+        r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2]
+        start = -1
+        for c in range(c0, c1 + 1):
+            strong = c < c1 and pixel_strength[at + c - c0] >= floor
+            if strong and start < 0:
+                start = c
+                peak[count] = 0.0
+            if strong:
+                peak[count] = max(peak[count], pixel_strength[at + c - c0])
+            elif start >= 0:
+                out[count, 0], out[count, 1], out[count, 2] = r, start, c
+                count += 1
+                start = -1
+        at += c1 - c0
+    return out[:count].copy(), peak[:count].copy()
 
 
 @kernel
@@ -167,21 +186,19 @@ EDGE_REACH_PX = 5
 reaches 4 px (one stride of level 2)."""
 
 
-def _components(responses, strengths, strides, blocks, shape):
-    """Runs of V > RIDGE_THRESHOLD, their labels, the components' shapes and strengths."""
-    runs = _stripe_runs(responses, strides, blocks, shape)
+def _components(runs, run_strength):
+    """Labels of the runs, the components' shapes and their largest C."""
     label, moments = label_runs(runs)
     strength = np.zeros(moments.shape[0])
-    np.maximum.at(strength, label, _run_strengths(runs, strengths, strides))
-    return runs, label, shapes_from_moments(*moments.T), strength
+    np.maximum.at(strength, label, run_strength)
+    return label, shapes_from_moments(*moments.T), strength
 
 
 def segment_band(
     responses: tuple[np.ndarray, ...],
     strengths: tuple[np.ndarray, ...],
     strides: tuple[int, ...],
-    blocks: tuple[np.ndarray, ...],
-    frame_blocks: np.ndarray,
+    blocks: np.ndarray,
     shape: tuple[int, int],
 ) -> BandMask:
     """Stripe mask from the scales' ridge responses inside the band.
@@ -194,9 +211,7 @@ def segment_band(
         C = σ²|λ1| of each scale on its level's grid [grey levels] (0 outside the band).
     strides : tuple of int
         Each level's stride 2^L.
-    blocks : tuple of ndarray of bool
-        The band's blocks on each scale's level grid.
-    frame_blocks : ndarray of bool
+    blocks : ndarray of bool
         The band's frame (level-0) blocks.
     shape : tuple of int
         Frame shape (M, N).
@@ -208,30 +223,30 @@ def segment_band(
     Notes
     -----
     V > RIDGE_THRESHOLD, 8-connected components; the strongest candidate's C sets the floor
-    MASK_FLOOR·C below which a scale's V does not count (the faint ridges of texture and
-    outlines around the stripe, which would join it into one component); the components
-    again, the stripe's among them (`segmentation.stripe_components`), closed. With every
-    block in the band (the whole frame) no component comes near the band's edge: the
-    frame's edge counts as band.
+    MASK_FLOOR·C: pixels whose C (the largest over the scales) is below it leave the mask
+    (the faint ridges of texture and outlines around the stripe, which would join it into
+    one component); the components again, the stripe's among them
+    (`segmentation.stripe_components`), closed. With every block in the band (the whole
+    frame) no component comes near the band's edge: the frame's edge counts as band.
     """
-    runs, _, shapes, strength = _components(responses, strengths, strides, frame_blocks, shape)
+    runs = _stripe_runs(responses, strides, blocks, shape)
+    pixel_strength = _pixel_strengths(runs, strengths, strides)
+    _, peaks = _split_runs(runs, pixel_strength, -np.inf)
+    _, shapes, strength = _components(runs, peaks)
     shaped = candidates(shapes)
     reference = float(strength[shaped].max()) if shaped.any() else 0.0
-    floored = tuple(
-        _floored(v, c, b, np.float32(MASK_FLOOR * reference))
-        for v, c, b in zip(responses, strengths, blocks, strict=True)
-    )
-    runs, label, shapes, strength = _components(floored, strengths, strides, frame_blocks, shape)
+    runs, peaks = _split_runs(runs, pixel_strength, MASK_FLOOR * reference)
+    label, shapes, strength = _components(runs, peaks)
     near = labels_within(runs, label, strong_candidates(shapes, strength), CONTINUITY_GAP_PX)
     keep = stripe_components(shapes, strength, near)
     # A component the band may have cut: one shaped like a stripe piece (kept ones are). A
     # round spot (a specular reflection beside the stripe) is not, whole or cut, so it may.
     piece = candidates(shapes)
     touching = np.zeros(keep.size, bool)
-    touching[label[runs_near_band_edge(runs, frame_blocks, EDGE_REACH_PX)]] = True
+    touching[label[runs_near_band_edge(runs, blocks, EDGE_REACH_PX)]] = True
     inside = not (touching & piece).any()
     if inside:
-        mask = close_runs(runs, keep[label], frame_blocks, shape)
+        mask = close_runs(runs, keep[label], blocks, shape)
     else:
         mask = np.zeros(shape, np.bool_)
     return BandMask(

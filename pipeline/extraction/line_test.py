@@ -71,9 +71,10 @@ def _profile_at(image, x, y, nx, ny, t, inside) -> float:
     return grey / len(TANGENT_OFFSETS_PX)
 
 
-SMOOTHING_TAPS = 6
+SMOOTHING_TAPS = 4
 """The profile is smoothed by a Gaussian of the centre's σ sampled at 2·SMOOTHING_TAPS + 1
-taps σ/2 apart (±3σ): each tap a bilinear read, so the cost does not grow with σ."""
+taps σ/2 apart (±2σ, 95 % of its weight): each tap a bilinear read, so the cost does not
+grow with σ."""
 
 
 @kernel

@@ -31,10 +31,11 @@ texture and the outlines of a lit scene (C ≲ 0.15 of the laser's) fall below i
 stretch dimmed to 25 % stays kept with the component it belongs to."""
 
 MASK_FLOOR = 0.08
-"""A scale's V counts towards the mask only where its C is at least this share of the
-strongest candidate's: the faint ridges of a lit scene's texture and outlines would
-otherwise join the stripe into one component. A simulated wheel's flank, dimmed where the
-laser grazes it, needs it below 0.15 (measured: 0.05 and 0.08 keep it, 0.15 loses it)."""
+"""A pixel of V > RIDGE_THRESHOLD stays in the mask only where its C (the largest over the
+scales) is at least this share of the strongest candidate's: the faint ridges of a lit
+scene's texture and outlines would otherwise join the stripe into one component. A
+simulated wheel's flank, dimmed where the laser grazes it, needs it below 0.15 (measured:
+0.05 and 0.08 keep it, 0.15 loses it)."""
 
 CHAIN_FRACTION = 0.5
 """A short linked chain of centres is the stripe's only when its highest line (the

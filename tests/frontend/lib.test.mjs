@@ -157,9 +157,12 @@ test('VIRIDIS matches matplotlib at both ends and lutIndex clamps', () => {
   assert.equal(lutIndex(NaN, 0, 10), 0);
 });
 
-test('tintMask colours mask pixels and leaves the rest transparent', () => {
-  const mask = new Uint8ClampedArray([255, 255, 255, 255, 0, 0, 0, 255]);
-  assert.deepEqual([...tintMask(mask, [1, 2, 3, 4])], [1, 2, 3, 4, 0, 0, 0, 0]);
+test('tintMask colours mask pixels and rejected centres, and leaves the rest transparent', () => {
+  const mask = new Uint8ClampedArray([255, 255, 255, 255, 0, 0, 0, 255, 96, 96, 96, 255]);
+  assert.deepEqual(
+    [...tintMask(mask, [1, 2, 3, 4], [5, 6, 7, 8])],
+    [1, 2, 3, 4, 0, 0, 0, 0, 5, 6, 7, 8],
+  );
 });
 
 test('formatters show missing values as a dash and times in UTC', () => {

@@ -106,7 +106,8 @@ def get_mask_png(
     index: FrameIndex = 0,
     max_width: MaxWidth = None,
 ) -> Response:
-    """The stripe mask the method searched centres in (255 = stripe)."""
+    """The stripe mask the method searched centres in (255 = stripe, 96 = candidate centres
+    the method rejected)."""
     _frame_row, row = stored_extraction(session, pass_wheel, method, position, index)
     etag = f'"{row.artefact_sha256[:24]}-mask-{max_width}"'
     if (cached := _revalidated(request, etag)) is not None:

@@ -4,21 +4,19 @@
  */
 
 /**
- * Turn a decoded mask image (RGBA, mask where red > 127) into a translucent tint layer.
+ * Turn a decoded mask image (RGBA: the mask where red > 127, rejected candidate centres
+ * where 64 < red ≤ 127) into a translucent tint layer.
  * @param {Uint8ClampedArray} maskRgba decoded mask pixels, 4 bytes per pixel
  * @param {[number, number, number, number]} tintRgba colour and alpha (0..255) inside the mask
- * @returns {Uint8ClampedArray<ArrayBuffer>} RGBA pixels, transparent outside the mask
+ * @param {[number, number, number, number]} rejectedRgba colour and alpha of rejected centres
+ * @returns {Uint8ClampedArray<ArrayBuffer>} RGBA pixels, transparent elsewhere
  */
-export function tintMask(maskRgba, tintRgba) {
+export function tintMask(maskRgba, tintRgba, rejectedRgba) {
   const out = new Uint8ClampedArray(maskRgba.length);
-  const [r, g, b, a] = tintRgba;
   for (let p = 0; p < maskRgba.length; p += 4) {
-    if (maskRgba[p] > 127) {
-      out[p] = r;
-      out[p + 1] = g;
-      out[p + 2] = b;
-      out[p + 3] = a;
-    }
+    const value = maskRgba[p];
+    const tint = value > 127 ? tintRgba : value > 64 ? rejectedRgba : null;
+    if (tint) out.set(tint, p);
   }
   return out;
 }
