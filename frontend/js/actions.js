@@ -14,9 +14,9 @@ const JOB_ENDS = ['done', 'failed'];
 /** Tint of the stripe mask layer (RGBA): translucent magenta, visible on grey frames. */
 const MASK_TINT = /** @type {[number, number, number, number]} */ ([236, 72, 153, 110]);
 
-/** Tint of the candidate centres the extraction rejected (RGBA): opaque amber, a third colour
- * beside the mask and the centres. */
-const REJECTED_TINT = /** @type {[number, number, number, number]} */ ([245, 158, 11, 230]);
+/** Tint of the candidate centres the extraction rejected (RGBA): opaque lime, a third colour
+ * beside the magenta mask and the orange (adaptive) and cyan (Steger) centres. */
+const REJECTED_TINT = /** @type {[number, number, number, number]} */ ([132, 204, 22, 230]);
 
 /**
  * @typedef {ReturnType<typeof createActions>} Actions
