@@ -1,0 +1,93 @@
+"""Lines, not edges (line_test), and the stripe's pieces, not the longest outline (segmentation)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.special import erfc
+
+from pipeline import extract_centres
+from pipeline.extraction.line_test import is_line, line_profiles
+
+SHAPE = (80, 120)
+ROW = 40.3
+"""The profile's centre row [px]; the profiles run across the rows (normal (0, 1))."""
+
+
+def _frame(profile) -> np.ndarray:
+    """A frame whose rows follow `profile(d)`, d = row − ROW [px], on a background of 12."""
+    rows = np.arange(SHAPE[0], dtype=np.float64)[:, None] - ROW
+    return np.broadcast_to(12 + profile(rows), SHAPE).astype(np.float64)
+
+
+def _line(width_px: float, peak: float = 150.0):
+    return lambda d: peak * np.exp(-8 * d**2 / width_px**2)
+
+
+def _step(at_px: float, height: float):
+    """Brighter by `height` above d = at_px (rows before it), blurred by σ 0.8 px."""
+    return lambda d: height * 0.5 * erfc((d - at_px) / (np.sqrt(2) * 0.8))
+
+
+def _test(image: np.ndarray, sigma_px: float, width_min_px: float = 5.0) -> bool:
+    x = np.array([60.0])
+    y = np.array([ROW])
+    normal = (np.zeros(1), np.ones(1))
+    profiles = line_profiles(image, x, y, *normal, np.array([sigma_px]), width_min_px=width_min_px)
+    assert profiles.shape == (4, 1)
+    return bool(is_line(profiles)[0])
+
+
+@pytest.mark.parametrize(("width_px", "sigma_px"), [(5, 2.887), (13, 7.51), (21, 12.12)])
+def test_a_bright_line_is_a_line(width_px, sigma_px) -> None:
+    assert _test(_frame(_line(width_px)), sigma_px)
+
+
+def test_a_line_on_a_lit_ramp_and_beside_a_dim_step_is_a_line() -> None:
+    ramp = _frame(lambda d: _line(7)(d) + 1.5 * d + _step(-9, 25)(d))
+    assert _test(ramp, 2.887)
+
+
+def test_the_bright_side_of_a_step_edge_is_not() -> None:
+    # The shoulder 1 px inside a 100-grey-level step: λ1 < 0 there, the grey falls one way only.
+    assert not _test(_frame(_step(1.0, 100)), 2.887)
+
+
+def test_a_highlight_thinner_than_the_stripes_along_an_edge_is_not() -> None:
+    highlight = _frame(lambda d: _line(2.5, 140)(d) + _step(1.5, 40)(d))
+    assert not _test(highlight, 2.887)
+    # The same highlight alone on a dark background: a line, but too thin for w_min 5 px.
+    assert not _test(_frame(_line(2.5, 140)), 2.887)
+    assert _test(_frame(_line(2.5, 140)), 2.887, width_min_px=2.5)
+
+
+def test_extraction_rejects_the_edge_and_keeps_the_stripe() -> None:
+    # A stripe across the frame below a lit plate whose edge runs parallel to it.
+    rows = np.arange(240, dtype=np.float64)[:, None]
+    image = 12 + 150 * np.exp(-8 * (rows - 150.4) ** 2 / 9**2)
+    image = image + 60 * 0.5 * erfc((rows - 60) / (np.sqrt(2) * 0.8))  # plate above row 60
+    image = image + 120 * np.exp(-8 * (rows - 58.5) ** 2 / 2.5**2)  # its edge's highlight
+    frame = np.broadcast_to(image, (240, 320)).astype(np.uint8)
+    centres = extract_centres(frame, width_min=5, width_max=21)
+    inside = (centres.x > 30) & (centres.x < 290)
+    assert inside.sum() > 200
+    assert np.abs(centres.y[inside] - 150.4).max() < 0.05
+    assert (np.abs(centres.rejected_y - 58.5) < 3).sum() > 200
+
+
+def _segment(rows, cols, row_px, first_px, stop_px, peak, width_px=7.0):
+    along = (cols >= first_px) & (cols < stop_px)
+    return peak * np.exp(-8 * (rows - row_px) ** 2 / width_px**2) * along
+
+
+def test_every_piece_of_a_broken_stripe_is_kept_and_a_longer_dimmer_outline_is_not() -> None:
+    rows, cols = np.mgrid[0:300, 0:640].astype(np.float64)
+    image = 12 + _segment(rows, cols, 100.3, 20, 420, 170)  # the stripe's long piece
+    image += _segment(rows, cols, 108.6, 432, 492, 150)  # its short piece past a 12 px cut
+    image += _segment(rows, cols, 40.4, 300, 360, 170)  # another part's short stripe
+    image += _segment(rows, cols, 230.2, 20, 620, 45, width_px=9)  # a dim outline, 600 px
+    centres = extract_centres(np.rint(image).astype(np.uint8), width_min=5, width_max=21)
+    assert ((np.abs(centres.y - 108.6) < 0.1) & (centres.x > 440) & (centres.x < 485)).sum() > 40
+    assert ((np.abs(centres.y - 100.3) < 0.1) & (centres.x > 30) & (centres.x < 410)).sum() > 370
+    assert not (np.abs(centres.y - 40.4) < 3).any()
+    assert not (np.abs(centres.y - 230.2) < 3).any()
