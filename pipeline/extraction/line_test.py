@@ -40,7 +40,9 @@ SHOULDER_FLOOR = 0.25
 line is at least 0.72·w_min wide (a thin highlight along a lit edge is not)."""
 
 TANGENT_OFFSETS_PX = (-1.0, 0.0, 1.0)
-"""The profile is averaged over three parallel lines this far along the tangent [px]."""
+"""The unsmoothed profile (centre and shoulders) is averaged over three parallel lines this
+far along the tangent [px]; the smoothed one is read on the normal itself, its taps
+averaging enough already."""
 
 
 @kernel
@@ -98,9 +100,11 @@ def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, out) -> None:
         for j in range(-SMOOTHING_TAPS, SMOOTHING_TAPS + 1):
             weight = weights[j + SMOOTHING_TAPS]
             t = 0.5 * j * s
-            minus += weight * _profile_at(image, x[k], y[k], nx[k], ny[k], t - reach, inside)
-            centre += weight * _profile_at(image, x[k], y[k], nx[k], ny[k], t, inside)
-            plus += weight * _profile_at(image, x[k], y[k], nx[k], ny[k], t + reach, inside)
+            xt, yt = x[k] + t * nx[k], y[k] + t * ny[k]
+            dx, dy = reach * nx[k], reach * ny[k]
+            minus += weight * _bilinear_pixel(image, xt - dx, yt - dy, inside)
+            centre += weight * _bilinear_pixel(image, xt, yt, inside)
+            plus += weight * _bilinear_pixel(image, xt + dx, yt + dy, inside)
         out[0, k] = centre - plus
         out[1, k] = centre - minus
         side = max(minus, plus)
@@ -143,8 +147,8 @@ def line_profiles(
         SMOOTHING_TAPS) from the centre to +d·n and to −d·n, d = SIDE_REACH_SIGMAS·σ
         (negative where the side is brighter).
         Rows 2 and 3: the unsmoothed profile at the centre and the lower of it at
-        ±SHOULDER_WIDTHS·width_min_px, above the brighter smoothed side. Every profile is the
-        mean over lines TANGENT_OFFSETS_PX along the tangent, read bilinearly, reflect border.
+        ±SHOULDER_WIDTHS·width_min_px, above the brighter smoothed side, each the mean over
+        lines TANGENT_OFFSETS_PX along the tangent. Read bilinearly, reflect border.
     """
     out = np.empty((4, np.size(x)))
     fx, fy, fnx, fny, fsigma = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny, sigma))
