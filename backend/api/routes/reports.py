@@ -1,23 +1,23 @@
-"""Reports of a pass and of one wheel in a pass: CSV, JSON and PDF (attachments)."""
+"""Reports of a pass and of one wheel in a pass: CSV, JSON and PDF (attachments).
+
+The PDF carries an ETag of its content: a browser that holds it gets 304, and the service
+renders it again only when a result, the limits or a disposition changed.
+"""
 
 from __future__ import annotations
 
 from typing import Any, Literal
 
-from fastapi import APIRouter, Response
-from sqlalchemy import select
+from fastapi import APIRouter, Request, Response
 from sqlalchemy.orm import Session
 from starlette.concurrency import run_in_threadpool
 
-from backend.api.deps import PassDep, PassWheelDep, SessionDep, StoreDep, ViewerDep
-from backend.api.schemas import PassReport, PassWheelRead
+from backend.api.deps import PassDep, PassWheelDep, SessionDep, SettingsDep, ViewerDep
+from backend.api.schemas import PassReport
+from backend.config import Settings
 from backend.errors import ERROR_RESPONSES
-from backend.services.limits import WHEEL_PROFILES, limits_for
-from backend.services.queries import pass_summary, pass_wheels
-from backend.services.reports import load_wheel_figures, report_csv, report_pdf
-from backend.storage.store import BlobStore
-from db.models import Frame, Pass, PassWheel
-from db.types import utc_now
+from backend.services.reports import report_content, report_csv, report_pdf
+from db.models import Pass, PassWheel
 
 router = APIRouter(prefix="/api", tags=["reports"], responses=ERROR_RESPONSES)
 
@@ -25,89 +25,67 @@ Format = Literal["csv", "json", "pdf"]
 MEDIA_TYPES = {"csv": "text/csv", "json": "application/json", "pdf": "application/pdf"}
 FILES: dict[int | str, dict[str, Any]] = {
     200: {"content": {m: {} for m in MEDIA_TYPES.values()}},
+    304: {"description": "the PDF the browser holds (If-None-Match) is current"},
 }
-
-
-def _frames_of(session: Session, train_pass: Pass, wheel: PassWheelRead) -> list[Frame]:
-    """The wheel's frames for the PDF thumbnails; none once retention removed them."""
-    if train_pass.frames_removed_at is not None:
-        return []
-    return list(
-        session.scalars(
-            select(Frame)
-            .where(
-                Frame.pass_id == train_pass.id,
-                Frame.vehicle_id == wheel.vehicle_id,
-                Frame.axle == wheel.axle,
-                Frame.sensor.in_((f"{wheel.side}_inner", f"{wheel.side}_outer")),
-            )
-            .order_by(Frame.sensor, Frame.seq)
-        )
-    )
+DISPOSITIONS: dict[int, str] = {}
+"""Dispositions per wheel id shown in the PDF; none until wheels are reviewed."""
 
 
 def _render(
     session: Session,
-    store: BlobStore,
+    settings: Settings,
     train_pass: Pass,
     fmt: str,
     only: PassWheel | None,
-) -> tuple[bytes, str]:
-    summary = pass_summary(session, train_pass)
-    wheels = pass_wheels(session, train_pass)
-    if only is not None:
-        wheels = [w for w in wheels if w.wheel_id == only.wheel_id]
+    if_none_match: str | None,
+) -> Response:
     stem = f"wheelscan-pass-{train_pass.id}" + (f"-wheel-{only.wheel_id}" if only else "")
-    limits = {f: limits_for(session, train_pass.fleet, f) for f in WHEEL_PROFILES}
+    filename = f"{stem}.{fmt}"
+    content = report_content(session, train_pass, only, DISPOSITIONS)
+    etag = f'"{content.key[:32]}"'
     if fmt == "csv":
-        return report_csv(summary, wheels), f"{stem}.csv"
-    if fmt == "json":
-        report = PassReport.model_validate({"pass": summary, "limits": limits, "wheels": wheels})
-        return report.model_dump_json(by_alias=True).encode(), f"{stem}.json"
-    by_wheel = {pw.wheel_id: pw for pw in train_pass.wheels}
-    figures = [
-        load_wheel_figures(
-            store,
-            wheel,
-            by_wheel[wheel.wheel_id].measurements,
-            _frames_of(session, train_pass, wheel),
+        data = report_csv(content.summary, content.wheels)
+    elif fmt == "json":
+        report = PassReport.model_validate(
+            {"pass": content.summary, "limits": content.limits, "wheels": content.wheels}
         )
-        for wheel in wheels
-    ]
-    title = "Wheel profile report" if only else "Train pass wheel report"
-    generated = f"{utc_now():%Y-%m-%d %H:%M} UTC"
-    pdf = report_pdf(summary, wheels, limits, figures, title=title, generated_at=generated)
-    return pdf, f"{stem}.pdf"
-
-
-def _attachment(data: bytes, filename: str, fmt: str) -> Response:
-    return Response(
-        data,
-        media_type=MEDIA_TYPES[fmt],
-        headers={"Content-Disposition": f'attachment; filename="{filename}"'},
-    )
+        data = report.model_dump_json(by_alias=True).encode()
+    elif if_none_match == etag:
+        return Response(status_code=304, headers={"ETag": etag})
+    else:
+        data = report_pdf(content, settings.data_dir / "reports")
+    headers = {"Content-Disposition": f'attachment; filename="{filename}"'}
+    if fmt == "pdf":
+        headers |= {"ETag": etag, "Cache-Control": "private, no-cache"}
+    return Response(data, media_type=MEDIA_TYPES[fmt], headers=headers)
 
 
 @router.get("/passes/{pass_id}/report.{fmt}", response_class=Response, responses=FILES)
 async def get_pass_report(
-    fmt: Format, train_pass: PassDep, session: SessionDep, store: StoreDep, _viewer: ViewerDep
+    request: Request,
+    fmt: Format,
+    train_pass: PassDep,
+    session: SessionDep,
+    settings: SettingsDep,
+    _viewer: ViewerDep,
 ) -> Response:
-    """The pass report: every wheel with parameters per method, limits and alarms."""
-    data, filename = await run_in_threadpool(_render, session, store, train_pass, fmt, None)
-    return _attachment(data, filename, fmt)
+    """The pass report: every wheel with parameters per method, limits, margins, alarms."""
+    match = request.headers.get("if-none-match")
+    return await run_in_threadpool(_render, session, settings, train_pass, fmt, None, match)
 
 
 @router.get(
     "/passes/{pass_id}/wheels/{wheel_id}/report.{fmt}", response_class=Response, responses=FILES
 )
 async def get_wheel_report(
+    request: Request,
     fmt: Format,
     pass_wheel: PassWheelDep,
     session: SessionDep,
-    store: StoreDep,
+    settings: SettingsDep,
     _viewer: ViewerDep,
 ) -> Response:
     """The report of one wheel in a pass."""
+    match = request.headers.get("if-none-match")
     train_pass = pass_wheel.train_pass
-    data, filename = await run_in_threadpool(_render, session, store, train_pass, fmt, pass_wheel)
-    return _attachment(data, filename, fmt)
+    return await run_in_threadpool(_render, session, settings, train_pass, fmt, pass_wheel, match)
