@@ -223,7 +223,7 @@ def _status(result: MethodResult | None, wheel: PassWheelRead) -> str:
 def _colours(row: int, margins: list[Margin], first_column: int) -> list[Any]:
     """Red (alarm) and orange (near) cells of one table row; parameters from first_column."""
     columns = {key: i for i, (key, _) in enumerate(PARAMETERS)}
-    out = []
+    out: list[tuple[Any, ...]] = []
     for margin in margins:
         if margin.status == "ok":
             continue

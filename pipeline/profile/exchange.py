@@ -176,7 +176,7 @@ def _parse_whl(lines: list[str]) -> tuple[list[tuple[str, str]], np.ndarray]:
 
 def _parse_csv(lines: list[str]) -> tuple[list[tuple[str, str]], np.ndarray]:
     header: list[tuple[str, str]] = []
-    rows = []
+    rows: list[list[float | None]] = []
     for number, raw in enumerate(lines, start=1):
         line = raw.strip()
         if line.startswith("#") and ":" in line:
@@ -208,7 +208,7 @@ def _orient(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]
     if _crest_score(x, -z) > _crest_score(x, z):
         z = -z
     top = int(np.argmax(z))
-    mirrored = abs(x[top] - x.min()) > abs(x[top] - x.max())
+    mirrored = bool(abs(x[top] - x.min()) > abs(x[top] - x.max()))
     if mirrored:
         x = -x
     flipped = bool(x[-1] < x[0])
