@@ -57,3 +57,11 @@ def validate_image(image: object, *, name: str = "image") -> np.ndarray:
 def to_float_image(image: np.ndarray) -> np.ndarray:
     """Return a validated frame as a contiguous IMAGE_FLOAT array (grey levels unchanged) [px]."""
     return np.ascontiguousarray(validate_image(image), dtype=IMAGE_FLOAT)
+
+
+def freeze_geometry(instance: object, *fields: str) -> None:
+    """In a frozen dataclass's __post_init__: make `fields` read-only float64 copies."""
+    for field in fields:
+        array = np.array(getattr(instance, field), dtype=GEOMETRY_FLOAT)
+        array.flags.writeable = False
+        object.__setattr__(instance, field, array)

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.errors import PipelineError
-from pipeline.imaging import GEOMETRY_FLOAT
+from pipeline.imaging import GEOMETRY_FLOAT, freeze_geometry
 from pipeline.profile.flange import (
     FlangeNotFoundError,
     FlangeParameters,
@@ -78,10 +78,7 @@ class HandheldProfile:
     z_offset_mm: float
 
     def __post_init__(self) -> None:
-        for field in ("x_mm", "z_mm"):
-            array = np.array(getattr(self, field), dtype=GEOMETRY_FLOAT)
-            array.flags.writeable = False
-            object.__setattr__(self, field, array)
+        freeze_geometry(self, "x_mm", "z_mm")
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -101,10 +98,7 @@ class ProfileFile:
     z_mm: np.ndarray
 
     def __post_init__(self) -> None:
-        for field in ("x_mm", "z_mm"):
-            array = np.array(getattr(self, field), dtype=GEOMETRY_FLOAT)
-            array.flags.writeable = False
-            object.__setattr__(self, field, array)
+        freeze_geometry(self, "x_mm", "z_mm")
 
     def value(self, key: str) -> str | None:
         """The header value of `key` (case-insensitive), or None."""
@@ -264,14 +258,8 @@ def parse_profile_file(text: str, *, suffix: str) -> ProfileFile:
 
 def read_profile_text(text: str, *, suffix: str) -> HandheldProfile:
     """A handheld-gauge profile from the text of a `.whl`, `.prr` or `.csv` file, brought
-    into the profile frame (oriented, x from the back face, z(70 mm) = 0).
-
-    Parameters
-    ----------
-    text : str
-        The file's content.
-    suffix : str
-        The file name's extension (".whl", ".prr" or ".csv"), choosing the format.
+    into the profile frame (oriented, x from the back face, z(70 mm) = 0). `text` and
+    `suffix` as for `parse_profile_file`.
 
     Returns
     -------
