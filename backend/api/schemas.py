@@ -340,9 +340,11 @@ class ReferenceRead(ORMModel):
     flange_thickness_mm: float
     flange_thickness_en_mm: float
     qr_mm: float
-    instrument_flange_height_mm: float | None
-    instrument_flange_thickness_mm: float | None
-    instrument_qr_mm: float | None
+    instrument_flange_height_mm: float | None = Field(description="Sh as the file's header gave it")
+    instrument_flange_thickness_mm: float | None = Field(
+        description="Sd as the file's header gave it (at the instrument's height; MiniProf: 10 mm)"
+    )
+    instrument_qr_mm: float | None = Field(description="qR as the file's header gave it")
     z_offset_mm: float = Field(description="subtracted from the file's z so that z(70 mm) = 0")
     x_mm: list[float]
     z_mm: list[float]
