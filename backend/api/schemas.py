@@ -369,6 +369,7 @@ class ReferenceComparison(BaseModel):
 
 
 class AgreementRow(BaseModel):
+    wheel_id: int | None = Field(description="the wheel, over its passes; null: all wheels")
     method: str
     parameter: str
     n: int
@@ -382,4 +383,5 @@ class AgreementRead(BaseModel):
     """Wayside against handheld over wheels (the paper's Table 2 form) [mm]."""
 
     pairs: int = Field(description="wheel × pass results paired with a handheld reference")
-    rows: list[AgreementRow]
+    rows: list[AgreementRow] = Field(description="over all wheels (the paper's Table 2 form)")
+    per_wheel: list[AgreementRow] = Field(description="per wheel (Tables 3–4 form)")

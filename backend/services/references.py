@@ -155,28 +155,10 @@ def _finite(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
-def agreement(session: Session, pass_ids: list[int] | None = None) -> AgreementRead:
-    """Wayside − handheld over every wheel of the passes (all passes if None) that has a
-    reference: per method and parameter, mean difference, MAE, Std, max error and n."""
-    query = select(PassWheel).join(Pass, PassWheel.pass_id == Pass.id)
-    if pass_ids is not None:
-        query = query.where(PassWheel.pass_id.in_(pass_ids))
-    observations = []
-    pairs = 0
-    for pass_wheel in session.scalars(query.order_by(Pass.started_at, PassWheel.id)):
-        reference = nearest_reference(
-            session, pass_wheel.wheel_id, pass_wheel.train_pass.started_at
-        )
-        if reference is None or not pass_wheel.measurements:
-            continue
-        pairs += 1
-        label = f"{pass_wheel.pass_id}/{pass_wheel.wheel_id}"
-        observations += [
-            Observation(label, d.method, d.parameter, d.wayside_mm, d.handheld_mm)
-            for d in _differences(pass_wheel, reference)
-        ]
+def _rows(observations: list[Observation], wheel_id: int | None) -> list[AgreementRow]:
     rows = [
         AgreementRow(
+            wheel_id=wheel_id,
             method=s.method,
             parameter=s.parameter,
             n=s.n,
@@ -187,8 +169,33 @@ def agreement(session: Session, pass_ids: list[int] | None = None) -> AgreementR
         )
         for s in summarise_agreement(observations)
     ]
-    rows.sort(key=lambda r: (COMPARED.index(r.parameter), r.method))
-    return AgreementRead(pairs=pairs, rows=rows)
+    return sorted(rows, key=lambda r: (COMPARED.index(r.parameter), r.method))
+
+
+def agreement(session: Session, pass_ids: list[int] | None = None) -> AgreementRead:
+    """Wayside − handheld over every wheel of the passes (all passes if None) that has a
+    reference: per method and parameter, mean difference, MAE, Std, max error and n, over
+    all wheels (Table 2 form) and per wheel over its passes (Tables 3–4 form)."""
+    query = select(PassWheel).join(Pass, PassWheel.pass_id == Pass.id)
+    if pass_ids is not None:
+        query = query.where(PassWheel.pass_id.in_(pass_ids))
+    by_wheel: dict[int, list[Observation]] = {}
+    pairs = 0
+    for pass_wheel in session.scalars(query.order_by(Pass.started_at, PassWheel.id)):
+        reference = nearest_reference(
+            session, pass_wheel.wheel_id, pass_wheel.train_pass.started_at
+        )
+        if reference is None or not pass_wheel.measurements:
+            continue
+        pairs += 1
+        label = f"{pass_wheel.pass_id}/{pass_wheel.wheel_id}"
+        by_wheel.setdefault(pass_wheel.wheel_id, []).extend(
+            Observation(label, d.method, d.parameter, d.wayside_mm, d.handheld_mm)
+            for d in _differences(pass_wheel, reference)
+        )
+    pooled = [o for observations in by_wheel.values() for o in observations]
+    per_wheel = [row for w, obs in sorted(by_wheel.items()) for row in _rows(obs, w)]
+    return AgreementRead(pairs=pairs, rows=_rows(pooled, None), per_wheel=per_wheel)
 
 
 MAX_PROFILE_FILE_BYTES = 2 * 1024 * 1024

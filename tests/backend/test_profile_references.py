@@ -122,7 +122,10 @@ def test_a_handheld_reference_is_imported_compared_and_summarised(client, auth, 
         assert r["mean_difference_mm"] == pytest.approx(d["difference_mm"])
         assert r["std_mm"] is None and r["max_error_mm"] == pytest.approx(abs(d["difference_mm"]))
     text = client.get("/api/references/agreement.csv", headers=auth("viewer")).text
-    assert next(csv.reader(io.StringIO(text)))[:3] == ["parameter", "method", "n"]
+    assert next(csv.reader(io.StringIO(text)))[:4] == ["wheel_id", "parameter", "method", "n"]
+    per_wheel = [{**r, "wheel_id": None} for r in table["per_wheel"]]
+    assert {r["wheel_id"] for r in table["per_wheel"]} == {wheel["wheel_id"]}
+    assert per_wheel == table["rows"]  # one wheel: its rows are the pooled ones
     pdf = client.get("/api/references/agreement.pdf", headers=auth("viewer")).content
     assert pdf.startswith(b"%PDF")
 
