@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import io
+from typing import Any
 
 from reportlab.lib.pagesizes import A4
 from reportlab.lib.units import mm
@@ -51,7 +52,7 @@ def _cell(value: float | None, signed: bool = False) -> str:
 
 def _table(rows: list[AgreementRow], names: dict[str, str], *, with_wheel: bool) -> Table:
     head = ["Parameter", "Method", "n", "Mean difference", "MAE", "Std", "Max error"]
-    data: list[list[object]] = [(["Wheel"] if with_wheel else []) + head]
+    data: list[list[Any]] = [(["Wheel"] if with_wheel else []) + head]
     for row in rows:
         data.append([
             *([row.wheel_id] if with_wheel else []), names.get(row.parameter, row.parameter),

@@ -11,6 +11,7 @@ Sh, Sd (at 12 mm), Sd EN (at 10 mm), qR, B2B, in mm.
 from __future__ import annotations
 
 import io
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -90,7 +91,7 @@ def report_styles() -> dict[str, ParagraphStyle]:
     }
 
 
-def grid_table(data: list[list[Any]], widths_mm: list[float], extra: list[Any]) -> Table:
+def grid_table(data: list[list[Any]], widths_mm: Sequence[float], extra: list[Any]) -> Table:
     table = Table(data, colWidths=[w * mm for w in widths_mm], repeatRows=1)
     table.setStyle(
         TableStyle(
