@@ -15,6 +15,7 @@ import io
 import json
 import os
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,10 @@ from db.types import utc_now
 from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile
 
 SOFTWARE_VERSION = "0.1.0"
+REPORT_CACHE_FILES = 500
+"""PDFs kept in the cache, newest first (a pass PDF is ~250 kB: about 125 MB at most)."""
+STALE_PART_S = 3600.0
+"""A half-written cache file older than this was left by a killed process."""
 REPORT_LAYOUT = "2"
 """Part of the cache key: bump when the PDF's layout changes, so old PDFs are not served."""
 PARAMETERS = (
@@ -186,8 +191,11 @@ def report_content(
 def report_pdf(content: ReportContent, cache_dir: Path) -> bytes:
     """The PDF of `content`, read from `cache_dir` when the same content was rendered."""
     path = cache_dir / f"{content.key}.pdf"
-    if path.exists():
+    try:
+        os.utime(path)  # recently used: kept longest by prune_report_cache
         return path.read_bytes()
+    except FileNotFoundError:
+        pass  # not rendered yet, or pruned meanwhile
     only, summary, wheels, limits = content.only, content.summary, content.wheels, content.limits
     by_wheel = {pw.wheel_id: pw for pw in content.train_pass.wheels}
     sections = [_section(by_wheel[w.wheel_id], w, limits) for w in wheels]
@@ -200,4 +208,21 @@ def report_pdf(content: ReportContent, cache_dir: Path) -> bytes:
     )
     pdf = render_report(summary, sections, limits, content.dispositions, header)
     _write_atomically(path, pdf)
+    prune_report_cache(cache_dir, REPORT_CACHE_FILES)
     return pdf
+
+
+def prune_report_cache(cache_dir: Path, keep: int) -> int:
+    """Remove all but the `keep` newest PDFs and stale half-written files; returns how many
+    files went. PDFs are keyed by content, so a removed one is rendered again if asked."""
+    now = time.time()
+    removed = 0
+    for stale in cache_dir.glob("*.part"):
+        if now - stale.stat().st_mtime > STALE_PART_S:
+            stale.unlink(missing_ok=True)
+            removed += 1
+    pdfs = sorted(cache_dir.glob("*.pdf"), key=lambda p: p.stat().st_mtime, reverse=True)
+    for old in pdfs[keep:]:
+        old.unlink(missing_ok=True)
+        removed += 1
+    return removed

@@ -7,11 +7,14 @@ One simulated pass (one axle, two wheels) measured by the service once per datab
 from __future__ import annotations
 
 import io
+import os
+import time
 from pathlib import Path
 
 import pytest
 from reportlab.pdfgen.canvas import Canvas
 
+from backend.services.reports import prune_report_cache
 from tests.backend.pdf_checks import (
     overlapping_words,
     pdf_pages,
@@ -138,3 +141,14 @@ def test_the_pdf_is_cached_by_content_and_revalidated(client, auth, measured, tm
 def test_csv_and_json_reports_still_come(client, auth, measured, fmt) -> None:
     response = client.get(f"/api/passes/{measured['pass_id']}/report.{fmt}", headers=auth("viewer"))
     assert response.status_code == 200 and "attachment" in response.headers["content-disposition"]
+
+
+def test_the_report_cache_keeps_the_newest_pdfs_and_drops_stale_parts(tmp_path) -> None:
+    for age_s, name in ((30, "old.pdf"), (20, "mid.pdf"), (10, "new.pdf"), (7200, "x.part"),
+                        (5, "fresh.part")):  # fmt: skip
+        path = tmp_path / name
+        path.write_bytes(b"%PDF")
+        stamp = time.time() - age_s
+        os.utime(path, (stamp, stamp))
+    assert prune_report_cache(tmp_path, keep=2) == 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fresh.part", "mid.pdf", "new.pdf"]
