@@ -15,7 +15,8 @@ import ezdxf
 import numpy as np
 
 from backend.errors import NotFoundError
-from db.models import Measurement, PassWheel
+from backend.services.wheel_data import measurement_or_404
+from db.models import PassWheel
 from pipeline.profile.exchange import profile_csv_text, profile_whl_text
 
 FORMATS = ("csv", "dxf", "whl")
@@ -31,16 +32,6 @@ class ExportedProfile:
     data: bytes
     filename: str
     media_type: str
-
-
-def _measurement(pass_wheel: PassWheel, method: str) -> Measurement:
-    for measurement in pass_wheel.measurements:
-        if measurement.method == method and (measurement.profile or {}).get("x_mm"):
-            return measurement
-    raise NotFoundError(
-        f"wheel {pass_wheel.wheel_id} of pass {pass_wheel.pass_id} has no {method} profile "
-        f"(state: {pass_wheel.state.replace('_', ' ')})"
-    )
 
 
 def _dxf(x_mm: np.ndarray, z_mm: np.ndarray, header: list[tuple[str, str]]) -> bytes:
@@ -68,8 +59,10 @@ def export_profile(pass_wheel: PassWheel, method: str, fmt: str) -> ExportedProf
     """
     if fmt not in FORMATS:
         raise ValueError(f"fmt must be one of {', '.join(FORMATS)}, got {fmt!r}")
-    measurement = _measurement(pass_wheel, method)
+    measurement = measurement_or_404(pass_wheel, method)
     profile = measurement.profile or {}
+    if not profile.get("x_mm"):
+        raise NotFoundError(f"the {method} result of wheel {pass_wheel.wheel_id} has no profile")
     x_mm, z_mm = np.asarray(profile["x_mm"], float), np.asarray(profile["z_mm"], float)
     train_pass, wheel = pass_wheel.train_pass, pass_wheel.wheel
     ident = [

@@ -345,7 +345,7 @@ def numbered_canvas(footer: str) -> type[Canvas]:
     return NumberedCanvas
 
 
-def render_report(
+def render_pdf(
     summary: PassSummary,
     sections: list[WheelSection],
     all_limits: dict[str, dict[str, float]],

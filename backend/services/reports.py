@@ -23,11 +23,11 @@ from typing import Any
 import numpy as np
 from sqlalchemy.orm import Session
 
-from backend.api.schemas import PassSummary, PassWheelRead
+from backend.api.schemas import PassReport, PassSummary, PassWheelRead
 from backend.services.limits import WHEEL_PROFILES, limits_for, profile_family
 from backend.services.margins import limit_margins
 from backend.services.queries import pass_summary, pass_wheels
-from backend.services.report_pdf import ReportHeader, WheelSection, render_report
+from backend.services.report_pdf import ReportHeader, WheelSection, render_pdf
 from backend.services.report_plot import Curve, construction_labels, profile_drawing
 from db.models import Pass, PassWheel
 from db.types import utc_now
@@ -206,7 +206,7 @@ def report_pdf(content: ReportContent, cache_dir: Path) -> bytes:
         software_version=SOFTWARE_VERSION,
         pipeline_versions=", ".join(versions),
     )
-    pdf = render_report(summary, sections, limits, content.dispositions, header)
+    pdf = render_pdf(summary, sections, limits, content.dispositions, header)
     _write_atomically(path, pdf)
     prune_report_cache(cache_dir, REPORT_CACHE_FILES)
     return pdf
@@ -226,3 +226,44 @@ def prune_report_cache(cache_dir: Path, keep: int) -> int:
         old.unlink(missing_ok=True)
         removed += 1
     return removed
+
+
+@dataclass(frozen=True, slots=True)
+class RenderedReport:
+    """A report file, or None for `data` when the caller's copy (its ETag) is current."""
+
+    data: bytes | None
+    filename: str
+    media_type: str
+    etag: str | None
+    """Of a PDF (quoted): its content key."""
+
+
+MEDIA_TYPES = {"csv": "text/csv", "json": "application/json", "pdf": "application/pdf"}
+
+
+def render_report(
+    session: Session,
+    cache_dir: Path,
+    train_pass: Pass,
+    fmt: str,
+    only: PassWheel | None,
+    if_none_match: str | None,
+    dispositions: dict[int, str],
+) -> RenderedReport:
+    """The report of a pass (or of its wheel `only`) as "csv", "json" or "pdf"; a PDF is
+    rendered only when `cache_dir` does not hold its content, and not sent (data None) when
+    `if_none_match` is its ETag."""
+    stem = f"wheelscan-pass-{train_pass.id}" + (f"-wheel-{only.wheel_id}" if only else "")
+    content = report_content(session, train_pass, only, dispositions)
+    etag = f'"{content.key[:32]}"'
+    if fmt == "csv":
+        data: bytes | None = report_csv(content.summary, content.wheels)
+    elif fmt == "json":
+        report = PassReport.model_validate(
+            {"pass": content.summary, "limits": content.limits, "wheels": content.wheels}
+        )
+        data = report.model_dump_json(by_alias=True).encode()
+    else:
+        data = None if if_none_match == etag else report_pdf(content, cache_dir)
+    return RenderedReport(data, f"{stem}.{fmt}", MEDIA_TYPES[fmt], etag if fmt == "pdf" else None)

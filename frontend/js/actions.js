@@ -177,7 +177,8 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
       centres: { adaptive, steger },
       profiles: {
         adaptive: profiles[0], steger: profiles[1],
-        ...(comparison.reference ? { handheld: { x_mm: comparison.reference.x_mm, z_mm: comparison.reference.z_mm } } : {}),
+        ...('reference' in comparison && comparison.reference
+          ? { handheld: { x_mm: comparison.reference.x_mm, z_mm: comparison.reference.z_mm } } : {}),
       },
       comparison,
       trend,
