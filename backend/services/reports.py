@@ -23,33 +23,27 @@ from typing import Any
 import numpy as np
 from sqlalchemy.orm import Session
 
+from backend import __version__
 from backend.api.schemas import PassReport, PassSummary, PassWheelRead
 from backend.services.limits import WHEEL_PROFILES, limits_for, profile_family
 from backend.services.margins import limit_margins
 from backend.services.queries import pass_summary, pass_wheels
 from backend.services.report_pdf import ReportHeader, WheelSection, render_pdf
 from backend.services.report_plot import Curve, construction_labels, profile_drawing
+from backend.services.results import PARAMETER_NAMES
 from db.models import Pass, PassWheel
 from db.types import utc_now
 from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile
 
-SOFTWARE_VERSION = "0.1.0"
 REPORT_CACHE_FILES = 500
 """PDFs kept in the cache, newest first (a pass PDF is ~250 kB: about 125 MB at most)."""
 STALE_PART_S = 3600.0
 """A half-written cache file older than this was left by a killed process."""
 REPORT_LAYOUT = "2"
 """Part of the cache key: bump when the PDF's layout changes, so old PDFs are not served."""
-PARAMETERS = (
-    ("flange_height_mm", "Sh [mm]"),
-    ("flange_thickness_mm", "Sd [mm]"),
-    ("flange_thickness_en_mm", "Sd EN [mm]"),
-    ("qr_mm", "qR [mm]"),
-    ("back_to_back_mm", "B2B [mm]"),
-)
 CSV_COLUMNS = (
     "pass_id", "site", "started_at", "vehicle_id", "axle", "side", "wheel_id", "state",
-    "method", "status", "reason", *(name for name, _ in PARAMETERS), "alarm_count", "alarms",
+    "method", "status", "reason", *PARAMETER_NAMES, "alarm_count", "alarms",
     "pipeline_version",
 )  # fmt: skip
 
@@ -77,7 +71,7 @@ def report_rows(summary: PassSummary, wheels: list[PassWheelRead]) -> list[dict[
                     "method": result.method,
                     "status": result.status,
                     "reason": result.reason or wheel.reason,
-                    **{name: getattr(result, name) for name, _ in PARAMETERS},
+                    **{name: getattr(result, name) for name in PARAMETER_NAMES},
                     "alarm_count": len(result.alarms),
                     "alarms": "; ".join(a["message"] for a in result.alarms),
                     "pipeline_version": result.pipeline_version,
@@ -140,7 +134,7 @@ def _report_key(
     )
     content = {
         "layout": REPORT_LAYOUT,
-        "software": SOFTWARE_VERSION,
+        "software": __version__,
         "pass": summary.model_dump(mode="json", exclude={"job"}),
         "wheels": [w.model_dump(mode="json") for w in wheels],
         "measurements": measurements,
@@ -203,7 +197,7 @@ def report_pdf(content: ReportContent, cache_dir: Path) -> bytes:
     header = ReportHeader(
         title="Wheel profile report" if only else "Train pass wheel report",
         generated_at=f"{utc_now():%Y-%m-%d %H:%M} UTC",
-        software_version=SOFTWARE_VERSION,
+        software_version=__version__,
         pipeline_versions=", ".join(versions),
     )
     pdf = render_pdf(summary, sections, limits, content.dispositions, header)
