@@ -74,6 +74,8 @@ class ReportHeader:
     """The identifying lines of a report."""
 
     title: str
+    wheel_report: bool
+    """One wheel's report (its one section), not the pass's."""
     generated_at: str
     software_version: str
     pipeline_versions: str
@@ -130,7 +132,18 @@ def _stem(key: str, family: str) -> str | None:
     return LIMIT_STEMS[key]
 
 
-def _header_block(summary: PassSummary, header: ReportHeader, s: dict) -> list[Any]:
+def _header_block(
+    summary: PassSummary, header: ReportHeader, wheel: PassWheelRead | None, s: dict
+) -> list[Any]:
+    """The identification table; the wheel report names its wheel instead of the pass's
+    counts."""
+    if wheel is None:
+        counted = ("Wheels", f"{summary.wheels_measured} measured of {summary.wheels_total}, "
+                   f"{summary.wheels_not_measured} not measured")  # fmt: skip
+    else:
+        state = wheel.state.replace("_", " ")
+        counted = ("Wheel", f"vehicle {wheel.vehicle_id}, axle {wheel.axle}, {wheel.side} "
+                   f"(id {wheel.wheel_id}): {state}")  # fmt: skip
     rows = [
         ("Site", summary.site, "Pass", f"#{summary.id} ({summary.source}, fleet {summary.fleet})"),
         ("Time (UTC)", f"{summary.started_at:%Y-%m-%d %H:%M:%S}", "Direction",
@@ -139,9 +152,7 @@ def _header_block(summary: PassSummary, header: ReportHeader, s: dict) -> list[A
          "Vehicles", ", ".join(summary.vehicles) or "–"),
         ("Calibration", f"version {summary.calibration_version}", "Software",
          f"wheelscan {header.software_version}, pipeline {header.pipeline_versions}"),
-        ("Wheels", f"{summary.wheels_measured} measured of {summary.wheels_total}, "
-         f"{summary.wheels_not_measured} not measured", "Report generated",
-         header.generated_at),
+        (*counted, "Report generated", header.generated_at),
     ]  # fmt: skip
     data = [[Paragraph(f"<b>{k1}</b>", s["small"]), Paragraph(v1, s["body"]),
              Paragraph(f"<b>{k2}</b>", s["small"]), Paragraph(v2, s["body"])]
@@ -359,7 +370,7 @@ def render_pdf(
         buffer, pagesize=A4, leftMargin=MARGIN_PT, rightMargin=MARGIN_PT, topMargin=12 * mm,
         bottomMargin=14 * mm, title=header.title, author="wheelscan",
     )  # fmt: skip
-    story = _header_block(summary, header, s)
+    story = _header_block(summary, header, sections[0].wheel if header.wheel_report else None, s)
     story += _attention(sections, dispositions, s)
     if len(sections) > 1:
         story += _full_table(sections, all_limits, s)

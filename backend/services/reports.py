@@ -39,7 +39,7 @@ REPORT_CACHE_FILES = 500
 """PDFs kept in the cache, newest first (a pass PDF is ~250 kB: about 125 MB at most)."""
 STALE_PART_S = 3600.0
 """A half-written cache file older than this was left by a killed process."""
-REPORT_LAYOUT = "2"
+REPORT_LAYOUT = "3"
 """Part of the cache key: bump when the PDF's layout changes, so old PDFs are not served."""
 CSV_COLUMNS = (
     "pass_id", "site", "started_at", "vehicle_id", "axle", "side", "wheel_id", "state",
@@ -196,6 +196,7 @@ def report_pdf(content: ReportContent, cache_dir: Path) -> bytes:
     versions = sorted({r.pipeline_version for w in wheels for r in w.results}) or ["–"]
     header = ReportHeader(
         title="Wheel profile report" if only else "Train pass wheel report",
+        wheel_report=only is not None,
         generated_at=f"{utc_now():%Y-%m-%d %H:%M} UTC",
         software_version=__version__,
         pipeline_versions=", ".join(versions),

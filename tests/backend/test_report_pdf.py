@@ -85,6 +85,8 @@ def test_the_wheel_pdf_shows_one_wheel_and_its_limit_set(client, auth, measured,
     assert f"{wheel['side']} wheel — limits {family}" in text
     assert f"Limits {family} (apply)" in text
     assert "All wheels" not in text and text.count("wheel — limits") == 1
+    assert f"vehicle {wheel['vehicle_id']}, axle {wheel['axle']}, {wheel['side']}" in text
+    assert "measured of" not in text  # no pass-level counts in a wheel's report
     other = {"LM": "EN", "EN": "LM"}[family]
     assert f"Limits {other}" not in text
 
