@@ -67,6 +67,7 @@ def limit_margins(
         ]
         bound, limit, sign = min(bounds, key=lambda b: b[2] * (value - b[1]))
         margin = sign * (value - limit)
-        status = "alarm" if margin < 0 else "near" if margin < NEAR_LIMIT_MM else "ok"
+        # near on the margin as shown (0.01 mm), so "+1.00" never reads "near limit"
+        status = "alarm" if margin < 0 else "near" if round(margin, 2) < NEAR_LIMIT_MM else "ok"
         margins.append(Margin(key, float(value), bound, limit, margin, status))
     return margins
