@@ -56,6 +56,7 @@ def _profile_params(args: argparse.Namespace) -> int:
         "quality_reason": result.reason,
         "points": int(profile.x_mm.size),
         "reversed": profile.reversed,
+        "x_offset_mm": _round(profile.x_offset_mm),
         "z_offset_mm": _round(profile.z_offset_mm),
         "instrument": {
             "name": profile.instrument,

@@ -30,11 +30,10 @@ from pipeline.profile.flange import (
 
 REFERENCE_X_MM = 70.0
 """Tread reference point (tape circle) from the back face [mm]: z = 0 there."""
-TAPE_CIRCLE_FRAME_MIN_X_MM = -35.0
-"""Files whose points start left of this x use the tape-circle origin (back face at
-x = −70 mm, as the reference tables' sources and many gauges write them); files that start
-right of it measure x from the back face already. No wheel profile spans 35 mm of flange
-back behind its back face, so the two conventions cannot be confused."""
+DATUM_TOLERANCE_MM = 5.0
+"""A file whose innermost point lies within 5 mm of x = 0 measures x from the back face; one
+within 5 mm of x = −70 mm from the tape circle (as the reference tables' sources and many
+gauges write them). Any other file has its innermost point, the back face's, moved to 0."""
 END_MARGIN_MM = 3.0
 """The flange tip lies 10–20 mm inside the profile's ends; an extreme within 3 mm of an end
 is a chamfer or the end of the tread, which tells a file written z-down from one z-up."""
@@ -63,6 +62,9 @@ class HandheldProfile:
         Sh, Sd and qR as the instrument computed them (header Sh, Sd, qR).
     reversed : bool
         True if the file ran from the field side to the back face (or mirrored in x).
+    x_offset_mm : float
+        What was added to x (after any mirroring) to count it from the back face: 0, 70 mm
+        for a tape-circle origin, or minus the innermost point's x for any other origin.
     z_offset_mm : float
         What was subtracted from z so that z(70 mm) = 0 (after any flip of z).
     """
@@ -75,6 +77,7 @@ class HandheldProfile:
     instrument_flange_thickness_mm: float | None
     instrument_qr_mm: float | None
     reversed: bool
+    x_offset_mm: float
     z_offset_mm: float
 
     def __post_init__(self) -> None:
@@ -208,9 +211,17 @@ def _orient(x: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, bool]
     flipped = bool(x[-1] < x[0])
     if flipped:
         x, z = x[::-1], z[::-1]
-    if x.min() < TAPE_CIRCLE_FRAME_MIN_X_MM:
-        x = x + REFERENCE_X_MM
     return x, z, mirrored != flipped
+
+
+def _x_datum_shift(x: np.ndarray) -> float:
+    """What to add to x so that it counts from the back face (DATUM_TOLERANCE_MM)."""
+    innermost = float(x.min())
+    if abs(innermost) <= DATUM_TOLERANCE_MM:
+        return 0.0
+    if abs(innermost + REFERENCE_X_MM) <= DATUM_TOLERANCE_MM:
+        return REFERENCE_X_MM
+    return -innermost
 
 
 def _tread_height(x: np.ndarray, z: np.ndarray) -> float:
@@ -277,6 +288,8 @@ def read_profile_text(text: str, *, suffix: str) -> HandheldProfile:
     if parsed.x_mm.size < MIN_POINTS:
         raise ProfileFileError(f"a profile needs ≥ {MIN_POINTS} points, got {parsed.x_mm.size}")
     x, z, reversed_ = _orient(parsed.x_mm, parsed.z_mm)
+    shift = _x_datum_shift(x)
+    x = x + shift
     offset = _tread_height(x, z)
     values = {name: parsed.value(key) for key, name in INSTRUMENT_KEYS.items()}
     when = " ".join(v for k in ("Date", "Time") if (v := parsed.value(k))) or None
@@ -289,6 +302,7 @@ def read_profile_text(text: str, *, suffix: str) -> HandheldProfile:
         instrument_flange_thickness_mm=_number(values["flange_thickness"] or ""),
         instrument_qr_mm=_number(values["qr"] or ""),
         reversed=reversed_,
+        x_offset_mm=shift,
         z_offset_mm=offset,
     )
 
