@@ -141,7 +141,9 @@ def _split_row(line: str) -> list[str]:
 
 
 def _parse_whl(lines: list[str]) -> tuple[list[tuple[str, str]], np.ndarray]:
-    """Header lines and the (K, 2) points of a MiniProf-style file."""
+    """Header lines and the (K, 2) points of a MiniProf-style file. Before the first row
+    of numbers, lines that are not `key=value` (titles, section names) are passed over;
+    after it, every line must be numbers."""
     header: list[tuple[str, str]] = []
     rows: list[list[str]] = []
     for number, raw in enumerate(lines, start=1):
@@ -153,9 +155,10 @@ def _parse_whl(lines: list[str]) -> tuple[list[tuple[str, str]], np.ndarray]:
             header.append((key.strip(), value.strip()))
             continue
         cells = _split_row(line)
-        if not all(_number(c) is not None for c in cells):
+        if all(_number(c) is not None for c in cells):
+            rows.append(cells)
+        elif rows:
             raise ProfileFileError(f"line {number} is neither key=value nor numbers: {line!r}")
-        rows.append(cells)
     keys = {k.lower(): v for k, v in header}
     columns = [c.strip().upper() for c in keys.get("columndef", "X,Y").split(",")]
     if "X" not in columns or "Y" not in columns:

@@ -103,7 +103,10 @@ def test_a_sparse_flank_is_interpolated_and_flagged(step_mm, quality) -> None:
 
 
 def test_the_header_gives_instrument_date_and_its_own_values() -> None:
-    header = "ProgramName=MiniProf\nDate=30.11.2026\nTime=08:15:00\nSd=32.91\nSh=28.02\nqR=9.71\n"
+    header = (
+        "[MiniProf wheel]\nProgramName=MiniProf\nDate=30.11.2026\nTime=08:15:00\n"
+        "Sd=32.91\nSh=28.02\nqR=9.71\n"
+    )  # a title line before the keys is passed over
     profile = read_profile_text(
         gauge_file(*contour_samples("LMA", 0.5), header=header), suffix="WHL"
     )
