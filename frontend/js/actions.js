@@ -96,6 +96,15 @@ export function createActions(api, store) {
     exportReport: (/** @type {string} */ passId, /** @type {string|null} */ wheelId, /** @type {string} */ format) =>
       guard(`could not export the ${format.toUpperCase()} report`, async () =>
         saveFile(await api.report(passId, wheelId, format))),
+    importReference: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {File} */ file) =>
+      guard(`could not import ${file.name} as the handheld reference`, async () => {
+        const reference = await api.importReference(wheelId, file);
+        const comparison = await api.referenceComparison(passId, wheelId);
+        const w = store.get().wheel;
+        if (!w || w.passId !== passId || w.wheelId !== wheelId) return;
+        const shown = comparison.reference ?? reference;
+        store.set({ wheel: { ...w, comparison, profiles: { ...w.profiles, handheld: { x_mm: shown.x_mm, z_mm: shown.z_mm } } } });
+      }),
     exportProfile: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {string} */ method, /** @type {string} */ format) =>
       guard(`could not export the ${method} profile as ${format.toUpperCase()}`, async () =>
         saveFile(await api.profileFile(passId, wheelId, method, format))),

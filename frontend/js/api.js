@@ -47,6 +47,7 @@ const layerPath = (p, w, layer, sensor, index, suffix, method) =>
  * @property {(passId: number|string, wheelId: number|string|null, format: string) => Promise<{blob: Blob, filename: string}>} report
  * @property {(passId: number|string, wheelId: number|string, method: string, format: string) => Promise<{blob: Blob, filename: string}>} profileFile
  * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').ReferenceComparison>} referenceComparison
+ * @property {(wheelId: number|string, file: File) => Promise<import('./api-types').ReferenceRead>} importReference
  * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').ViewerRead>} viewer
  * @property {(jobId: number|string) => Promise<import('./api-types').JobRead>} getJob
  * @property {(file: File, onProgress: (fraction: number) => void) => Promise<{pass_id: number, job_id: number}>} uploadPass
@@ -120,6 +121,11 @@ export function createApi(getToken, base = '') {
       download(`${wheelPath(p, w)}/profile.${format}?method=${encodeURIComponent(method)}`,
         `wheelscan-pass-${p}-wheel-${w}-${method}.${format}`),
     referenceComparison: (p, w) => json(`${wheelPath(p, w)}/reference-comparison`),
+    importReference: async (wheelId, file) => {
+      const body = new FormData();
+      body.append('file', file, file.name);
+      return (await request(`/api/wheels/${wheelId}/references`, { method: 'POST', body })).json();
+    },
     viewer: (p, w) => json(`${wheelPath(p, w)}/viewer`),
     getJob: (jobId) => json(`/api/jobs/${jobId}`),
     uploadPass: (file, onProgress) => uploadWithProgress(base, getToken(), file, onProgress),

@@ -348,6 +348,27 @@ def test_wheel_page_exports_profiles_and_compares_a_handheld_reference(
     progress.wait_for(state="hidden")
 
 
+def test_an_operator_imports_a_gauge_file_on_the_wheel_page(
+    browser: Any, service: Service, measured_pass: int, screenshots: Path, tmp_path: Path
+) -> None:
+    wheel_id = measured_wheels(service, measured_pass)[0]
+    wheel = next(w for w in wheels_of(service, measured_pass) if w["wheel_id"] == wheel_id)
+    x, z = contour_samples(wheel["results"][0]["reference_profile"], 0.5)
+    gauge = tmp_path / "gauge.prr"
+    gauge.write_text(gauge_file(x, z, tape_circle=True, header="ProgramName=MiniProf\n"))
+    context = browser.new_context(viewport=VIEWPORT)
+    page = context.new_page()
+    page.goto(f"{service.url}/#token={service.token('operator')}")
+    page.locator("header .role").wait_for()
+    open_wheel(page, service, measured_pass, wheel_id)
+    page.locator("input[data-action='import-reference']").set_input_files(str(gauge))
+    table = page.locator(".comparison table[data-comparison]")
+    table.wait_for()
+    assert "MiniProf · gauge.prr" in page.locator(".comparison .note").inner_text()
+    page.locator(".comparison").screenshot(path=str(screenshots / "14-reference-imported.png"))
+    context.close()
+
+
 def test_3d_view_embeds_the_viser_scene(
     viewer_page: Any, service: Service, measured_pass: int, screenshots: Path
 ) -> None:

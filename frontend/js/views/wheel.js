@@ -24,7 +24,7 @@ export const LAYERS = [
 export class WheelView {
   /**
    * @param {HTMLElement} root
-   * @param {{setQuery: (q: Record<string, string>) => void, exportReport: (format: string) => Promise<void>|void, exportProfile: (format: string) => Promise<void>|void, openViewer: () => void, closeViewer: () => void}} handlers
+   * @param {{setQuery: (q: Record<string, string>) => void, exportReport: (format: string) => Promise<void>|void, exportProfile: (format: string) => Promise<void>|void, importReference: (file: File) => Promise<void>|void, openViewer: () => void, closeViewer: () => void}} handlers
    */
   constructor(root, handlers) {
     this.handlers = handlers;
@@ -106,7 +106,9 @@ export class WheelView {
       this.profiles = w.profiles;
       this.drawProfilePlot(null);
     }
-    if (changed('comparison', w.comparison)) renderComparison(this.comparisonRoot, w.comparison);
+    if (changed('comparison', `${w.loadMs}|${w.comparison?.reference?.id}|${state.me?.role}`)) {
+      renderComparison(this.comparisonRoot, w.comparison, state.me?.role !== 'viewer' ? this.handlers.importReference : null);
+    }
     if (changed('trend', w.trend)) {
       this.trendPlot = w.trend?.error ? null : renderTrend(this.trendRoot, w.trend, this.trendPlot);
       if (w.trend?.error) this.trendRoot.replaceChildren(h('p', { class: 'error' }, `trend unavailable: ${w.trend?.error}`));
@@ -248,13 +250,21 @@ export class WheelView {
  * (recomputed by the wayside code) and each method's difference from it.
  * @param {HTMLElement} root
  * @param {any} comparison a ReferenceComparison, or {error}
+ * @param {((file: File) => Promise<void>|void)|null} importReference for operators and admins
  */
-function renderComparison(root, comparison) {
+function renderComparison(root, comparison, importReference) {
   const reference = comparison?.reference;
+  const picker = importReference ? h('label', { class: 'button import-reference' }, 'Import gauge file (.whl, .prr, .csv)',
+    h('input', { type: 'file', accept: '.whl,.prr,.csv', hidden: true, 'data-action': 'import-reference',
+      onchange: (/** @type {Event} */ e) => {
+        const input = /** @type {HTMLInputElement} */ (e.target);
+        if (input.files?.[0]) importReference(input.files[0]);
+        input.value = '';
+      } })) : '';
   if (!reference) {
     root.replaceChildren(h('p', { class: 'empty' }, comparison?.error
       ? `handheld reference unavailable: ${comparison.error}`
-      : 'No handheld reference for this wheel (import one with POST /api/wheels/{id}/references or wheelscan import-reference).'));
+      : 'No handheld reference for this wheel.'), picker);
     return;
   }
   const difference = (/** @type {string} */ method, /** @type {string} */ key) =>
@@ -271,6 +281,7 @@ function renderComparison(root, comparison) {
     h('p', { class: 'note' }, `${reference.instrument ?? 'gauge'} · ${reference.filename} · measured ${reference.measured_on ?? fmtTime(reference.measured_at)}`,
       reference.parameter_quality === 'interpolated' ? ' · sparse flank: parameters interpolated between its samples' : '',
       ' · green curve in the profile plot, mm'),
+    picker,
   );
 }
 
