@@ -13,7 +13,6 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from sqlalchemy.exc import DataError
 from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.types import ASGIApp, Receive, Scope, Send
 
 from backend.api.schemas import ErrorRead
 from pipeline import PipelineError
@@ -132,33 +131,3 @@ def install_error_handlers(app: FastAPI) -> None:
     async def _unexpected(request: Request, exc: Exception) -> JSONResponse:
         logger.exception("unexpected error on %s %s", request.method, request.url.path)
         return error_response(500, f"internal error: {type(exc).__name__}", "internal_error")
-
-
-MULTIPART_OVERHEAD_BYTES = 64 * 1024
-"""Room for multipart headers and boundaries around an upload of the maximum size."""
-
-
-class BodySizeLimit:
-    """Refuse a request whose declared body is larger than allowed before reading it.
-
-    Starlette would otherwise spool a whole multipart upload to disk before the route sees
-    it. Bodies without a Content-Length (chunked) are counted by the routes as they read.
-    """
-
-    def __init__(self, app: ASGIApp, max_body_bytes: int) -> None:
-        self.app = app
-        self.max_body_bytes = max_body_bytes
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] == "http":
-            declared = dict(scope.get("headers", ())).get(b"content-length", b"0")
-            if declared.isdigit() and int(declared) > self.max_body_bytes:
-                response = error_response(
-                    413,
-                    f"request body of {int(declared)} bytes is larger than "
-                    f"{self.max_body_bytes} bytes; raise WHEELSCAN_MAX_UPLOAD_BYTES or split it",
-                    "too_large",
-                )
-                await response(scope, receive, send)
-                return
-        await self.app(scope, receive, send)

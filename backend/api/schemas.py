@@ -2,16 +2,39 @@
 
 from __future__ import annotations
 
-from datetime import datetime
-from typing import Any, Generic, Literal, TypeVar
+import re
+from datetime import UTC, datetime
+from typing import Annotated, Any, Generic, Literal, TypeVar
 
-from pydantic import AwareDatetime, BaseModel, ConfigDict, Field
+from pydantic import AfterValidator, AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field
 
 from db.types import MAX_INTEGER
 
 Role = Literal["viewer", "operator", "admin"]
 Side = Literal["left", "right"]
 Sensor = Literal["left_inner", "left_outer", "right_inner", "right_outer"]
+
+_ISO_DATE_TIME = re.compile(r"^\d{4}-\d{2}-\d{2}[T ]\d{2}:\d{2}")
+
+
+def _iso_text(value: object) -> object:
+    """Only ISO 8601 text is a date (pydantic would read a number as Unix seconds)."""
+    if isinstance(value, datetime):
+        return value
+    if not isinstance(value, str) or not _ISO_DATE_TIME.match(value):
+        raise ValueError("must be an ISO 8601 date-time such as 2026-05-01T00:00:00Z")
+    return value
+
+
+def _in_utc(value: datetime) -> datetime:
+    try:
+        return value.astimezone(UTC)
+    except OverflowError:
+        raise ValueError("lies outside years 1–9999 once converted to UTC") from None
+
+
+UtcDateTime = Annotated[AwareDatetime, BeforeValidator(_iso_text), AfterValidator(_in_utc)]
+"""An ISO 8601 date-time with a time zone, converted to UTC (years 1–9999 in UTC)."""
 
 
 class ORMModel(BaseModel):
@@ -41,7 +64,7 @@ class Me(BaseModel):
 class TokenCreate(BaseModel):
     role: Role
     name: str = Field(min_length=1, max_length=100)
-    expires_at: AwareDatetime | None = None
+    expires_at: UtcDateTime | None = None
 
 
 class TokenRead(ORMModel):
@@ -115,7 +138,7 @@ class PassAccepted(BaseModel):
 
 class StreamOpen(BaseModel):
     site: str = Field(min_length=1, max_length=100)
-    started_at: AwareDatetime
+    started_at: UtcDateTime
     direction: str | None = Field(default=None, max_length=40)
     speed_kmh: float | None = Field(default=None, ge=0, le=500)
     frames_per_sensor: int = Field(default=1, ge=1, le=1000)
