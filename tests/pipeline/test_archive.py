@@ -6,14 +6,21 @@ import json
 import os
 import stat
 import struct
+import time
 import zipfile
+from dataclasses import fields
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 
-from pipeline.archive.manifest import manifest_to_document, parse_manifest
+from pipeline.archive.manifest import (
+    PassManifest,
+    WheelEntry,
+    manifest_to_document,
+    parse_manifest,
+)
 from pipeline.archive.pass_archive import (
     ArchiveLimits,
     encode_frame,
@@ -300,3 +307,33 @@ def test_zip_member_count_limit(pass_folder: Path, tmp_path: Path) -> None:
 def test_writer_refuses_a_manifest_frame_it_was_not_given(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="frames lacks"):
         write_pass_archive(tmp_path / "p", small_manifest(), {})
+
+
+def test_validating_a_zip_of_4000_frames_reads_its_directory_once(tmp_path: Path) -> None:
+    # The zip was reopened for every member (its central directory parsed again each
+    # time): 4,000 tiny frames took 55 s. CPU time, so other processes do not count.
+    frames_per_sensor = 1000
+    manifest = small_manifest()
+    wheels = tuple(
+        WheelEntry(
+            vehicle_id="V1",
+            axle=1,
+            side=side,
+            frames_inner=tuple(f"{side}_inner/{i}.png" for i in range(frames_per_sensor)),
+            frames_outer=tuple(f"{side}_outer/{i}.png" for i in range(frames_per_sensor)),
+        )
+        for side in ("left", "right")
+    )
+    many = PassManifest(
+        **{f.name: getattr(manifest, f.name) for f in fields(manifest) if f.name != "wheels"},
+        wheels=wheels,
+    )
+    out = write_pass_archive(
+        tmp_path / "many.zip", many, small_frames(many), calibration=small_calibration()
+    )
+    started_s = time.process_time()
+    archive = read_pass_archive(out)
+    elapsed_s = time.process_time() - started_s
+    archive.close()
+    assert sum(len(w.frames_inner) + len(w.frames_outer) for w in archive.manifest.wheels) == 4000
+    assert elapsed_s <= 2.0, f"{elapsed_s:.1f} s of CPU to validate 4,000 members"
