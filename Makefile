@@ -5,7 +5,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 APT_STAMP := $(VENV)/.apt-installed
-DEBIAN_PACKAGES := chromium poppler-utils fonts-dejavu-core docker-compose nodejs
+DEBIAN_PACKAGES := chromium poppler-utils fonts-dejavu-core docker-compose nodejs postgresql redis-server
 
 .PHONY: run test lint bench venv system-deps clean
 
@@ -18,7 +18,8 @@ $(STAMP): pyproject.toml requirements.lock
 	$(PY) -m pipeline.precompile
 	touch $(STAMP)
 
-# Debian packages the browser tests and report checks need (headless Chromium, pdftoppm).
+# Debian packages the tests need: headless Chromium, pdftoppm, and the PostgreSQL and Redis
+# binaries the tests start throw-away servers from when the machine runs none.
 system-deps: $(APT_STAMP)
 
 $(APT_STAMP): Makefile | $(STAMP)

@@ -36,6 +36,25 @@ def _in_utc(value: datetime) -> datetime:
 UtcDateTime = Annotated[AwareDatetime, BeforeValidator(_iso_text), AfterValidator(_in_utc)]
 """An ISO 8601 date-time with a time zone, converted to UTC (years 1–9999 in UTC)."""
 
+CALIBRATION_DOCUMENT_SCHEMA: dict[str, Any] = {
+    "type": "object",
+    "required": ["format", "sensors"],
+    "properties": {
+        "format": {"const": "wheelscan-calibration/1"},
+        "sensors": {
+            "type": "object",
+            "minProperties": 1,
+            "propertyNames": {"enum": ["left_inner", "left_outer", "right_inner", "right_outer"]},
+        },
+    },
+    "description": "a wheelscan-calibration/1 object; every sensor's intrinsics, laser plane "
+    "(|d| ≥ 1 mm) and rigid camera_to_track transform are checked (422 names the fault)",
+}
+"""What a JSON Schema can say of a calibration document; the parser checks the rest."""
+CalibrationDocument = Annotated[
+    dict[str, Any], Field(json_schema_extra=CALIBRATION_DOCUMENT_SCHEMA)
+]
+
 
 class ORMModel(BaseModel):
     model_config = ConfigDict(from_attributes=True)
@@ -64,7 +83,9 @@ class Me(BaseModel):
 class TokenCreate(BaseModel):
     role: Role
     name: str = Field(min_length=1, max_length=100)
-    expires_at: UtcDateTime | None = None
+    expires_at: UtcDateTime | None = Field(
+        default=None, description="must lie in the future (422 otherwise); none: never expires"
+    )
 
 
 class TokenRead(ORMModel):
@@ -93,7 +114,7 @@ class SiteRead(ORMModel):
 
 
 class CalibrationCreate(BaseModel):
-    document: dict[str, Any] = Field(description="a wheelscan-calibration/1 object")
+    document: CalibrationDocument
     note: str | None = Field(default=None, max_length=1000)
 
 
@@ -122,6 +143,8 @@ class LimitsRead(ORMModel):
 
 
 class LimitsUpdate(BaseModel):
+    """New limits; each *_min_mm must lie below its *_max_mm (422 otherwise)."""
+
     flange_height_min_mm: float = Field(gt=0, lt=100)
     flange_height_max_mm: float = Field(gt=0, lt=100)
     flange_thickness_min_mm: float = Field(gt=0, lt=100)
@@ -137,12 +160,15 @@ class PassAccepted(BaseModel):
 
 
 class StreamOpen(BaseModel):
+    """A pass to stream into; without `calibration`, the site's registered one is used (422
+    when the site has none)."""
+
     site: str = Field(min_length=1, max_length=100)
     started_at: UtcDateTime
     direction: str | None = Field(default=None, max_length=40)
     speed_kmh: float | None = Field(default=None, ge=0, le=500)
     frames_per_sensor: int = Field(default=1, ge=1, le=1000)
-    calibration: dict[str, Any] | None = None
+    calibration: CalibrationDocument | None = None
 
 
 class FramePut(BaseModel):
@@ -159,6 +185,18 @@ class FrameRead(ORMModel):
 
 
 class MissingSensor(BaseModel):
+    model_config = ConfigDict(
+        json_schema_extra={
+            "anyOf": [
+                {"properties": {"side": {"const": side}, "sensor": {"enum": sensors}}}
+                for side, sensors in (
+                    ("left", ["left_inner", "left_outer"]),
+                    ("right", ["right_inner", "right_outer"]),
+                )
+            ]
+        }
+    )
+
     vehicle_id: str = Field(min_length=1, max_length=100)
     axle: int = Field(ge=0, le=MAX_INTEGER)
     side: Side

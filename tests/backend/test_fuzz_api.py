@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import re
+from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -34,7 +35,7 @@ from schemathesis.checks import (
     response_schema_conformance,
     status_code_conformance,
 )
-from schemathesis.core.failures import FailureGroup
+from schemathesis.core.failures import FailureGroup, ServerError
 from starlette.types import ASGIApp, Receive, Scope, Send
 
 from tests.backend.archives import small_archive_bytes
@@ -148,6 +149,13 @@ def _fuzz(
     run()
 
 
+def _failure_kinds(exc: BaseException) -> Counter[str]:
+    """How many of a run's failures are 5xx answers, and how many other breaches of the
+    document (status, content type, headers, body schema, invalid data accepted)."""
+    found = exc.exceptions if isinstance(exc, FailureGroup) else [exc]
+    return Counter("server" if isinstance(f, ServerError) else "conformance" for f in found)
+
+
 @pytest.mark.parametrize("caller", CALLERS)
 def test_every_operation_answers_as_documented(client, tokens, measured_pass, caller) -> None:
     schema = schemathesis.openapi.from_asgi(
@@ -163,6 +171,7 @@ def test_every_operation_answers_as_documented(client, tokens, measured_pass, ca
         _authorize(case, caller, tokens)
         case.call_and_validate(checks=CHECKS)
 
+    kinds: Counter[str] = Counter()
     operations = [result.ok() for result in schema.get_all_operations()]
     for operation in operations:
         for name, options in _runs(operation, measured_pass):
@@ -174,10 +183,12 @@ def test_every_operation_answers_as_documented(client, tokens, measured_pass, ca
                 assert name == GenerationMode.NEGATIVE.value, operation.label
             except (Exception, FailureGroup) as exc:  # every operation's failures are reported
                 failures.append(f"{operation.label} ({name}):\n{exc}")
+                kinds.update(_failure_kinds(exc))
     database = client.app.state.engine.dialect.name
     logger.info(
-        "fuzzed as %s on %s: %d operations, %d cases", caller, database, len(operations), cases_run
-    )
+        "fuzzed as %s on %s: %d operations, %d cases, %d server errors, %d conformance failures",
+        caller, database, len(operations), cases_run, kinds["server"], kinds["conformance"],
+    )  # fmt: skip
     assert not failures, "\n\n".join(failures)
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import io
 import json
 import logging
+import re
 import struct
 import zipfile
 import zlib
@@ -21,6 +22,7 @@ from backend.api.security import SecretRedactingFilter
 from db.models import Frame, Site, Wheel
 from tests.backend.archives import calibration_document, frame_png, rewrite_zip
 from tests.backend.archives import small_archive_bytes as archive_bytes
+from tests.backend.test_security import PATH_VALUES
 from tests.backend.test_stream_protocol import OPEN, open_pass, put
 from tests.backend.test_upload_validation import assert_refused, store_files, stored_rows, upload
 
@@ -208,3 +210,14 @@ def test_a_token_in_the_access_log_is_redacted_and_the_line_still_written() -> N
     assert SecretRedactingFilter().filter(record)
     line = AccessFormatter("%(message)s", use_colors=False).format(record)
     assert line == '127.0.0.1:5000 - "GET /api/ws/passes?token=[redacted] HTTP/1.1" 101'
+
+
+def test_an_undocumented_method_is_405_with_every_documented_method_in_allow(client) -> None:
+    paths = client.get("/openapi.json").json()["paths"]
+    for path, operations in paths.items():
+        url = re.sub(r"{(\w+)}", lambda m: PATH_VALUES.get(m.group(1), "1"), path)
+        response = client.request("TRACE", url)
+        assert response.status_code == 405, (path, response.status_code)
+        assert response.json()["code"] == "http_405"
+        allowed = set(response.headers["Allow"].split(", "))
+        assert {method.upper() for method in operations} <= allowed, (path, allowed)

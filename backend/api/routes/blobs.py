@@ -56,7 +56,7 @@ async def put_blob(
     store: StoreDep,
     _operator: OperatorDep,
 ) -> Response:
-    """Store a blob (a no-op when stored); its bytes must hash to its name."""
+    """Store a blob (a no-op when stored); its bytes must hash to its name (422 otherwise)."""
     sha256, suffix = _split(name)
     data = await request.body()  # at most max_frame_bytes (BodySizeLimit)
     actual = hashlib.sha256(data).hexdigest()

@@ -13,6 +13,7 @@ from backend.api.schemas import (
     FrameRead,
     MissingSensor,
     PassAccepted,
+    Sensor,
     StreamOpen,
     WheelStateRead,
 )
@@ -44,7 +45,7 @@ def post_stream(body: StreamOpen, session: SessionDep, operator: OperatorDep) ->
 async def put_pass_frame(
     request: Request,
     response: Response,
-    sensor: str,
+    sensor: Sensor,
     seq: Annotated[int, Path(ge=0, le=MAX_INTEGER)],
     train_pass: PassDep,
     session: SessionDep,
