@@ -6,7 +6,15 @@ import re
 from datetime import UTC, datetime
 from typing import Annotated, Any, Generic, Literal, TypeVar
 
-from pydantic import AfterValidator, AwareDatetime, BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import (
+    AfterValidator,
+    AwareDatetime,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    model_validator,
+)
 
 from db.types import MAX_INTEGER
 
@@ -56,6 +64,36 @@ CalibrationDocument = Annotated[
 ]
 
 
+def _find_nul(value: object, where: str) -> str | None:
+    """The dotted name of the first text (or key) in `value` holding a NUL, else None."""
+    if isinstance(value, str):
+        return where if "\x00" in value else None
+    if isinstance(value, dict):
+        pairs: Any = value.items()
+    elif isinstance(value, list | tuple):
+        pairs = enumerate(value)
+    else:
+        return None
+    for key, item in pairs:
+        name = f"{where}.{key}" if where else str(key)
+        found = name if "\x00" in str(key) else _find_nul(item, name)
+        if found is not None:
+            return found
+    return None
+
+
+class InputModel(BaseModel):
+    """A request body: no text in it may hold a NUL character (PostgreSQL cannot store one,
+    so SQLite must not accept it either)."""
+
+    @model_validator(mode="after")
+    def _no_nul(self) -> InputModel:
+        where = _find_nul(self.model_dump(), "")
+        if where is not None:
+            raise ValueError(f"{where} must not contain NUL characters")
+        return self
+
+
 class ORMModel(BaseModel):
     model_config = ConfigDict(from_attributes=True)
 
@@ -80,7 +118,7 @@ class Me(BaseModel):
     prefix: str
 
 
-class TokenCreate(BaseModel):
+class TokenCreate(InputModel):
     role: Role
     name: str = Field(min_length=1, max_length=100)
     expires_at: UtcDateTime | None = Field(
@@ -102,7 +140,7 @@ class TokenCreated(TokenRead):
     token: str = Field(description="the bearer token; shown only once")
 
 
-class SiteCreate(BaseModel):
+class SiteCreate(InputModel):
     name: str = Field(min_length=1, max_length=100, pattern=r"^[^/]+$")
 
 
@@ -113,7 +151,7 @@ class SiteRead(ORMModel):
     current_calibration_version: int | None = None
 
 
-class CalibrationCreate(BaseModel):
+class CalibrationCreate(InputModel):
     document: CalibrationDocument
     note: str | None = Field(default=None, max_length=1000)
 
@@ -142,7 +180,7 @@ class LimitsRead(ORMModel):
     updated_at: datetime
 
 
-class LimitsUpdate(BaseModel):
+class LimitsUpdate(InputModel):
     """New limits; each *_min_mm must lie below its *_max_mm (422 otherwise)."""
 
     flange_height_min_mm: float = Field(gt=0, lt=100)
@@ -159,7 +197,7 @@ class PassAccepted(BaseModel):
     job_id: int
 
 
-class StreamOpen(BaseModel):
+class StreamOpen(InputModel):
     """A pass to stream into; without `calibration`, the site's registered one is used (422
     when the site has none)."""
 
@@ -184,18 +222,27 @@ class FrameRead(ORMModel):
     axle: int
 
 
-class MissingSensor(BaseModel):
-    model_config = ConfigDict(
-        json_schema_extra={
-            "anyOf": [
-                {"properties": {"side": {"const": side}, "sensor": {"enum": sensors}}}
-                for side, sensors in (
-                    ("left", ["left_inner", "left_outer"]),
-                    ("right", ["right_inner", "right_outer"]),
-                )
-            ]
-        }
-    )
+SENSOR_ON_ITS_SIDE: dict[str, Any] = {
+    "anyOf": [
+        {
+            "properties": {
+                "side": {"const": "left"},
+                "sensor": {"enum": ["left_inner", "left_outer"]},
+            }
+        },
+        {
+            "properties": {
+                "side": {"const": "right"},
+                "sensor": {"enum": ["right_inner", "right_outer"]},
+            }
+        },
+    ]
+}
+"""The schema's way of saying a missing sensor must be one of the wheel's side."""
+
+
+class MissingSensor(InputModel):
+    model_config = ConfigDict(json_schema_extra=SENSOR_ON_ITS_SIDE)
 
     vehicle_id: str = Field(min_length=1, max_length=100)
     axle: int = Field(ge=0, le=MAX_INTEGER)

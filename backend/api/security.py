@@ -271,13 +271,27 @@ def _has_body(headers: Headers) -> bool:
     return "transfer-encoding" in headers
 
 
+def _url_has_nul(scope: Scope) -> bool:
+    return "\x00" in scope.get("path", "") or b"%00" in scope.get("query_string", b"")
+
+
 class StrictContentTypes:
-    """Refuse (415) a request body whose Content-Type is not the one its route reads."""
+    """Refuse (415) a request body whose Content-Type is not the one its route reads, and
+    (422) a URL holding a NUL character, on every database alike."""
 
     def __init__(self, app: ASGIApp) -> None:
         self.app = app
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] in ("http", "websocket") and _url_has_nul(scope):
+            if scope["type"] == "http":
+                response = error_response(
+                    422, "the URL must not contain NUL characters (%00)", "invalid_input"
+                )
+                await response(scope, receive, send)
+            else:
+                await send({"type": "websocket.close", "code": 1008, "reason": "NUL in URL"})
+            return
         if scope["type"] == "http":
             expected = expected_body_type(scope["method"], scope.get("path", ""))
             headers = Headers(scope=scope)

@@ -208,11 +208,18 @@ def test_ids_beyond_the_integer_columns_are_refused_not_crashed(client, auth, pa
     assert response.json()["code"] == "invalid_input"
 
 
-def test_text_the_database_cannot_store_is_invalid_input(client, auth) -> None:
-    response = client.post("/api/sites", json={"name": "a\u0000b"}, headers=auth("admin"))
-    if client.app.state.engine.dialect.name == "postgresql":
-        # PostgreSQL refuses NUL bytes in text: a DataError, which was a 500.
-        assert response.status_code == 422
-        assert "NUL" in response.json()["detail"]
-    else:  # SQLite stores a NUL like any other character
-        assert response.status_code == 201
+@pytest.mark.parametrize(
+    ("method", "url", "body"),
+    [
+        ("POST", "/api/sites", {"name": "a\u0000b"}),
+        ("POST", "/api/tokens", {"role": "viewer", "name": "a\u0000"}),
+        ("GET", "/api/passes?site=a%00b", None),
+        ("GET", "/api/sites/a%00b/calibrations", None),
+    ],
+)
+def test_text_with_a_nul_is_invalid_input_on_every_database(client, auth, method, url, body):
+    # PostgreSQL refuses NUL bytes in text (a DataError, which was a 500); SQLite stored
+    # them: both refuse them now, before any query.
+    response = client.request(method, url, json=body, headers=auth("admin"))
+    assert response.status_code == 422, response.text
+    assert "NUL" in response.json()["detail"]
