@@ -1,7 +1,7 @@
 """Throw-away databases and servers for tests: a SQLite file, a fresh PostgreSQL database,
 and private PostgreSQL and Redis servers.
 
-All are real (STYLE.md §7). PostgreSQL databases are made on the local server
+All are real (docs/style.md §7). PostgreSQL databases are made on the local server
 (127.0.0.1:5432, trust auth; `WHEELSCAN_TEST_POSTGRES_PORT` names another port) for one
 test session and dropped afterwards. When no server answers there, the tests start one of
 their own (a temporary data directory, a free port, stopped when the tests end), after
