@@ -142,7 +142,7 @@ class FailedAuthLimiter:
         async def watch(message: Message) -> None:
             nonlocal refused
             failed = (message["type"] == "http.response.start" and message["status"] == 401) or (
-                message["type"] == "websocket.close" and message["code"] == WS_POLICY_VIOLATION
+                message["type"] == "websocket.close" and message.get("code") == WS_POLICY_VIOLATION
             )
             if failed:
                 wait_s = self.tracker.retry_after_s(address)
