@@ -17,6 +17,7 @@ import pytest
 
 from tests.backend.archives import calibration_document, rewrite_zip, small_archive_bytes
 from tests.faults.live import LiveServer, check_store
+from tests.scale.topology import wait_until
 
 MIB = 2**20
 MAX_GROWTH_BYTES = 100 * MIB
@@ -180,3 +181,12 @@ def test_an_archive_with_a_huge_frame_is_refused_from_its_header(
     assert [p["source"] for p in passes] in ([], ["stream"])  # no uploaded pass
     assert not check_store(server.data_dir, server.tmp_dir)
     assert json.loads(httpx.get(f"{server.url}/healthz").text)["status"] == "ok"
+
+
+def test_a_token_in_the_url_is_logged_redacted(server: LiveServer) -> None:
+    secret = "wst_" + "s3cret" * 6
+    httpx.get(f"{server.url}/api/passes", params={"token": secret}, timeout=10)
+    wait_until(lambda: "/api/passes?token=" in server.log_tail(), 10, "the access log line")
+    log = server.log_tail(10**7)
+    assert "token=[redacted]" in log and secret not in log
+    assert "Logging error" not in log

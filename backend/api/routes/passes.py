@@ -64,7 +64,7 @@ async def upload_pass(
     The token is checked before the body is read; the same archive uploaded again returns
     the pass made from it the first time.
     """
-    async with request.form(max_files=1, max_fields=1) as form:
+    async with request.form(max_files=1) as form:
         file = form.get("file")
         if not isinstance(file, UploadFile) or not file.filename:
             raise InvalidInputError("file: send the pass archive as multipart field 'file'")
