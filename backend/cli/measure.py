@@ -55,7 +55,6 @@ def wheel_row(result: PassWheelResult) -> dict[str, object]:
     """One wheel × method of a measured pass as the JSON row of `wheelscan measure`."""
     m, wheel = result.measurement, result.wheel
     parameters = m.parameters
-    profile = m.profile
     row: dict[str, object] = {
         "vehicle_id": wheel.vehicle_id,
         "axle": wheel.axle,
@@ -68,13 +67,12 @@ def wheel_row(result: PassWheelResult) -> dict[str, object]:
         row[key] = None if parameters is None else round(getattr(parameters, key), 4)
     b2b = result.back_to_back_mm
     row["back_to_back_mm"] = None if b2b is None else round(b2b, 4)
-    residual = None if profile is None else profile.overlap_residual_mm
+    quality = m.quality_figures()
+    residual = quality["overlap_residual_mm"]
     row["quality"] = {
-        "points_inner": m.points_inner,
-        "points_outer": m.points_outer,
+        **quality,
         "overlap_residual_mm": None if residual is None else round(residual, 4),
-        "overlap_points": 0 if profile is None else profile.overlap_points,
-        "rejected_points": 0 if profile is None else profile.rejected_points,
+        "searched_fraction": round(float(quality["searched_fraction"] or 0.0), 4),
     }
     return row
 

@@ -10,8 +10,8 @@ the wheel, whatever the effects do to the stripe's appearance.
 - texture: reflectance grain of the wheel at the stripe's scale (correlation 3–15 px,
   contrast 0.2–0.6) multiplies the stripe.
 - shiny_bands: wheel-rail contact polishes the running band and the flange root: the
-  diffuse stripe drops to 6–35 % there, and the polished band's specular glare of the
-  laser line lies beside the stripe, saturated.
+  diffuse stripe drops to 6–35 % there, next to stretches where the specular lobe of the
+  lit line reaches the camera: narrow, saturated glare on the line (the paper's Fig. 3d).
 - asymmetry: where the slope or reflectance changes across the lit band, the two sides of
   the cross-section differ (a two-sided Gaussian, peak on the true line).
 - ghost: light reflected off the flange flank draws a faint, wide copy (10–30 %) of the
@@ -46,15 +46,18 @@ SHINY_BAND_MM = {"running": (62.0, 82.0), "root": (6.0, 14.0)}
 top) [mm]; each band's edges are drawn again per pass within ±3 mm."""
 GLARE_PEAK_DN = (260.0, 900.0)
 """Peak of the specular glare on the 8-bit scale (above 255: saturated)."""
-GLARE_OFFSET_PX = (2.0, 9.0)
-"""Clearance between the stripe's 1/e² edge and the glare's centre [px]."""
-GLARE_WIDTH_PX = (3.0, 6.0)
-SKEW_CURVATURE_MM = 6.0
-"""Skew of a cross-section per unit profile curvature: α = 6 mm × κ (a 15 mm root radius
-gives 0.4, clipped to ±0.35), plus a random part from reflectance changes."""
-SKEW_RANDOM = 0.12
-SKEW_LIMIT = 0.35
-"""Two-sided Gaussian: σ(1 ± α) on the two sides of the true line, |α| ≤ 0.35."""
+GLARE_WIDTH_FRACTION = (0.4, 0.8)
+"""Width of the glare relative to the diffuse stripe's (the specular lobe images the thin
+sheet without the light's spread inside the rough surface)."""
+SKEW_CURVATURE_MM = 2.0
+"""Skew of a cross-section per unit profile curvature [mm]: across a lit band ≈ 2 mm wide
+on the surface (sheet thickness and sub-surface spread, widened at oblique incidence) the
+slope turns by 2 mm × κ, and the foreshortening of the two halves differs by about that
+much; a 15 mm flange-root radius gives α = 0.13."""
+SKEW_RANDOM = 0.06
+"""Random part of α from reflectance changes across the band (smooth along the outline)."""
+SKEW_LIMIT = 0.25
+"""Two-sided Gaussian: σ(1 ± α) on the two sides of the true line, |α| ≤ 0.25."""
 GHOST_FRACTION = (0.10, 0.30)
 GHOST_WIDENING = (1.8, 3.0)
 GHOST_OFFSET_PX = (25.0, 60.0)
@@ -66,7 +69,9 @@ SPOTS_ON_STRIPE = (2, 6)
 LONG_PART_FACTOR = (1.15, 1.6)
 """Other part's stripe length relative to the longest piece of the wheel's stripe."""
 FLANGE_CUT_MM = (2.0, 6.0)
-"""Length of the profile shaded at the flange root (from the outer sensor's laser) [mm]."""
+FLANGE_CUT_START_Z_MM = (3.0, 6.0)
+"""Profile x-length shaded at the flange root (from the outer sensor's laser), starting
+where the flank comes down to z = 3–6 mm [mm]."""
 FULL_WELL_DN = 255.0
 BLOOM_SIGMA_PX = 2.5
 BLOOM_FRACTION = 0.5
@@ -156,16 +161,14 @@ def shiny_bands(profile: WheelProfile, samples: StripeSamples, rng) -> tuple[np.
 
 
 def glare(samples: StripeSamples, band: np.ndarray, rng) -> tuple[StripeSamples, np.ndarray]:
-    """The polished band's specular glare beside the stripe: samples and peak grey."""
-    normals = image_normals(samples)
-    side = rng.choice([-1.0, 1.0])
-    width = rng.uniform(*GLARE_WIDTH_PX)
-    offset = 0.5 * samples.width_px + 0.5 * width + rng.uniform(*GLARE_OFFSET_PX)
-    shifted = replace_pixels(samples, samples.pixels + side * offset[:, None] * normals, width)
-    along = np.cumsum(band) % int(rng.integers(40, 120)) < int(rng.integers(15, 60))
-    keep = band & along
+    """The polished band's specular glare: stretches of the lit line whose specular lobe
+    reaches the camera, narrower than the diffuse stripe and saturated; samples and peak."""
+    width = samples.width_px * rng.uniform(*GLARE_WIDTH_FRACTION)
+    shiny = replace_pixels(samples, samples.pixels, width)
+    period, length = int(rng.integers(60, 160)), int(rng.integers(15, 60))
+    keep = band & (np.cumsum(band) % period < length)
     peak = rng.uniform(*GLARE_PEAK_DN) * np.ones(int(keep.sum()))
-    return subset(shifted, keep), peak
+    return subset(shiny, keep), peak
 
 
 def replace_pixels(samples: StripeSamples, pixels: np.ndarray, width_px) -> StripeSamples:
@@ -233,11 +236,16 @@ def _add_spot(image: np.ndarray, centre: np.ndarray, sigma: float, peak: float) 
 
 
 def cut_at_flange(profile: WheelProfile, samples: StripeSamples, rng) -> StripeSamples:
-    """The samples without the stretch of flange root the flange shades; the cut splits the
-    run there."""
+    """The samples without the stretch of flange root the flange shades (where the flank
+    comes down to z = 3–6 mm, clear of the heights Sd and qR are read at); the cut splits
+    the run there."""
     x, top_x = _outline_x(profile, samples)
-    start = top_x + rng.uniform(7.0, 12.0)
-    shaded = (x > start) & (x < start + rng.uniform(*FLANGE_CUT_MM))
+    z = profile.z_mm[samples.outline_index]
+    flank = np.flatnonzero((x > top_x) & (z < rng.uniform(*FLANGE_CUT_START_Z_MM)))
+    if flank.size == 0:
+        return samples
+    start = x[flank[0]]
+    shaded = (x >= start) & (x < start + rng.uniform(*FLANGE_CUT_MM))
     kept = subset(samples, ~shaded)
     after = np.cumsum(shaded)[~shaded] > 0
     return StripeSamples(

@@ -3,11 +3,11 @@
 The filter passes a few nanometres of the ambient light, so the scene is dim but not black:
 the wheel's rim and web, the rail head and the axle-box face beside the wheel show at grey
 15–90 (8-bit scale) with rust and wear grain, and the polished or machined corners (the
-rail's gauge corner, the rim's chamfer and the flange back) catch the light as thin bright
-lines. Surfaces are quad meshes of track-frame points drawn far to near (painter's order)
-with Lambertian sky and ground light; the corners are drawn where the depth buffer shows
-them. Reflectance grain is an image-space random field: a new patch of the wheel faces the
-camera on every pass.
+rail's gauge corner, the rim's chamfer) catch the light as thin bright lines; behind
+everything the bogie's underside and the ballast are dimmer still. Surfaces are quad meshes
+of track-frame points drawn far to near (painter's order) with Lambertian sky and ground
+light; the corners are drawn where the depth buffer shows them. Reflectance grain is an
+image-space random field: a new patch of the wheel faces the camera on every pass.
 """
 
 from __future__ import annotations
@@ -30,6 +30,9 @@ EDGE_GREY_DN = (95.0, 170.0)
 """Peak grey of the bright corners (polished gauge corner, machined chamfer)."""
 EDGE_WIDTH_PX = (1.0, 2.5)
 """Drawn width of a bright corner before the 0.8 px lens blur [px]."""
+BACKGROUND_GREY_DN = (8.0, 20.0)
+"""Grey of what lies behind the parts (bogie underside, ballast): dim, in broad patches."""
+BACKGROUND_CORRELATION_PX = 120.0
 GRAIN_CORRELATION_PX = (2.0, 20.0)
 GRAIN_CONTRAST = 0.35
 """Rust and wear grain: a log-normal reflectance field, std/mean 0.35, correlated over
@@ -237,21 +240,19 @@ def scene_grey(shade: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     texture = grain(shade.shape, correlation, GRAIN_CONTRAST, rng)
     low, high = SCENE_GREY_DN
     lit = shade > 0
-    grey = np.zeros(shade.shape, IMAGE_FLOAT)
+    grey = rng.uniform(*BACKGROUND_GREY_DN) * grain(
+        shade.shape, BACKGROUND_CORRELATION_PX, 0.3, rng
+    )
     grey[lit] = low + (high - low) * np.clip(shade[lit] * texture[lit], 0.0, 1.0)
     return cv2.GaussianBlur(grey, (0, 0), 1.0)
 
 
 def scene_edges(profile: WheelProfile, pose: WheelPose) -> list[np.ndarray]:
     """The bright corners as 3-D curves [mm]: the rim's chamfer (where the tread meets the
-    field face), the flange back's edge on the back face, and the rail's gauge corner."""
+    field face) and the rail's gauge corner."""
     x, z = profile.x_mm, profile.z_mm
     chamfer = int(np.flatnonzero(x >= x.max())[0])
-    flange_back = int(np.flatnonzero(x <= x.min())[-1])
-    curves = [
-        _revolve(x[[i, i]], z[[i, i]] + [0.0, 0.1], pose, WHEEL_ARC_RAD)[0][0]
-        for i in (chamfer, flange_back)
-    ]
+    curves = [_revolve(x[[chamfer] * 2], z[[chamfer] * 2] + [0.0, 0.1], pose, WHEEL_ARC_RAD)[0][0]]
     gx, gz = rail_head_outline(pose.side_sign)
     corner = len(gx) // 2 - 1  # the gauge corner arc's middle node (≈ 45°)
     for start, end in RAIL_Y_MM:
