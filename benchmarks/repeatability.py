@@ -29,7 +29,8 @@ BARS = {"mae_mm": 0.05, "std_mm": 0.03, "max_error_mm": 0.10}
 BACK_TO_BACK_BAR_MM = 0.2
 
 
-def _verdicts(pooled: tuple[ParameterStats, ...]) -> list[str]:
+def verdicts(pooled: tuple[ParameterStats, ...]) -> list[str]:
+    """One line per bar of the adaptive method's pooled figures, with ✓ or ✗."""
     lines = []
     for s in pooled:
         if s.method != "adaptive":
@@ -74,7 +75,7 @@ def run() -> str:
         f"method). Values not measured: {missing}. Errors are against the true geometry [mm].",
         "",
         "Bars (issue 4):",
-        *_verdicts(pooled),
+        *verdicts(pooled),
         "",
         repeatability_markdown(per_wheel, pooled),
     ]

@@ -133,6 +133,7 @@ def asymmetry_bias(
     for chain in polylines:
         move = _along(moves_px, sigma_px, chain)
         half = 0.25 * _along(width_px, sigma_px, chain)
+        half = np.where(half > 0, half, np.nan)
         ra, rb = sigma_px[chain] / half, second_sigma_px[chain] / half
         grid_a = np.stack(np.broadcast_arrays(ra[:, None], SKEWS[None, :]), axis=-1)
         grid_b = np.stack(np.broadcast_arrays(rb[:, None], SKEWS[None, :]), axis=-1)

@@ -21,7 +21,7 @@ from pipeline.extraction.adaptive import (
 from pipeline.extraction.asymmetry import asymmetry_bias, peak_offsets
 from pipeline.extraction.band import band_pixels
 from pipeline.extraction.band_analysis import analyse_band
-from pipeline.extraction.curvature import remove_curvature_bias
+from pipeline.extraction.curvature import local_curvature, remove_curvature_bias
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
 from pipeline.extraction.linking import link_points
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
@@ -223,6 +223,11 @@ def _remove_asymmetry(x, y, nx, ny, sigma, widths, polylines, levels):
         at = np.flatnonzero(sigma == own)
         moves[at] = peak_offsets(levels[other], x[at], y[at], nx[at], ny[at])
         second[at] = sigmas[other]
+    # A curved stripe's maximum moves between scales too, by (σb² − σa²)·κ/2 towards its
+    # centre of curvature: that part of the move is not asymmetry.
+    for chain in polylines:
+        kappa = local_curvature(x[chain], y[chain], nx[chain], ny[chain], sigma[chain])
+        moves[chain] -= 0.5 * (second[chain] ** 2 - sigma[chain] ** 2) * kappa
     bias = asymmetry_bias(moves, sigma, second, widths, polylines)
     return x - bias * nx, y - bias * ny
 
@@ -249,6 +254,7 @@ def _assemble(
     sigmas_px: tuple[float, ...],
     width_max: float,
     curvature_correction: bool,
+    scatter_support: bool,
     second_levels: tuple[ScaleLevel, ...],
     path: str,
 ) -> Centres:
@@ -284,8 +290,10 @@ def _assemble(
         x, y = _remove_asymmetry(
             x, y, nx[order], ny[order], sigma, widths, polylines, second_levels
         )
-    if curvature_correction:
-        x, y = remove_curvature_bias(x, y, nx[order], ny[order], sigma, polylines)
+    if curvature_correction or scatter_support:
+        x, y = remove_curvature_bias(
+            x, y, nx[order], ny[order], sigma, polylines, scatter_support=scatter_support
+        )
     return Centres(
         x=x,
         y=y,
@@ -312,6 +320,7 @@ def extract_centres(
     *,
     curvature_correction: bool | None = None,
     asymmetry_correction: bool = False,
+    scatter_support: bool = False,
     full_frame: bool = False,
     region: PixelRegion | None = None,
 ) -> Centres:
@@ -344,6 +353,11 @@ def extract_centres(
         how far the maximum moves at the nearest other scale of the analysis
         (`pipeline.extraction.asymmetry`), before the curvature correction ("adaptive" and
         "steger").
+    scatter_support : bool
+        In the curvature fit (run for this even when `curvature_correction` is off), choose
+        each point's window along the stripe from the measured centre scatter σl and put
+        the point on its fitted curve: texture-robust centres
+        (`pipeline.extraction.curvature.remove_curvature_bias`).
     full_frame : bool
         Analyse the whole frame (the reference) instead of the stripe band located on the
         coarsest scale (the camera-rate path, "adaptive" and "steger"); the band path falls
@@ -405,6 +419,7 @@ def extract_centres(
             sigma,
             curvature_correction=curvature_correction,
             asymmetry_correction=asymmetry_correction,
+            scatter_support=scatter_support,
             full_frame=full_frame,
         )
         return _in_frame(found, region, image.shape)
@@ -437,6 +452,7 @@ def extract_centres(
         sigmas_px=sigmas if method == "adaptive" else (fixed_sigma,),
         width_max=width_max,
         curvature_correction=bool(correct),
+        scatter_support=scatter_support,
         second_levels=second_levels,
         path=path,
     )

@@ -31,10 +31,11 @@ from pipeline.version import PIPELINE_VERSION
 MEASURED = "measured"
 NOT_MEASURED = "not measured"
 MEASURE_METHODS = ("adaptive", "steger")
-CORRECTIONS = ("curvature", "asymmetry")
+CORRECTIONS = ("curvature", "asymmetry", "scatter")
 """Corrections a method label can switch on (+name) or off (−name): "steger+curvature",
-"adaptive+asymmetry", "adaptive-curvature"; a bare method keeps its defaults (curvature
-on for adaptive, off for Steger; asymmetry off)."""
+"adaptive+asymmetry", "adaptive-curvature", "adaptive+scatter" (the along-stripe support
+chosen by the centre scatter); a bare method keeps its defaults (curvature on for
+adaptive, off for Steger; asymmetry and scatter off)."""
 MIN_SENSOR_POINTS = 50
 """A sensor with fewer centre points than this has no usable stripe (a wheel's stripe gives
 over a thousand)."""
@@ -143,6 +144,7 @@ class MethodOptions:
     method: str
     curvature_correction: bool
     asymmetry_correction: bool
+    scatter_support: bool
 
 
 def method_options(label: str) -> MethodOptions:
@@ -156,14 +158,16 @@ def method_options(label: str) -> MethodOptions:
     tokens = re.split(r"(?=[+-])", label)
     if tokens[0] not in MEASURE_METHODS:
         raise ValueError(f"method must be one of {', '.join(MEASURE_METHODS)}, got {label!r}")
-    switches = {"curvature": tokens[0] == "adaptive", "asymmetry": False}
+    switches = {"curvature": tokens[0] == "adaptive", "asymmetry": False, "scatter": False}
     for token in tokens[1:]:
         if token[1:] not in CORRECTIONS:
             raise ValueError(
                 f"method {label!r}: corrections are +/-{' +/-'.join(CORRECTIONS)}, got {token!r}"
             )
         switches[token[1:]] = token[0] == "+"
-    return MethodOptions(tokens[0], switches["curvature"], switches["asymmetry"])
+    return MethodOptions(
+        tokens[0], switches["curvature"], switches["asymmetry"], switches["scatter"]
+    )
 
 
 def _check_frame(image: object, sensor: SensorCalibration, where: str) -> np.ndarray:
@@ -211,6 +215,7 @@ def _frame_centres(images, sensor, options: MethodOptions, widths, region) -> li
             width_max=widths[1],
             curvature_correction=options.curvature_correction,
             asymmetry_correction=options.asymmetry_correction,
+            scatter_support=options.scatter_support,
             region=region,
         )
         points = pixels_to_track_points(centres.x, centres.y, sensor)
