@@ -33,6 +33,7 @@ SEED = 2027
 VEHICLES, AXLES = 2, 2
 METHODS = (
     "adaptive",
+    "adaptive+scatter",
     "adaptive+asymmetry",
     "adaptive-curvature",
     "steger",
@@ -40,7 +41,7 @@ METHODS = (
     "steger+curvature+asymmetry",
 )
 """Adaptive (curvature correction on by default) and Steger (off by default), each with
-and without the corrections, side by side."""
+and without the corrections (and adaptive with the scatter-chosen support), side by side."""
 WHEEL_BAR_MM = 0.10
 """Every wheel's Sh and Sd within 0.10 mm of the truth."""
 KEY_PARAMETERS = ("flange_height_mm", "flange_thickness_mm")
