@@ -176,8 +176,9 @@ def _scatter_windows(x, y, nx, ny, sigma, bounds) -> np.ndarray:
     σl of each polyline is the robust spread (1.4826 × MAD) of the points about their local
     fits at the base window. Each point's window grows through `SUPPORT_FACTORS` × σ while
     the fitted curve stays within LEPSKI_Z·σl·√(2/N) of its fit on every smaller window
-    (N the points in that window): wider where texture makes the centres scatter and the
-    stripe is smooth, no wider where its shape changes.
+    (N the independent centres in that window: the points over the 2σ the smoothing
+    correlates them along the stripe): wider where texture makes the centres scatter and
+    the stripe is smooth, no wider where its shape changes.
     """
     fits = []
     for factor in SUPPORT_FACTORS:
@@ -192,7 +193,8 @@ def _scatter_windows(x, y, nx, ny, sigma, bounds) -> np.ndarray:
     admissible = np.ones(x.size, bool)
     for k in range(1, len(SUPPORT_FACTORS)):
         for j in range(k):
-            limit = LEPSKI_Z * scatter * np.sqrt(2.0 / fits[j][1])
+            independent = np.maximum(fits[j][1] / np.maximum(2.0 * sigma, 1.0), 1.0)
+            limit = LEPSKI_Z * scatter * np.sqrt(2.0 / independent)
             admissible &= np.abs(fits[k][0] - fits[j][0]) <= limit
         chosen[admissible] = SUPPORT_FACTORS[k]
     return sigma * chosen

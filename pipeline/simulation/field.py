@@ -17,8 +17,8 @@ the wheel, whatever the effects do to the stripe's appearance.
 - ghost: light reflected off the flange flank draws a faint, wide copy (10–30 %) of the
   flange's stripe on the tread beside the stripe.
 - spots: specular glints on the lit line itself (the clean mode has them beside it only).
-- long_part_stripe: the axle-box or brake part's stripe is 1.15–1.6× longer than the
-  longest piece of the wheel's stripe (a "keep the longest line" rule picks it).
+- long_part_stripe: the axle-box or brake part's stripe is 1.15–1.6× longer than a piece
+  of the wheel's stripe (its shortest of ≥ 50 px), so "keep the longest lines" keeps it.
 - flange_cut: the flange shades the flange root from the outer sensor's laser, cutting the
   stripe there with abrupt ends.
 - blooming: charge above full well spills into the neighbouring pixels and rows at glints.
@@ -67,7 +67,9 @@ SPOT_ON_STRIPE_SIGMA_PX = (1.0, 2.5)
 SPOTS_ON_STRIPE = (2, 6)
 """Glints on the lit line: count, peak (8-bit scale) and size; centred within ±w/8."""
 LONG_PART_FACTOR = (1.15, 1.6)
-"""Other part's stripe length relative to the longest piece of the wheel's stripe."""
+MIN_PIECE_PX = 50.0
+"""Other part's stripe length relative to the shortest piece (≥ 50 px) of the wheel's
+stripe: longer than a piece of the wheel's, so "keep the longest lines" keeps it."""
 FLANGE_CUT_MM = (2.0, 6.0)
 FLANGE_CUT_START_Z_MM = (3.0, 6.0)
 """Profile x-length shaded at the flange root (from the outer sensor's laser), starting
@@ -268,10 +270,13 @@ def run_lengths_px(samples: StripeSamples) -> np.ndarray:
 
 
 def long_part(part: StripeSamples, wheel: StripeSamples, rng) -> StripeSamples:
-    """A piece of the other part's stripe 1.15–1.6× as long as the wheel's longest piece."""
-    if part.pixels.shape[0] < 2 or wheel.pixels.shape[0] < 2:
+    """A piece of the other part's stripe 1.15–1.6× as long as the wheel's shortest piece
+    of at least `MIN_PIECE_PX` (all of it when it is not that long)."""
+    lengths = run_lengths_px(wheel) if wheel.pixels.shape[0] > 1 else np.zeros(0)
+    pieces = lengths[lengths >= MIN_PIECE_PX]
+    if part.pixels.shape[0] < 2 or pieces.size == 0:
         return part
-    target = rng.uniform(*LONG_PART_FACTOR) * run_lengths_px(wheel).max()
+    target = rng.uniform(*LONG_PART_FACTOR) * pieces.min()
     arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(part.pixels, axis=0).T))])
     if arc[-1] <= target:
         return part
