@@ -15,7 +15,7 @@ import tempfile
 import time
 from dataclasses import replace
 
-from benchmarks.repeatability import BARS, verdicts
+from benchmarks.repeatability import BARS, counts, verdicts
 from pipeline.archive.pass_archive import read_pass_archive
 from pipeline.profile.measurement import measure_pass
 from pipeline.profile.repeatability import (
@@ -118,17 +118,15 @@ def _breakdown() -> list[str]:
         for method in methods:
             sh, sd = (pooled.get((method, p)) for p in KEY_PARAMETERS)
             cells.append("–" if sh is None or sd is None else f"{sh.mae_mm:.3f} / {sd.mae_mm:.3f}")
-        missing = sum(1 for o in observations if o.value_mm is None)
-        lines.append(f"| {name} | " + " | ".join(cells) + f" | {missing} |")
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {counts(observations)[1]} |")
     return lines
 
 
 def run() -> str:
     """Simulate, measure and tabulate; returns the Markdown section."""
     observations, simulated_s, measured_s = _measure(FIELD_MODES["harsh"], REPEATS)
+    wheels, missing = counts(observations)
     per_wheel, pooled = summarise_repeatability(observations)
-    wheels = len({o.wheel for o in observations if o.parameter == "flange_height_mm"})
-    missing = sum(1 for o in observations if o.value_mm is None)
     lines = [
         "## Repeatability on field-mode passes (harsh) and the per-effect breakdown",
         "",
@@ -139,7 +137,7 @@ def run() -> str:
         "geometry [mm].",
         "",
         f"Bars (adaptive Sh and Sd: MAE ≤ {BARS['mae_mm']}, Std ≤ {BARS['std_mm']}):",
-        *verdicts(summarise_repeatability(observations)[1]),
+        *verdicts(pooled),
         *_wheel_checks(per_wheel),
         "",
         "Steger beside adaptive:",
