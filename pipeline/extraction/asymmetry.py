@@ -77,15 +77,18 @@ def peak_offsets(level: ScaleLevel, x, y, nx, ny) -> np.ndarray:
     fields = (d.ix, d.iy, d.ixx, d.ixy, d.iyy)
     origin, stride = 0.5 * (level.stride - 1), float(level.stride)
     t = np.zeros(np.size(x))
+    peak = np.ones(np.size(x), bool)
     for _ in range(PEAK_ITERATIONS):
+        # t stays finite (a NaN coordinate would index the fields nowhere).
         u = (x + t * nx - origin) / stride
         v = (y + t * ny - origin) / stride
         ix, iy, ixx, ixy, iyy = interpolate_cubic_fields(fields, u, v)
         slope = (nx * ix + ny * iy) / stride
         curvature = (nx * nx * ixx + 2 * nx * ny * ixy + ny * ny * iyy) / stride**2
-        step = np.where(curvature < 0, -slope / np.minimum(curvature, -1e-12), np.nan)
+        peak &= curvature < 0
+        step = np.where(peak, -slope / np.minimum(curvature, -1e-12), 0.0)
         t = t + np.clip(step, -1.0, 1.0)
-    return t
+    return np.where(peak, t, np.nan)
 
 
 def _along(values: np.ndarray, sigma: np.ndarray, chain: np.ndarray) -> np.ndarray:
