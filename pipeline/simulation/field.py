@@ -10,8 +10,9 @@ the wheel, whatever the effects do to the stripe's appearance.
 - texture: reflectance grain of the wheel at the stripe's scale (correlation 3–15 px,
   contrast 0.2–0.6) multiplies the stripe.
 - shiny_bands: wheel-rail contact polishes the running band and the flange root: the
-  diffuse stripe drops to 6–35 % there, next to stretches where the specular lobe of the
-  lit line reaches the camera: narrow, saturated glare on the line (the paper's Fig. 3d).
+  diffuse stripe is at 6–35 % of its surroundings there (the running band is dimmed; the
+  root is that dim already), next to stretches where the specular lobe of the lit line
+  reaches the camera: narrow, saturated glare on the line (the paper's Fig. 3d).
 - asymmetry: where the slope or reflectance changes across the lit band, the two sides of
   the cross-section differ (a two-sided Gaussian, peak on the true line).
 - ghost: light reflected off the flange flank draws a faint, wide copy (10–30 %) of the
@@ -41,9 +42,14 @@ TEXTURE_CONTRAST = (0.2, 0.6)
 """Reflectance grain multiplying the stripe: std/mean and correlation length [px]."""
 SHINY_DIFFUSE_FRACTION = (0.06, 0.35)
 """Diffuse level of a polished band relative to the surrounding surface."""
-SHINY_BAND_MM = {"running": (62.0, 82.0), "root": (6.0, 14.0)}
-"""Polished bands: the running band (profile x) and the flange root (x beyond the flange
-top) [mm]; each band's edges are drawn again per pass within ±3 mm."""
+SHINY_BAND_MM = {"running": (62.0, 82.0), "root": (14.0, 24.0)}
+"""Polished bands: the running band (profile x) and the flank's contact band at the root,
+z ≈ 12 → 4 mm (x beyond the flange top) [mm]; each band's edges are drawn again per pass
+within ±3 mm."""
+DIMMED_BANDS = ("running",)
+"""Bands whose diffuse level drops to `SHINY_DIFFUSE_FRACTION`: the running band. The
+flange root is dim already in the clean appearance (reflectivity 0.07–0.11 against the
+tread's 0.85–1.0, i.e. 7–13 %), so there the polish adds only its glare."""
 GLARE_PEAK_DN = (260.0, 900.0)
 """Peak of the specular glare on the 8-bit scale (above 255: saturated)."""
 GLARE_WIDTH_FRACTION = (0.4, 0.8)
@@ -157,7 +163,9 @@ def shiny_bands(profile: WheelProfile, samples: StripeSamples, rng) -> tuple[np.
         base = top_x if name == "root" else 0.0
         lo, hi = base + lo + rng.uniform(-3, 3), base + hi + rng.uniform(-3, 3)
         edge = np.clip(np.minimum(x - lo, hi - x) / 2.0, 0.0, 1.0)  # 2 mm soft edges
-        factor *= 1.0 - (1.0 - rng.uniform(*SHINY_DIFFUSE_FRACTION)) * edge
+        fraction = rng.uniform(*SHINY_DIFFUSE_FRACTION)
+        if name in DIMMED_BANDS:
+            factor *= 1.0 - (1.0 - fraction) * edge
         band |= edge > 0.5
     return factor, band
 
