@@ -40,12 +40,8 @@ export interface Body_post_reference_api_wheels__wheel_id__references_post {
   measured_at?: string | null;
 }
 
-export interface Body_upload_pass_api_passes_post {
-  file: string;
-}
-
 export interface CalibrationCreate {
-  /** a wheelscan-calibration/1 object */
+  /** a wheelscan-calibration/1 object; every sensor's intrinsics, laser plane (|d| ≥ 1 mm) and rigid camera_to_track transform are checked (422 names the fault) */
   document: Record<string, unknown>;
   note?: string | null;
 }
@@ -132,6 +128,7 @@ export interface LimitsRead extends LimitsUpdate {
   updated_at: string;
 }
 
+/** New limits; each *_min_mm must lie below its *_max_mm (422 otherwise). */
 export interface LimitsUpdate {
   flange_height_min_mm: number;
   flange_height_max_mm: number;
@@ -287,6 +284,7 @@ export interface SiteRead {
   current_calibration_version?: number | null;
 }
 
+/** A pass to stream into; without `calibration`, the site's registered one is used (422 when the site has none). */
 export interface StreamOpen {
   site: string;
   started_at: string;
@@ -299,6 +297,7 @@ export interface StreamOpen {
 export interface TokenCreate {
   role: "viewer" | "operator" | "admin";
   name: string;
+  /** must lie in the future (422 otherwise); none: never expires */
   expires_at?: string | null;
 }
 

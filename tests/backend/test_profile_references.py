@@ -21,6 +21,7 @@ import pytest
 from backend.cli import main as cli
 from pipeline.profile.exchange import parse_profile_file
 from pipeline.profile.flange import curve_flange_parameters
+from pipeline.version import PIPELINE_VERSION
 from tests.backend.pdf_checks import overlapping_words, pdf_pages, pdf_text
 from tests.backend.test_measurement_e2e import client, measured, simulated, tokens
 from tests.pipeline.test_profile_exchange import contour_samples, gauge_file
@@ -62,7 +63,9 @@ def test_exports_read_back_within_a_micrometre(client, auth, measured, method) -
     dxf_points = np.array(list(polyline.get_points("xy")))
     for xs, zs in ((csv_file.x_mm, csv_file.z_mm), (whl.x_mm, whl.z_mm), dxf_points.T):
         assert np.max(np.abs(xs - x)) < 1e-3 and np.max(np.abs(zs - z)) < 1e-3
-    assert csv_file.value("Method") == method and csv_file.value("PipelineVersion") == "0.2.1"
+    assert (
+        csv_file.value("Method") == method and csv_file.value("PipelineVersion") == PIPELINE_VERSION
+    )
     assert csv_file.value("CalibrationVersion") == "1" and csv_file.value("Pass") == str(pass_id)
     for key in ("ProgramName", "Date", "Time", "CarNo", "AxleNo", "Side", "Sd", "Sh", "qR"):
         assert whl.value(key), key

@@ -15,6 +15,7 @@ import pytest
 from reportlab.pdfgen.canvas import Canvas
 
 from backend.services.reports import prune_report_cache
+from pipeline.version import PIPELINE_VERSION
 from tests.backend.pdf_checks import (
     overlapping_words,
     pdf_pages,
@@ -63,7 +64,8 @@ def test_the_pass_pdf_has_what_a_depot_files(client, auth, measured, tmp_path) -
     pages = len(pdf_pages(pdf))
     for words in (
         "Train pass wheel report", "Site", "Time (UTC)", "Direction", "Speed", "Vehicles",
-        "Calibration", "version 1", "pipeline 0.2.1", "Wheels in alarm and near a limit",
+        "Calibration", "version 1", f"pipeline {PIPELINE_VERSION}",
+        "Wheels in alarm and near a limit",
         "All wheels", "Adaptive (thick solid)", "Steger (thin dashed)", "Flange top: Sh",
         "Flank at z = 12 mm: Sd", "Flank at z = 10 mm: Sd EN", "Tread reference point",
         "Reviewed by (name)", "Signature", f"page 1 of {pages}", f"page {pages} of {pages}",
