@@ -50,8 +50,8 @@ LIMIT_STEMS = {
     "qr_mm": "qr",
     "back_to_back_mm": "back_to_back",
 }
-RED = colors.HexColor("#b71c1c")
-AMBER = colors.HexColor("#e65100")
+RED_HEX, AMBER_HEX = "#b71c1c", "#e65100"
+RED, AMBER = colors.HexColor(RED_HEX), colors.HexColor(AMBER_HEX)
 HEAD = colors.Color(0.9, 0.9, 0.9)
 MARGIN_PT = 14 * mm
 WIDTH_PT = A4[0] - 2 * MARGIN_PT
@@ -62,7 +62,8 @@ class WheelSection:
     """What the report shows of one wheel: its record, its limit set and the plot."""
 
     wheel: PassWheelRead
-    family: str
+    family: str | None
+    """EN or LM; None where no method measured a profile (no limit set can be told)."""
     limits_mm: dict[str, float]
     margins: dict[str, list[Margin]]
     """Per method, the margins of its checked parameters."""
@@ -180,12 +181,14 @@ def _attention(sections: list[WheelSection], dispositions: dict[int, str], s: di
     names = dict(PARAMETERS)
     rows = []
     for section in sections:
-        steger = _result(section.wheel, "steger")
-        for margin in section.margins.get("adaptive", []):
+        # the adaptive result, which the alarms follow; Steger's where adaptive measured none
+        method = "adaptive" if section.margins.get("adaptive") else "steger"
+        other = _result(section.wheel, "steger" if method == "adaptive" else "adaptive")
+        for margin in section.margins.get(method, []):
             if margin.status == "ok":
                 continue
-            other = None if steger is None else getattr(steger, margin.parameter)
-            rows.append((margin, section, other))
+            other_mm = None if other is None else getattr(other, margin.parameter)
+            rows.append((margin, section, method, other_mm))
     rows.sort(key=lambda r: (r[0].status != "alarm", r[0].margin_mm))
     story: list[Any] = [Paragraph("Wheels in alarm and near a limit", s["h2"])]
     if not rows:
@@ -195,15 +198,22 @@ def _attention(sections: list[WheelSection], dispositions: dict[int, str], s: di
             "Margin", "Status", "Disposition"]  # fmt: skip
     data: list[list[Any]] = [head]
     extra = []
-    for margin, section, other in rows:
+    for margin, section, method, other_mm in rows:
         w = section.wheel
         alarm = margin.status == "alarm"
         word = ("below" if margin.bound == "min" else "above") if alarm else margin.bound
         disposition = Paragraph(dispositions.get(w.wheel_id, "awaiting review"), s["small"])
+        values = [f"{margin.value_mm:.2f}", _number(other_mm)]
+        status = ("ALARM" if alarm else "near limit") + (
+            "" if method == "adaptive" else " (Steger)"
+        )
+        hex_colour = RED_HEX if alarm else AMBER_HEX
+        status_cell = Paragraph(f'<font color="{hex_colour}">{status}</font>', s["small"])
         data.append([
-            w.vehicle_id, w.axle, w.side, names[margin.parameter], f"{margin.value_mm:.2f}",
-            _number(other), f"{word} {margin.limit_mm:g} ({section.family})",
-            f"{margin.margin_mm:+.2f}", "ALARM" if alarm else "near limit", disposition,
+            w.vehicle_id, w.axle, w.side, names[margin.parameter],
+            *(values if method == "adaptive" else values[::-1]),
+            f"{word} {margin.limit_mm:g} ({section.family})", f"{margin.margin_mm:+.2f}",
+            status_cell, disposition,
         ])  # fmt: skip
         colour = RED if margin.status == "alarm" else AMBER
         extra.append(("TEXTCOLOR", (4, len(data) - 1), (8, len(data) - 1), colour))
@@ -211,7 +221,8 @@ def _attention(sections: list[WheelSection], dispositions: dict[int, str], s: di
     story.append(
         Paragraph(
             "Margin: distance inside the limit (negative outside) of the adaptive result, the "
-            "method the alarms follow. Near a limit: inside by less than 1 mm.",
+            "method the alarms follow, or of Steger's where adaptive measured nothing. Near a "
+            "limit: inside by less than 1 mm.",
             s["small"],
         )
     )
@@ -256,11 +267,11 @@ def _full_table(sections: list[WheelSection], all_limits: dict[str, dict], s: di
         for method in ("adaptive", "steger"):
             result = _result(w, method)
             margins = section.margins.get(method, [])
-            data.append([w.vehicle_id, w.axle, w.side, section.family, method.capitalize(),
+            data.append([w.vehicle_id, w.axle, w.side, section.family or "–", method.capitalize(),
                          *_cells(result),
                          Paragraph(_status(result, w), s["small"])])  # fmt: skip
             extra += _colours(len(data) - 1, margins, 5)
-    used = sorted({section.family for section in sections})
+    used = sorted({section.family for section in sections if section.family})
     for family in used:
         limits = all_limits[family]
         row = [f"Limits {family}", "", "", family, ""]
@@ -292,20 +303,25 @@ def _wheel_table(section: WheelSection, s: dict) -> Table:
         b = None if steger is None else getattr(steger, key)
         differences.append("–" if a is None or b is None else f"{a - b:+.2f}")
     data.append(["Adaptive − Steger", *differences, ""])
-    limits = [limit_text(section.limits_mm, st) if (st := _stem(k, family)) else "not checked"
-              for k, _ in PARAMETERS]  # fmt: skip
-    data.append([f"Limits {family} (apply)", *limits, ""])
+    if family is not None:
+        limits = [limit_text(section.limits_mm, st) if (st := _stem(k, family)) else "not checked"
+                  for k, _ in PARAMETERS]  # fmt: skip
+        data.append([f"Limits {family} (apply)", *limits, ""])
     return grid_table(data, [30, 19, 19, 19, 19, 21, 55], extra)
 
 
 def _wheel_block(section: WheelSection, s: dict) -> KeepTogether:
     w = section.wheel
-    title = f"Vehicle {w.vehicle_id} · axle {w.axle} · {w.side} wheel — limits {section.family}"
+    title = f"Vehicle {w.vehicle_id} · axle {w.axle} · {w.side} wheel — " + (
+        f"limits {section.family}" if section.family else "no profile, no limit set"
+    )
     parts: list[Any] = [Paragraph(title, s["h3"])]
     if section.drawing is not None:
         parts.append(section.drawing)
     else:
-        parts.append(Paragraph(f"No profile: {_status(None, w)}", s["body"]))
+        parts.append(
+            Paragraph(f"No profile to draw ({w.reason or 'no stored points'}).", s["body"])
+        )
     parts += [Spacer(1, 1 * mm), _wheel_table(section, s), Spacer(1, 4 * mm)]
     return KeepTogether(parts)
 

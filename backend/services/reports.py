@@ -39,7 +39,7 @@ REPORT_CACHE_FILES = 500
 """PDFs kept in the cache, newest first (a pass PDF is ~250 kB: about 125 MB at most)."""
 STALE_PART_S = 3600.0
 """A half-written cache file older than this was left by a killed process."""
-REPORT_LAYOUT = "4"
+REPORT_LAYOUT = "5"
 """Part of the cache key: bump when the PDF's layout changes, so old PDFs are not served."""
 CSV_COLUMNS = (
     "pass_id", "site", "started_at", "vehicle_id", "axle", "side", "wheel_id", "state",
@@ -95,12 +95,12 @@ def _section(pass_wheel: PassWheel, wheel: PassWheelRead, fleet_limits: dict) ->
     reference = next(
         (m.reference_profile for m in measurements.values() if m.reference_profile), None
     )
-    family = profile_family(reference)
-    limits = fleet_limits[family]
+    family = profile_family(reference) if reference else None
+    limits = fleet_limits[family] if family else {}
     margins = {
         r.method: limit_margins(r.model_dump(), limits, family)
         for r in wheel.results
-        if r.status == "measured"
+        if r.status == "measured" and family
     }
     curves = []
     if reference in REFERENCE_PROFILES:
