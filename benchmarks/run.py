@@ -21,11 +21,13 @@ BENCH_MODULES: list[str] = [
     "benchmarks.extraction",
     "benchmarks.camera_rate",
     "benchmarks.repeatability",
+    "benchmarks.field_repeatability",
     "benchmarks.throughput",
     "benchmarks.agent",
     "benchmarks.load",
     "benchmarks.fuzz",
     "benchmarks.hardening",
+    "benchmarks.reports",
 ]
 
 OUTPUT = Path(__file__).resolve().parent.parent / "BENCHMARKS.md"
