@@ -284,9 +284,17 @@ def _left_out_safely(band: StripeBand, found: BandMask, stride: int) -> bool:
         return True
     if math.sqrt(3.0) * band.left_out_px >= KEEP_FRACTION * found.stripe_length_px:
         return False
+    # The mask's blocks (it lies on the band's) spread onto the seed grid, then widened.
+    held = blocks_holding(found.mask, band.blocks[0])
+    grid = band.left_out.shape
+    if stride > BLOCK_PX:
+        cells = pool_blocks(held, stride // BLOCK_PX, grid)
+    else:
+        cells = np.kron(held, np.ones((BLOCK_PX // stride,) * 2, bool))[: grid[0], : grid[1]]
+    spread = np.zeros(grid, np.uint8)
+    spread[: cells.shape[0], : cells.shape[1]] = cells
     reach = math.ceil(CONTINUITY_GAP_PX / stride) + 1
-    near = pool_blocks(found.mask, stride, band.left_out.shape)
-    near = cv2.dilate(near.astype(np.uint8), np.ones((2 * reach + 1,) * 2, np.uint8)) > 0
+    near = cv2.dilate(spread, np.ones((2 * reach + 1,) * 2, np.uint8)) > 0
     return not (near & band.left_out).any()
 
 

@@ -136,11 +136,28 @@ def _pixel_strengths(runs, strengths, strides):
 
 
 @kernel
+def _run_peaks(runs, pixel_strength):
+    """The largest C on each run: (K,) float64."""
+    peak = np.zeros(runs.shape[0])
+    at = 0
+    for k in range(runs.shape[0]):
+        for i in range(runs[k, 2] - runs[k, 1]):
+            peak[k] = max(peak[k], pixel_strength[at + i])
+        at += runs[k, 2] - runs[k, 1]
+    return peak
+
+
+@kernel
 def _split_runs(runs, pixel_strength, floor):
     """The stretches of the runs whose pixels have C ≥ floor, raster order, and the largest C
     on each: ((K, 3) int64, (K,) float64)."""
-    out = np.empty((pixel_strength.size, 3), np.int64)
-    peak = np.empty(pixel_strength.size)
+    count = 0
+    for p in range(pixel_strength.size):  # stretches start where C rises to the floor
+        if pixel_strength[p] >= floor and (p == 0 or pixel_strength[p - 1] < floor):
+            count += 1
+    count += runs.shape[0]  # a run's start after a strong run's end is one more at most
+    out = np.empty((count, 3), np.int64)
+    peak = np.empty(count)
     count = 0
     at = 0
     for k in range(runs.shape[0]):
@@ -231,12 +248,12 @@ def segment_band(
     """
     runs = _stripe_runs(responses, strides, blocks, shape)
     pixel_strength = _pixel_strengths(runs, strengths, strides)
-    _, peaks = _split_runs(runs, pixel_strength, -np.inf)
-    _, shapes, strength = _components(runs, peaks)
+    label, shapes, strength = _components(runs, _run_peaks(runs, pixel_strength))
     shaped = candidates(shapes)
-    reference = float(strength[shaped].max()) if shaped.any() else 0.0
-    runs, peaks = _split_runs(runs, pixel_strength, MASK_FLOOR * reference)
-    label, shapes, strength = _components(runs, peaks)
+    floor = MASK_FLOOR * float(strength[shaped].max()) if shaped.any() else 0.0
+    if pixel_strength.min(initial=floor) < floor:  # else the floor leaves every pixel in
+        runs, peaks = _split_runs(runs, pixel_strength, floor)
+        label, shapes, strength = _components(runs, peaks)
     near = labels_within(runs, label, strong_candidates(shapes, strength), CONTINUITY_GAP_PX)
     keep = stripe_components(shapes, strength, near)
     # A component the band may have cut: one shaped like a stripe piece (kept ones are). A
