@@ -23,8 +23,9 @@ RAIL_PROFILES = ("60E1", "54E1")
 NOMINAL_GAUGE_MM = 1435.0
 GAUGE_DEPTH_MM = 14.0
 """The gauge is measured between the gauge faces 14 mm below the running surface."""
-RAIL_STEP_MM = 0.02
-"""Arc-length spacing of the built rail profile (the contact search's resolution)."""
+RAIL_STEP_MM = 0.05
+"""Arc-length spacing of the built rail profile: with the parabolic refinement of the contact
+search, 0.02 mm moves λₑ by < 1e-4 on worn simulated wheels and takes 2.2× as long."""
 INCLINATIONS = {"1:40": 1 / 40, "1:20": 1 / 20}
 
 

@@ -10,7 +10,6 @@ cannot measure a wheel's radius).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,8 +31,21 @@ SHIFT_RANGE_MM = 10.0
 SHIFT_STEP_MM = 0.05
 """Lateral shifts searched: −10…10 mm in 0.05 mm steps (past flange contact of new wheels
 on gauge 1435; finer steps move λₑ(3 mm) by < 1e-4 on the simulated wheels)."""
-ROLL_ITERATIONS = 30
-ROLL_TOLERANCE_MM = 1e-9
+CURVE_STEP_MM = 0.1
+CURVE_HALF_WINDOW_MM = 0.5
+"""The measured running surface: local quadratics z(x) over ±0.5 mm, every 0.1 mm."""
+CURVE_REACH_MM = 110.0
+"""The running surface from the flange top to 110 mm beyond it (x ≈ 126 mm): the rails can
+touch up to x ≈ 123 mm at a 10 mm shift."""
+FIELD_FACE_MM = (-35.0, -12.0)
+"""z range of the field-side face below the chamfer (z > −10 mm on LMA and S1002): points
+there are the face, not the running surface."""
+ROLL_ITERATIONS = 60
+ROLL_TOLERANCE_MM = 1e-5
+"""Both gaps equal to 10 nm (a roll error of 1e-8 rad, nothing in Δr), or the roll's step
+below 1e-10 rad: at flange contact the minima's parabolic refinement wanders by ~1e-6 mm."""
+ROLL_BRACKET_RAD = 0.05
+"""The roll stays within ±0.05 rad (a 75 mm height difference across the wheelset)."""
 
 
 class ContactError(PipelineError):
@@ -88,65 +100,70 @@ class AxleConicity:
     gauge_mm: float
 
 
-def _side_points(curve: WheelCurve, half_b2b_mm: float, radius_mm: float, sign: int):
-    """Wheel surface in the wheelset frame (X from the axle centre, Z from the axis)."""
-    return sign * (half_b2b_mm + curve.x_mm), -(radius_mm + curve.z_mm)
+def running_surface(x_mm: np.ndarray, z_mm: np.ndarray) -> WheelCurve:
+    """The running surface z(x) from the flange top to 110 mm beyond, from measured points.
 
+    Local quadratics over ±0.5 mm every 0.1 mm smooth the points' noise; nodes with fewer
+    than 5 points near them are left out (linear interpolation bridges them).
 
-def _gap(wheel_x, wheel_z, rail_x, rail_z) -> tuple[float, float]:
-    """Smallest vertical distance wheel − rail and the X where it occurs.
-
-    The wheel is interpolated at the rail's nodes (finer than the wheel's), and the minimum
-    refined by the parabola through it and its neighbours.
+    Raises
+    ------
+    ContactError
+        If fewer than half the nodes have points.
     """
-    order = np.argsort(wheel_x)
-    wx, wz = wheel_x[order], wheel_z[order]
-    inside = (rail_x > wx[0]) & (rail_x < wx[-1])
-    if np.count_nonzero(inside) < 3:
+    start = float(x_mm[int(np.argmax(z_mm))])
+    upper = z_mm > FIELD_FACE_MM[1]
+    end = min(start + CURVE_REACH_MM, float(x_mm[upper].max()) - CURVE_HALF_WINDOW_MM)
+    grid = np.arange(start, end, CURVE_STEP_MM)
+    order = np.argsort(x_mm[upper], kind="stable")
+    x, z = x_mm[upper][order], z_mm[upper][order]
+    lo = np.searchsorted(x, grid - CURVE_HALF_WINDOW_MM)
+    hi = np.searchsorted(x, grid + CURVE_HALF_WINDOW_MM)
+    values = np.full(grid.size, np.nan)
+    for i in np.flatnonzero(hi - lo >= 5):
+        t = x[lo[i] : hi[i]] - grid[i]
+        values[i] = np.polyfit(t, z[lo[i] : hi[i]], 2)[2]
+    good = np.isfinite(values)
+    if np.count_nonzero(good) < grid.size / 2:
+        raise ContactError("too few tread points for the running surface")
+    return WheelCurve(grid[good], values[good])
+
+
+def outline_running_surface(x_mm: np.ndarray, z_mm: np.ndarray) -> WheelCurve:
+    """The running surface of a clean outline (back face → field face): from the flange top
+    until x stops rising (the field-side face), cut at 110 mm beyond the top."""
+    top = int(np.argmax(z_mm))
+    x, z = x_mm[top:], z_mm[top:]
+    stop = np.flatnonzero(np.diff(x) <= 0)
+    end = int(stop[0]) + 1 if stop.size else x.size
+    keep = x[:end] <= x[0] + CURVE_REACH_MM
+    return WheelCurve(x[:end][keep], z[:end][keep])
+
+
+def _gaps(wheel_x, wheel_z, rail_x, rail_z, shifts, phi, axis_z):
+    """Smallest wheel − rail distance along the wheel's vertical, at every shift (S,), and
+    the wheelset-frame X where it occurs.
+
+    The rails are carried into the wheelset frame (shift y, roll φ about the axle, whose
+    height `axis_z` above the rails is the wheel radius: its few-mm error moves X by φ·mm),
+    the wheel interpolated at the rails' nodes (finer than its own) and each minimum refined
+    by the parabola through it and its neighbours. Measuring along the wheel's vertical
+    instead of the track's changes the touching point only at second order in φ.
+    """
+    c, s = np.cos(phi)[:, None], np.sin(phi)[:, None]
+    dx, dz = rail_x[None, :] - shifts[:, None], rail_z[None, :] - axis_z
+    x, z = c * dx + s * dz, c * dz - s * dx
+    gap = np.interp(x, wheel_x, wheel_z, left=np.inf, right=np.inf) - z
+    if not np.all(np.isfinite(gap).sum(axis=1) >= 3):
         raise ContactError("the wheel profile does not reach over its rail")
-    rx, rz = rail_x[inside], rail_z[inside]
-    gap = np.interp(rx, wx, wz) - rz
-    k = int(np.argmin(gap))
-    if 0 < k < gap.size - 1:
-        a, b, c = gap[k - 1], gap[k], gap[k + 1]
-        curvature = a - 2 * b + c
-        if curvature > 0:
-            t = 0.5 * (a - c) / curvature
-            step = rx[k + 1] - rx[k] if t > 0 else rx[k] - rx[k - 1]
-            return float(b - 0.25 * (a - c) * t), float(rx[k] + t * step)
-    return float(gap[k]), float(rx[k])
-
-
-def _contact(left, right, rails: TrackRails, shift_mm: float) -> tuple[float, float]:
-    """Contact X of each wheel in the wheelset frame at lateral shift y, both wheels touching.
-
-    Newton on the roll φ: the right wheel's gap minus the left's changes by about
-    (X_right − X_left)·dφ, so a few steps level them.
-    """
-    phi = 0.0
-    for _ in range(ROLL_ITERATIONS):
-        c, s = math.cos(phi), math.sin(phi)
-        placed, gaps, xs = [], [], []
-        for (wx, wz), rail_x, rail_z in (
-            (left, rails.left_x_mm, rails.left_z_mm),
-            (right, rails.right_x_mm, rails.right_z_mm),
-        ):
-            x_track = c * wx - s * wz + shift_mm
-            gap, x_contact = _gap(x_track, s * wx + c * wz, rail_x, rail_z)
-            placed.append((x_track, wx))
-            gaps.append(gap)
-            xs.append(x_contact)
-        difference = gaps[1] - gaps[0]
-        if abs(difference) < ROLL_TOLERANCE_MM:
-            break
-        phi -= difference / (xs[1] - xs[0])
-    # The contact's X on the placed wheel back to the wheel's own X (the roll moves the
-    # running surface sideways by about radius·φ).
-    result = []
-    for (x_track, wx), x_contact in zip(placed, xs, strict=True):
-        order = np.argsort(x_track)
-        result.append(float(np.interp(x_contact, x_track[order], wx[order])))
-    return result[0], result[1]
+    k = np.clip(np.argmin(gap, axis=1), 1, gap.shape[1] - 2)
+    rows = np.arange(gap.shape[0])
+    a, b, e = gap[rows, k - 1], gap[rows, k], gap[rows, k + 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = np.where(np.isfinite(a + e) & (a - 2 * b + e > 0), 0.5 * (a - e) / (a - 2 * b + e), 0.0)
+    t = np.clip(t, -1.0, 1.0)
+    neighbour = np.where(t > 0, x[rows, k + 1], x[rows, k - 1])
+    return b - 0.25 * (a - e) * t, x[rows, k] + np.abs(t) * (neighbour - x[rows, k])
 
 
 def rolling_radius_difference(
@@ -190,15 +207,48 @@ def rolling_radius_difference(
             f"need 0 < shift_step_mm ≤ shift_range_mm, got {shift_step_mm}, {shift_range_mm}"
         )
     half = back_to_back_mm / 2
-    sides = (_side_points(left, half, radius_mm, -1), _side_points(right, half, radius_mm, 1))
     count = int(round(shift_range_mm / shift_step_mm))
     shifts = shift_step_mm * np.arange(-count, count + 1)
-    delta = np.empty(shifts.size)
-    for i, shift in enumerate(shifts):
-        x_left, x_right = _contact(*sides, rails, float(shift))
-        z_left = np.interp(-x_left - half, left.x_mm, left.z_mm)
-        z_right = np.interp(x_right - half, right.x_mm, right.z_mm)
-        delta[i] = z_right - z_left  # r = radius + z at the contact; the radius cancels
+    # Wheel surfaces in the wheelset frame (X from the axle centre, Z up from the axis),
+    # each sorted by X; the rails' heads only (the flange never reaches below 30 mm).
+    wheels = (
+        (-(half + left.x_mm[::-1]), -(radius_mm + left.z_mm[::-1])),
+        (half + right.x_mm, -(radius_mm + right.z_mm)),
+    )
+    rails_xz = []
+    for x, z in ((rails.left_x_mm, rails.left_z_mm), (rails.right_x_mm, rails.right_z_mm)):
+        rails_xz.append((x[z > -30.0], z[z > -30.0]))
+    # The roll φ per shift: both wheels touch when their gaps are equal. The right gap minus
+    # the left rises with φ (by X_right − X_left per radian): Newton steps inside a
+    # shrinking bracket.
+    phi = np.zeros(shifts.size)
+    low, high = np.full(shifts.size, -ROLL_BRACKET_RAD), np.full(shifts.size, ROLL_BRACKET_RAD)
+    x_l, x_r = np.zeros(shifts.size), np.zeros(shifts.size)
+    active = np.arange(shifts.size)
+    for iteration in range(ROLL_ITERATIONS):
+        (gap_l, x_l[active]), (gap_r, x_r[active]) = (
+            _gaps(*wheel, *rail, shifts[active], phi[active], radius_mm)
+            for wheel, rail in zip(wheels, rails_xz, strict=True)
+        )
+        difference = gap_r - gap_l
+        high[active] = np.where(difference > 0, phi[active], high[active])
+        low[active] = np.where(difference < 0, phi[active], low[active])
+        step = phi[active] - difference / (x_r[active] - x_l[active])
+        done = (np.abs(difference) < ROLL_TOLERANCE_MM) | (np.abs(step - phi[active]) < 1e-10)
+        done |= high[active] - low[active] < 1e-10
+        # Every third step bisects, so a steep kink (a contact jumping between two points)
+        # cannot stall the Newton steps on one side of the root.
+        inside = (step > low[active]) & (step < high[active]) & (iteration % 3 != 2)
+        step = np.where(inside, step, 0.5 * (low[active] + high[active]))
+        phi[active] = np.where(done, phi[active], step)
+        active = active[~done]
+        if active.size == 0:
+            break
+    else:
+        raise ContactError("the wheelset's roll did not settle (no two-point support)")
+    z_left = np.interp(-x_l - half, left.x_mm, left.z_mm)
+    z_right = np.interp(x_r - half, right.x_mm, right.z_mm)
+    delta = z_right - z_left  # r = radius + z at the contact; the radius cancels
     return RollingRadiusDifference(shifts, delta)
 
 
@@ -235,3 +285,23 @@ def axle_conicity(
         inclination=rails.inclination,
         gauge_mm=rails.gauge_mm,
     )
+
+
+def measured_axle_conicity(
+    left_x_mm: np.ndarray,
+    left_z_mm: np.ndarray,
+    right_x_mm: np.ndarray,
+    right_z_mm: np.ndarray,
+    back_to_back_mm: float,
+    rails: TrackRails,
+) -> AxleConicity:
+    """`axle_conicity` of two measured profiles (points in the profile frame, any order).
+
+    Raises
+    ------
+    ContactError
+        If a profile lacks the tread points the rails can touch.
+    """
+    left = running_surface(np.asarray(left_x_mm, float), np.asarray(left_z_mm, float))
+    right = running_surface(np.asarray(right_x_mm, float), np.asarray(right_z_mm, float))
+    return axle_conicity(left, right, back_to_back_mm, rails)

@@ -22,9 +22,10 @@ def test_60e1_head_matches_its_drawing():
     half = rail.u_mm >= 0
     u, v = rail.u_mm[half], rail.v_mm[half]
     radius = radius_along(u, v)
-    # The R80 → R13 joint: the drawing dimensions it 52.053 mm across.
+    # The R80 → R13 joint: the drawing dimensions it 52.053 mm across (found here to the
+    # profile's 0.05 mm point spacing).
     joint = u[np.flatnonzero((radius[:-1] > 40) & (radius[1:] < 40))[0]]
-    assert joint == pytest.approx(52.053 / 2, abs=0.02)
+    assert joint == pytest.approx(52.053 / 2, abs=0.06)
     # Head width 72 mm where R13 meets the 1:20 side, 14.30 mm below the crown.
     assert np.interp(-14.30, v[::-1], u[::-1]) == pytest.approx(36.0, abs=0.01)
     assert np.all(np.isclose(radius[(u > 1) & (u < 10)], 300, rtol=0.02))
@@ -83,7 +84,7 @@ def test_cone_wheelset_follows_klingel_with_the_roll_of_the_wheelset(conicity, r
     e = b2b / 2 + 77.0  # the contact: x ≈ 77 mm from each back face (rail crown)
     expected = conicity / (1 - conicity * (rail_radius_mm + radius) / e)
     assert result.conicity_3mm == pytest.approx(expected, rel=2e-3)
-    assert all(v == pytest.approx(result.conicity_3mm, rel=1e-6) for v in result.curve_conicity)
+    assert all(v == pytest.approx(result.conicity_3mm, rel=2e-5) for v in result.curve_conicity)
 
 
 def test_swapped_wheels_mirror_the_rolling_radius_difference():
