@@ -2,9 +2,10 @@
 
 `measure_wheel` takes one wheel's frames (in memory) and the calibration, and runs
 centres → undistorted rays → light-plane intersection → track frame → fused profile →
-datum → flange parameters. `measure_pass` does that for every wheel of a validated pass
-archive and adds the back-to-back distance of each axle. A wheel whose frames yield no
-usable stripe is returned as "not measured" with the reason; it never fails the pass.
+datum → flange and tread parameters. `measure_pass` does that for every wheel of a
+validated pass archive and adds each axle's back-to-back distance and equivalent conicity.
+A wheel whose frames yield no usable stripe is returned as "not measured" with the reason;
+it never fails the pass.
 """
 
 from __future__ import annotations
@@ -23,6 +24,9 @@ from pipeline.extraction.centres import Centres, extract_centres
 from pipeline.imaging import validate_image
 from pipeline.profile.flange import FlangeParameters, fit_flange_parameters
 from pipeline.profile.fusion import FusedProfile, fuse_profile
+from pipeline.profile.rails import TrackRails, track_rails
+from pipeline.profile.tread import TreadParameters, tread_parameters
+from pipeline.profile.wheelset import AxleConicity, measured_axle_conicity, running_surface
 from pipeline.version import PIPELINE_VERSION
 
 MEASURED = "measured"
@@ -84,6 +88,10 @@ class WheelMeasurement:
         Every frame's centres and track points, inner frames first.
     points_inner, points_outer : int
         Centre points per sensor used in the measurement.
+    tread : TreadParameters or None
+        Tread hollow, flange angle and rim width (None when not measured, or when the
+        profile lacks the tread or flank points: `tread_reason` says which).
+    tread_reason : str or None
     pipeline_version : str
     """
 
@@ -96,6 +104,8 @@ class WheelMeasurement:
     frames: tuple[FrameCentres, ...]
     points_inner: int
     points_outer: int
+    tread: TreadParameters | None = None
+    tread_reason: str | None = None
     pipeline_version: str = PIPELINE_VERSION
 
     @property
@@ -196,9 +206,45 @@ def measure_wheel(
         parameters = fit_flange_parameters(profile.x_mm, profile.z_mm)
     except PipelineError as exc:
         return not_measured(str(exc))
+    tread, tread_reason = None, None
+    try:
+        surface = running_surface(profile.x_mm, profile.z_mm)
+        tread = tread_parameters(profile.x_mm, profile.z_mm, surface, parameters.flange_height_mm)
+    except PipelineError as exc:
+        tread_reason = str(exc)
     return WheelMeasurement(
-        side, method, MEASURED, None, parameters, profile, tuple(inner + outer), *counts
+        side,
+        method,
+        MEASURED,
+        None,
+        parameters,
+        profile,
+        tuple(inner + outer),
+        *counts,
+        tread=tread,
+        tread_reason=tread_reason,
     )
+
+
+def axle_conicity_of(
+    left: WheelMeasurement, right: WheelMeasurement, back_to_back_mm: float | None, rails
+) -> tuple[AxleConicity | None, str | None]:
+    """The axle's Δr(y) and equivalent conicity from its two measured wheels, or None and
+    why not (a wheel not measured, no back-to-back, no tread where the rails touch)."""
+    if left.profile is None or right.profile is None or back_to_back_mm is None:
+        return None, "both wheels of the axle and their back-to-back distance are needed"
+    try:
+        conicity = measured_axle_conicity(
+            left.profile.x_mm,
+            left.profile.z_mm,
+            right.profile.x_mm,
+            right.profile.z_mm,
+            back_to_back_mm,
+            rails,
+        )
+    except PipelineError as exc:
+        return None, str(exc)
+    return conicity, None
 
 
 def axle_back_to_back(left: WheelMeasurement, right: WheelMeasurement) -> float | None:
@@ -213,11 +259,14 @@ def axle_back_to_back(left: WheelMeasurement, right: WheelMeasurement) -> float 
 
 @dataclass(frozen=True, slots=True, eq=False)
 class PassWheelResult:
-    """One wheel of a pass measured with one method, with its axle's back-to-back."""
+    """One wheel of a pass measured with one method, with its axle's back-to-back and
+    equivalent conicity (the same objects on both wheels of the axle)."""
 
     wheel: WheelEntry
     measurement: WheelMeasurement
     back_to_back_mm: float | None
+    conicity: AxleConicity | None = None
+    conicity_reason: str | None = None
 
 
 def measure_pass(
@@ -225,6 +274,7 @@ def measure_pass(
     *,
     methods: Sequence[str] = ("adaptive",),
     calibration: StationCalibration | None = None,
+    rails: TrackRails | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> tuple[PassWheelResult, ...]:
     """Measure every wheel of a validated pass with each method.
@@ -237,6 +287,8 @@ def measure_pass(
         Extraction methods, each of `MEASURE_METHODS`.
     calibration : StationCalibration, optional
         Overrides the archive's calibration.
+    rails : TrackRails, optional
+        The site's rails for the conicity (default 60E1 at 1:40, gauge 1435 mm).
     progress : callable(done, total), optional
         Called after each wheel and method.
 
@@ -262,12 +314,18 @@ def measure_pass(
             )
             if progress is not None:
                 progress(len(measured), total)
+    rails = rails or track_rails()
+    axles: dict[tuple[str, int, str], tuple] = {}
     results = []
     for wheel in archive.manifest.wheels:
         for method in methods:
-            left = measured.get((wheel.vehicle_id, wheel.axle, "left", method))
-            right = measured.get((wheel.vehicle_id, wheel.axle, "right", method))
-            b2b = axle_back_to_back(left, right) if left and right else None
+            axle = (wheel.vehicle_id, wheel.axle, method)
+            if axle not in axles:
+                left = measured.get((wheel.vehicle_id, wheel.axle, "left", method))
+                right = measured.get((wheel.vehicle_id, wheel.axle, "right", method))
+                b2b = axle_back_to_back(left, right) if left and right else None
+                pair = axle_conicity_of(left, right, b2b, rails) if left and right else (None, None)
+                axles[axle] = (b2b, *pair)
             key = (wheel.vehicle_id, wheel.axle, wheel.side, method)
-            results.append(PassWheelResult(wheel, measured[key], b2b))
+            results.append(PassWheelResult(wheel, measured[key], *axles[axle]))
     return tuple(results)

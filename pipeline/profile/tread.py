@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.errors import PipelineError
-from pipeline.profile.wheelset import FIELD_FACE_MM, WheelCurve
+from pipeline.profile.wheelset import FIELD_FACE_MM, WheelCurve, outline_running_surface
 
 HOLLOW_EDGE_X_MM = (60.0, 120.0)
 FLANK_HALF_HEIGHT_MM = 1.5
@@ -166,3 +166,16 @@ def tread_parameters(
     return TreadParameters(
         tread_hollow(curve), flange_angle(x_mm, z_mm, flange_height_mm), width, reason
     )
+
+
+def outline_tread_values(
+    x_mm: np.ndarray, z_mm: np.ndarray, flange_height_mm: float
+) -> dict[str, float | None]:
+    """Tread hollow, flange angle and rim width of a clean outline (back face → field face),
+    as the simulator's truth rows carry them: the same definitions as the measurement."""
+    values = tread_parameters(x_mm, z_mm, outline_running_surface(x_mm, z_mm), flange_height_mm)
+    return {
+        "tread_hollow_mm": values.tread_hollow_mm,
+        "flange_angle_deg": values.flange_angle_deg,
+        "rim_width_mm": float(np.max(x_mm)),
+    }

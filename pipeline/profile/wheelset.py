@@ -22,7 +22,7 @@ from pipeline.profile.conicity import (
     RollingRadiusDifference,
     equivalent_conicity,
 )
-from pipeline.profile.rails import TrackRails
+from pipeline.profile.rails import TrackRails, track_rails
 
 NOMINAL_WHEEL_RADIUS_MM = 420.0
 """Radius at the tread reference point assumed for measured wheels (840 mm LM wheels); it
@@ -305,3 +305,19 @@ def measured_axle_conicity(
     left = running_surface(np.asarray(left_x_mm, float), np.asarray(left_z_mm, float))
     right = running_surface(np.asarray(right_x_mm, float), np.asarray(right_z_mm, float))
     return axle_conicity(left, right, back_to_back_mm, rails)
+
+
+def outline_conicity(
+    left_x_mm: np.ndarray,
+    left_z_mm: np.ndarray,
+    right_x_mm: np.ndarray,
+    right_z_mm: np.ndarray,
+    back_to_back_mm: float,
+    radius_mm: float,
+) -> float | None:
+    """λₑ at 3 mm of an axle of two clean outlines on the default rails (the simulator's
+    truth, by the same contact search and evaluation as the measurement)."""
+    left = outline_running_surface(left_x_mm, left_z_mm)
+    right = outline_running_surface(right_x_mm, right_z_mm)
+    rails = track_rails()
+    return axle_conicity(left, right, back_to_back_mm, rails, radius_mm=radius_mm).conicity_3mm

@@ -22,6 +22,7 @@ from pipeline.simulation.passes import write_synthetic_passes
 from tests.backend.conftest import empty_service, make_tokens
 
 PARAMETERS = ("flange_height_mm", "flange_thickness_mm", "qr_mm", "back_to_back_mm")
+TREAD = ("tread_hollow_mm", "flange_angle_deg", "rim_width_mm")
 CLI_NAMES = {"flange_thickness_en_mm": "flange_thickness_10_mm"}
 
 
@@ -104,9 +105,15 @@ def test_an_uploaded_pass_is_measured_as_the_cli_measures_it(client, auth, measu
         for name in (*PARAMETERS, "flange_thickness_en_mm"):
             # The CLI rounds to 4 decimals; the service stores the full value.
             assert mine[name] == pytest.approx(row[CLI_NAMES.get(name, name)], abs=6e-5), name
+        for name in TREAD:
+            assert mine[name] == pytest.approx(row[name], abs=6e-5), name
+        # The service computes the axle's conicity from the stored profiles (0.1 µm).
+        assert mine["equivalent_conicity"] == pytest.approx(row["equivalent_conicity"], abs=1e-3)
     for truth in simulated["truth"]["wheels"]:
         mine = ours[(truth["vehicle_id"], truth["axle"], truth["side"], "adaptive")]
         assert mine["reference_profile"] == truth["profile"]
+        assert mine["equivalent_conicity"] == pytest.approx(truth["conicity_3mm"], abs=0.02)
+        assert mine["rim_width_mm"] == pytest.approx(truth["rim_width_mm"], abs=0.1)
 
 
 def test_the_wheel_views_serve_frames_masks_sigma_centres_and_profile(client, auth, measured):
@@ -145,8 +152,13 @@ def test_the_wheel_views_serve_frames_masks_sigma_centres_and_profile(client, au
         round(profile["parameters"]["flange_thickness_mm"], 3),
         12.0,
     ]
+    conicity = profile["conicity"]
+    assert conicity["rail"] == "60E1" and conicity["inclination"] == "1:40"
+    assert len(conicity["y_mm"]) == len(conicity["delta_r_mm"]) == 401
+    assert conicity["conicity_3mm"] == profile["parameters"]["equivalent_conicity"]
     trend = client.get(f"/api/wheels/{wheel['wheel_id']}/trend", headers=viewer).json()
     assert [p["method"] for p in trend["points"]] == ["adaptive", "steger"]
+    assert trend["points"][0]["equivalent_conicity"] == conicity["conicity_3mm"]
 
 
 def test_reports_come_as_csv_json_and_pdf(client, auth, measured):

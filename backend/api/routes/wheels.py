@@ -68,6 +68,10 @@ def _frame(session: SessionDep, pass_wheel: PassWheel, position: str, index: int
     return frames[index]
 
 
+TREAD_PARAMETERS = ("tread_hollow_mm", "flange_angle_deg", "rim_width_mm", "equivalent_conicity")
+"""Tread, rim and axle parameters served with the profile and the trend."""
+
+
 def _measurement(pass_wheel: PassWheel, method: str) -> Measurement:
     for measurement in pass_wheel.measurements:
         if measurement.method == method:
@@ -297,8 +301,10 @@ def get_profile(
                 "flange_thickness_en_mm",
                 "qr_mm",
                 "back_to_back_mm",
+                *TREAD_PARAMETERS,
             )
         },
+        conicity=measurement.conicity,
     )
 
 
@@ -323,6 +329,7 @@ def get_trend(wheel: WheelDep, session: SessionDep, _viewer: ViewerDep) -> Wheel
             flange_thickness_en_mm=m.flange_thickness_en_mm,
             qr_mm=m.qr_mm,
             back_to_back_mm=m.back_to_back_mm,
+            **{name: getattr(m, name) for name in TREAD_PARAMETERS},
             alarm_count=m.alarm_count,
         )
         for pass_wheel, train_pass in rows
