@@ -197,7 +197,7 @@ class Measurement(Base):
     tread_hollow_mm: Mapped[float | None] = mapped_column(Float)
     flange_angle_deg: Mapped[float | None] = mapped_column(Float)
     rim_width_mm: Mapped[float | None] = mapped_column(Float)
-    rim_width_reason: Mapped[str | None] = mapped_column(Text)
+    tread_reason: Mapped[str | None] = mapped_column(Text)
     equivalent_conicity: Mapped[float | None] = mapped_column(Float)
     conicity: Mapped[dict[str, Any] | None]
     reference_profile: Mapped[str | None] = mapped_column(String(20))

@@ -222,7 +222,9 @@ class MethodResult(BaseModel):
     )
     flange_angle_deg: float | None = Field(default=None, description="steepest flank angle")
     rim_width_mm: float | None = Field(default=None, description="back face to field face")
-    rim_width_reason: str | None = Field(default=None, description="why no rim width")
+    tread_reason: str | None = Field(
+        default=None, description="why a tread hollow, flange angle or rim width is missing"
+    )
     equivalent_conicity: float | None = Field(
         default=None, description="the axle's EN 15302 equivalent conicity at 3 mm amplitude"
     )

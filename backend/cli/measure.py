@@ -73,7 +73,7 @@ def wheel_row(result: PassWheelResult) -> dict[str, object]:
     for key in TREAD_KEYS:
         value = None if tread is None else getattr(tread, key)
         row[key] = None if value is None else round(value, 4)
-    row["rim_width_reason"] = m.tread_reason if tread is None else tread.rim_width_reason
+    row["tread_reason"] = m.tread_reason if tread is None else tread.reason
     conicity = None if result.conicity is None else result.conicity.conicity_3mm
     row["equivalent_conicity"] = None if conicity is None else round(conicity, 6)
     row["conicity_reason"] = result.conicity_reason

@@ -138,7 +138,7 @@ def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> M
         tread_hollow_mm=None if tread is None else tread.tread_hollow_mm,
         flange_angle_deg=None if tread is None else tread.flange_angle_deg,
         rim_width_mm=None if tread is None else tread.rim_width_mm,
-        rim_width_reason=result.tread_reason if tread is None else tread.rim_width_reason,
+        tread_reason=result.tread_reason if tread is None else tread.reason,
         reference_profile=None if profile is None else closest_reference(profile.x_mm),
         point_count=result.points_inner + result.points_outer,
         quality=quality,

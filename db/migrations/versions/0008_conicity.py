@@ -19,7 +19,7 @@ MEASUREMENT_COLUMNS = (
     ("tread_hollow_mm", sa.Float()),
     ("flange_angle_deg", sa.Float()),
     ("rim_width_mm", sa.Float()),
-    ("rim_width_reason", sa.Text()),
+    ("tread_reason", sa.Text()),
     ("equivalent_conicity", sa.Float()),
     ("conicity", sa.JSON()),
 )
