@@ -25,6 +25,21 @@ REFERENCE_POINT_X_MM = 70.0
 """Tread reference point (z = 0) of the profile frame [mm]."""
 STORED_DECIMALS = 4
 """Profile coordinates are stored to 0.1 µm: far below the measurement's resolution."""
+PARAMETER_NAMES = (
+    "flange_height_mm",
+    "flange_thickness_mm",
+    "flange_thickness_en_mm",
+    "qr_mm",
+    "back_to_back_mm",
+    "tread_hollow_mm",
+    "flange_angle_deg",
+    "rim_width_mm",
+    "equivalent_conicity",
+)
+"""The wheel parameters of a measurement: its columns and the API's fields, in mm but for
+`flange_angle_deg` (°) and the axle's `equivalent_conicity` (no unit, EN 15302 at 3 mm).
+`flange_thickness_en_mm` is the pipeline's `flange_thickness_10_mm` (Sd at the EN height,
+z = 10 mm above the tread reference point); `flange_thickness_mm` is Sd at z = 12 mm."""
 
 
 @lru_cache(maxsize=1)
@@ -39,7 +54,7 @@ def closest_reference(x_mm: np.ndarray) -> str | None:
     differ by less than wear does, so the service matches the rim width: the measured
     profile's extent from the back face against each reference table's (LMA 135 mm, S1002
     130 mm). This picks the limit set (LM or EN) and the curve drawn behind the profile; it
-    changes no measured parameter. A vehicle register would replace it (see issue 5 notes).
+    changes no measured parameter. A vehicle register would replace it.
     """
     if x_mm.size == 0:
         return None
@@ -153,17 +168,7 @@ def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> M
 def apply_alarms(row: Measurement, fleet: str, session: Session) -> None:
     """(Re)compute the alarms of a measurement against its fleet's current limits."""
     family = profile_family(row.reference_profile)
-    parameters = {
-        name: getattr(row, name)
-        for name in (
-            "flange_height_mm",
-            "flange_thickness_mm",
-            "flange_thickness_en_mm",
-            "qr_mm",
-            "back_to_back_mm",
-            "equivalent_conicity",
-        )
-    }
+    parameters = {name: getattr(row, name) for name in PARAMETER_NAMES}
     row.alarms = evaluate_alarms(parameters, limits_for(session, fleet, family), family)
     row.alarm_count = len(row.alarms)
 
