@@ -224,14 +224,14 @@ def rolling_radius_difference(
     count = int(round(shift_range_mm / shift_step_mm))
     shifts = shift_step_mm * np.arange(-count, count + 1)
     # Wheel surfaces in the wheelset frame (X from the axle centre, Z up from the axis),
-    # each sorted by X; the rails' heads only (the flange never reaches below 30 mm).
+    # each sorted by X; the rails' heads only (flank contact stays above 20 mm down).
     wheels = (
         (-(half + left.x_mm[::-1]), -(radius_mm + left.z_mm[::-1])),
         (half + right.x_mm, -(radius_mm + right.z_mm)),
     )
     rails_xz = []
     for x, z in ((rails.left_x_mm, rails.left_z_mm), (rails.right_x_mm, rails.right_z_mm)):
-        rails_xz.append((x[z > -30.0], z[z > -30.0]))
+        rails_xz.append((x[z > -20.0], z[z > -20.0]))
     # The roll φ per shift: both wheels touch when their gaps are equal. The right gap minus
     # the left rises with φ (by X_right − X_left per radian): Newton steps inside a
     # shrinking bracket.
@@ -250,9 +250,9 @@ def rolling_radius_difference(
         step = phi[active] - difference / (x_r[active] - x_l[active])
         done = (np.abs(difference) < ROLL_TOLERANCE_MM) | (np.abs(step - phi[active]) < 1e-10)
         done |= high[active] - low[active] < 1e-10
-        # Every third step bisects, so a steep kink (a contact jumping between two points)
-        # cannot stall the Newton steps on one side of the root.
-        inside = (step > low[active]) & (step < high[active]) & (iteration % 3 != 2)
+        # After six steps every third one bisects, so a steep kink (a contact jumping
+        # between two points) cannot stall the Newton steps on one side of the root.
+        inside = (step > low[active]) & (step < high[active]) & (iteration < 6 or iteration % 3)
         step = np.where(inside, step, 0.5 * (low[active] + high[active]))
         phi[active] = np.where(done, phi[active], step)
         active = active[~done]
