@@ -66,11 +66,10 @@ def test_reference_profiles_hollow_and_simulated_wear_deepens_it(name, new_hollo
     values = []
     for depth in (0.0, 0.5, 1.0):
         wheel = wheel_profile(reference, Wear(hollow_depth_mm=depth))
-        values.append(
-            outline_tread_values(wheel.x_mm, wheel.z_mm, wheel.truth.flange_height_mm)
-        )
+        values.append(outline_tread_values(wheel.x_mm, wheel.z_mm, wheel.truth.flange_height_mm))
     assert values[0]["tread_hollow_mm"] == pytest.approx(new_hollow_mm, abs=1e-3)
-    assert values[0]["tread_hollow_mm"] < values[1]["tread_hollow_mm"] < values[2]["tread_hollow_mm"]
+    hollows = [v["tread_hollow_mm"] for v in values]
+    assert hollows[0] < hollows[1] < hollows[2]
     assert values[0]["rim_width_mm"] == pytest.approx(float(reference.x_mm[-1]))
 
 
