@@ -26,7 +26,7 @@ from pipeline.profile.flange import FlangeParameters, fit_flange_parameters
 from pipeline.profile.fusion import FusedProfile, fuse_profile
 from pipeline.profile.rails import TrackRails, track_rails
 from pipeline.profile.tread import TreadParameters, tread_parameters
-from pipeline.profile.wheelset import AxleConicity, measured_axle_conicity, running_surface
+from pipeline.profile.wheelset import AxleConicity, WheelCurve, axle_conicity, running_surface
 from pipeline.version import PIPELINE_VERSION
 
 MEASURED = "measured"
@@ -92,6 +92,8 @@ class WheelMeasurement:
         Tread hollow, flange angle and rim width (None when not measured, or when the
         profile lacks the tread or flank points: `tread_reason` says which).
     tread_reason : str or None
+    surface : WheelCurve or None
+        The running surface z(x) the tread hollow and the axle's conicity are read from.
     pipeline_version : str
     """
 
@@ -106,6 +108,7 @@ class WheelMeasurement:
     points_outer: int
     tread: TreadParameters | None = None
     tread_reason: str | None = None
+    surface: WheelCurve | None = None
     pipeline_version: str = PIPELINE_VERSION
 
     @property
@@ -206,7 +209,7 @@ def measure_wheel(
         parameters = fit_flange_parameters(profile.x_mm, profile.z_mm)
     except PipelineError as exc:
         return not_measured(str(exc))
-    tread, tread_reason = None, None
+    tread, tread_reason, surface = None, None, None
     try:
         surface = running_surface(profile.x_mm, profile.z_mm)
         tread = tread_parameters(profile.x_mm, profile.z_mm, surface, parameters.flange_height_mm)
@@ -223,6 +226,7 @@ def measure_wheel(
         *counts,
         tread=tread,
         tread_reason=tread_reason,
+        surface=surface,
     )
 
 
@@ -233,18 +237,12 @@ def axle_conicity_of(
     why not (a wheel not measured, no back-to-back, no tread where the rails touch)."""
     if left.profile is None or right.profile is None or back_to_back_mm is None:
         return None, "both wheels of the axle and their back-to-back distance are needed"
+    if left.surface is None or right.surface is None:
+        return None, "a wheel's profile has no running surface (see its tread reason)"
     try:
-        conicity = measured_axle_conicity(
-            left.profile.x_mm,
-            left.profile.z_mm,
-            right.profile.x_mm,
-            right.profile.z_mm,
-            back_to_back_mm,
-            rails,
-        )
+        return axle_conicity(left.surface, right.surface, back_to_back_mm, rails), None
     except PipelineError as exc:
         return None, str(exc)
-    return conicity, None
 
 
 def axle_back_to_back(left: WheelMeasurement, right: WheelMeasurement) -> float | None:
