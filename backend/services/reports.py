@@ -47,15 +47,24 @@ from pipeline.archive.pass_archive import decode_frame  # noqa: E402
 from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile  # noqa: E402
 
 PARAMETERS = (
-    ("flange_height_mm", "Sh [mm]"),
-    ("flange_thickness_mm", "Sd 12 [mm]"),
-    ("flange_thickness_en_mm", "Sd 10 [mm]"),
-    ("qr_mm", "qR [mm]"),
-    ("back_to_back_mm", "B2B [mm]"),
+    ("flange_height_mm", "Sh [mm]", 12),
+    ("flange_thickness_mm", "Sd 12 [mm]", 14),
+    ("flange_thickness_en_mm", "Sd 10 [mm]", 14),
+    ("qr_mm", "qR [mm]", 12),
+    ("back_to_back_mm", "B2B [mm]", 16),
+    ("tread_hollow_mm", "Hollow", 11),
+    ("flange_angle_deg", "δ [°]", 9),
+    ("rim_width_mm", "Rim", 11),
+    ("equivalent_conicity", "λe 3mm", 11),
 )
+"""Name, PDF column label and PDF column width [mm] of each parameter column."""
+TABLE_WIDTH_MM = 182
+LEAD_WIDTHS_MM = (14, 7, 8, 13, 15)
+"""The PDF's parameter table fills the A4 page between its margins: vehicle, axle, side,
+method and state, the parameters, then the alarms in what is left (18 mm)."""
 CSV_COLUMNS = (
     "pass_id", "site", "started_at", "vehicle_id", "axle", "side", "wheel_id", "state",
-    "method", "status", "reason", *(name for name, _ in PARAMETERS), "alarm_count", "alarms",
+    "method", "status", "reason", *(name for name, _, _ in PARAMETERS), "alarm_count", "alarms",
     "pipeline_version",
 )  # fmt: skip
 THUMBNAIL_WIDTH_PX = 360
@@ -96,7 +105,7 @@ def report_rows(summary: PassSummary, wheels: list[PassWheelRead]) -> list[dict[
                     "method": result.method,
                     "status": result.status,
                     "reason": result.reason or wheel.reason,
-                    **{name: getattr(result, name) for name, _ in PARAMETERS},
+                    **{name: getattr(result, name) for name, _, _ in PARAMETERS},
                     "alarm_count": len(result.alarms),
                     "alarms": "; ".join(a["message"] for a in result.alarms),
                     "pipeline_version": result.pipeline_version,
@@ -206,8 +215,10 @@ def load_wheel_figures(
     return WheelFigures(wheel, profiles, reference, thumbnails)
 
 
-def _cell(value: float | None) -> str:
-    return "–" if value is None else f"{value:.2f}"
+def _cell(value: float | None, name: str = "") -> str:
+    if value is None:
+        return "–"
+    return f"{value:.3f}" if name == "equivalent_conicity" else f"{value:.2f}"
 
 
 def _parameter_table(wheels: list[PassWheelRead], limits: dict[str, dict[str, float]]) -> Table:
@@ -217,7 +228,7 @@ def _parameter_table(wheels: list[PassWheelRead], limits: dict[str, dict[str, fl
         "Side",
         "Method",
         "State",
-        *(label for _, label in PARAMETERS),
+        *(label for _, label, _ in PARAMETERS),
         "Alarms",
     ]
     data: list[list[Any]] = [header]
@@ -242,11 +253,11 @@ def _parameter_table(wheels: list[PassWheelRead], limits: dict[str, dict[str, fl
             else:
                 alarmed = {a["parameter"] for a in result.alarms}
                 row += [result.method, result.status.replace("_", " ")]
-                row += [_cell(getattr(result, name)) for name, _ in PARAMETERS]
+                row += [_cell(getattr(result, name), name) for name, _, _ in PARAMETERS]
                 row.append(
                     Paragraph("<br/>".join(a["message"] for a in result.alarms), _small_style())
                 )
-                for column, (name, _) in enumerate(PARAMETERS, start=5):
+                for column, (name, _, _) in enumerate(PARAMETERS, start=5):
                     if name in alarmed or (
                         name == "flange_thickness_en_mm" and "flange_thickness_mm" in alarmed
                     ):
@@ -258,10 +269,12 @@ def _parameter_table(wheels: list[PassWheelRead], limits: dict[str, dict[str, fl
     for row in limit_rows:
         style.append(("BACKGROUND", (0, len(data)), (-1, len(data)), colors.Color(0.95, 0.95, 1.0)))
         data.append(row)
+    parameter_widths = [width for _, _, width in PARAMETERS]
+    alarms_mm = TABLE_WIDTH_MM - sum(LEAD_WIDTHS_MM) - sum(parameter_widths)
     table = Table(
         data,
         repeatRows=1,
-        colWidths=[20 * mm, 9 * mm, 10 * mm, 15 * mm, 18 * mm] + [14 * mm] * 5 + [37 * mm],
+        colWidths=[width * mm for width in (*LEAD_WIDTHS_MM, *parameter_widths, alarms_mm)],
     )
     table.setStyle(TableStyle(style))
     return table
@@ -276,6 +289,8 @@ def _limit_row(family: str, v: dict[str, float]) -> list[str]:
         thickness if family == "EN" else "",
         f"≥ {v['qr_min_mm']:g}",
         f"{v['back_to_back_min_mm']:g}–{v['back_to_back_max_mm']:g}",
+        "", "", "",
+        f"≤ {v['conicity_max']:g}",
         "",
     ]  # fmt: skip
 

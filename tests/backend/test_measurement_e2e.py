@@ -6,6 +6,8 @@ simulated once per test session and measured by the CLI once for the comparison.
 
 from __future__ import annotations
 
+import csv
+import io
 import json
 import subprocess
 import sys
@@ -169,6 +171,11 @@ def test_reports_come_as_csv_json_and_pdf(client, auth, measured):
     assert len(csv_text.splitlines()) == 1 + 4
     report = client.get(f"/api/passes/{pass_id}/report.json", headers=viewer).json()
     assert report["pass"]["id"] == pass_id and set(report["limits"]) == {"EN", "LM"}
+    rows = list(csv.DictReader(io.StringIO(csv_text)))
+    first = report["wheels"][0]["results"][0]
+    for name in (*TREAD, "equivalent_conicity"):
+        assert float(rows[0][name]) == pytest.approx(first[name]), name
+    assert report["limits"]["EN"]["conicity_max"] == 0.4
     pdf = client.get(f"/api/passes/{pass_id}/report.pdf", headers=viewer)
     assert pdf.content.startswith(b"%PDF") and "attachment" in pdf.headers["content-disposition"]
     wheel_id = report["wheels"][0]["wheel_id"]
