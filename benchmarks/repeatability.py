@@ -33,7 +33,14 @@ TREAD_STD_BARS = {"tread_hollow_mm": 0.05, "flange_angle_deg": 0.2}
 """Largest per-wheel Std over 9 passes of the tread hollow [mm] and flange angle [°]."""
 
 
-def _verdicts(pooled: tuple[ParameterStats, ...]) -> list[str]:
+def counts(observations) -> tuple[int, int]:
+    """Wheels observed, and values not measured, in a run's observations."""
+    wheels = len({o.wheel for o in observations if o.parameter == "flange_height_mm"})
+    return wheels, sum(1 for o in observations if o.value_mm is None)
+
+
+def verdicts(pooled: tuple[ParameterStats, ...]) -> list[str]:
+    """One line per bar of the adaptive method's pooled figures, with ✓ or ✗."""
     lines = []
     for s in pooled:
         if s.method != "adaptive":
@@ -79,8 +86,7 @@ def run() -> str:
             observations += pass_observations(results, read_truth(path))
         measured_s = time.perf_counter() - start
     per_wheel, pooled = summarise_repeatability(observations)
-    wheels = len({o.wheel for o in observations if o.parameter == "flange_height_mm"})
-    missing = sum(1 for o in observations if o.value_mm is None)
+    wheels, missing = counts(observations)
     lines = [
         "## Repeatability of wheel parameters (simulated passes)",
         "",
@@ -90,7 +96,7 @@ def run() -> str:
         f"method). Values not measured: {missing}. Errors are against the true geometry [mm].",
         "",
         "Bars (issues 4 and 19; flange_angle_deg in degrees, conicity_3mm without unit):",
-        *_verdicts(pooled),
+        *verdicts(pooled),
         "",
         repeatability_markdown(per_wheel, pooled),
     ]
