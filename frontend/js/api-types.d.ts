@@ -12,12 +12,8 @@ export interface AuditRead {
   detail: Record<string, unknown>;
 }
 
-export interface Body_upload_pass_api_passes_post {
-  file: string;
-}
-
 export interface CalibrationCreate {
-  /** a wheelscan-calibration/1 object */
+  /** a wheelscan-calibration/1 object; every sensor's intrinsics, laser plane (|d| ≥ 1 mm) and rigid camera_to_track transform are checked (422 names the fault) */
   document: Record<string, unknown>;
   note?: string | null;
 }
@@ -113,6 +109,7 @@ export interface LimitsRead {
   updated_at: string;
 }
 
+/** New limits; each *_min_mm must lie below its *_max_mm (422 otherwise). */
 export interface LimitsUpdate {
   flange_height_min_mm: number;
   flange_height_max_mm: number;
@@ -236,6 +233,7 @@ export interface SiteRead {
   current_calibration_version?: number | null;
 }
 
+/** A pass to stream into; without `calibration`, the site's registered one is used (422 when the site has none). */
 export interface StreamOpen {
   site: string;
   started_at: string;
@@ -248,6 +246,7 @@ export interface StreamOpen {
 export interface TokenCreate {
   role: "viewer" | "operator" | "admin";
   name: string;
+  /** must lie in the future (422 otherwise); none: never expires */
   expires_at?: string | null;
 }
 
