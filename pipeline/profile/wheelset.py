@@ -22,7 +22,12 @@ from pipeline.profile.conicity import (
     RollingRadiusDifference,
     equivalent_conicity,
 )
-from pipeline.profile.flange import robust_polyfit
+from pipeline.profile.flange import (
+    MIN_FIT_POINTS,
+    OUTLIER_FLOOR_MM,
+    OUTLIER_MADS,
+    OUTLIER_PASSES,
+)
 from pipeline.profile.rails import TrackRails, track_rails
 
 NOMINAL_WHEEL_RADIUS_MM = 420.0
@@ -106,6 +111,76 @@ class AxleConicity:
     gauge_mm: float
 
 
+def local_quadratics(
+    x_mm: np.ndarray, z_mm: np.ndarray, grid_mm: np.ndarray, half_mm: np.ndarray
+) -> np.ndarray:
+    """Robust local quadratic z(x) at each grid node, all nodes at once (NaN where none).
+
+    The fit of `robust_polyfit` (flange.py) batched over nodes: least squares on the points
+    within ±half of the node, points beyond 3 robust standard deviations (at least 0.03 mm)
+    dropped and the fit repeated, up to 4 passes; a node with fewer than 5 points, or points
+    spread over less than half its window, gets NaN. `tests/pipeline/test_tread.py` checks
+    it against `robust_polyfit` node by node.
+
+    Parameters
+    ----------
+    x_mm, z_mm : ndarray of shape (K,)
+        Points sorted by x [mm].
+    grid_mm, half_mm : ndarray of shape (N,)
+        Nodes and their window half-widths [mm].
+
+    Returns
+    -------
+    ndarray of shape (N,), float64
+        The fitted z at each node [mm].
+    """
+    lo, hi = np.searchsorted(x_mm, grid_mm - half_mm), np.searchsorted(x_mm, grid_mm + half_mm)
+    counts = hi - lo
+    width = max(int(counts.max(initial=0)), 1)
+    slots = np.arange(width)
+    valid = slots[None, :] < counts[:, None]
+    index = np.minimum(lo[:, None] + slots[None, :], x_mm.size - 1)
+    t = np.where(valid, x_mm[index] - grid_mm[:, None], 0.0)
+    z = np.where(valid, z_mm[index], 0.0)
+    spread = np.where(valid, t, np.inf).min(axis=1), np.where(valid, t, -np.inf).max(axis=1)
+    usable = (counts >= MIN_FIT_POINTS) & (spread[1] - spread[0] >= half_mm)
+    powers = [np.ones_like(t), t, t * t, t**3, t**4]
+
+    def fit(inlier: np.ndarray) -> np.ndarray:
+        """Least-squares quadratics on each node's inliers (NaN with fewer than 5): the
+        normal equations from the moments Σtᵏ (k ≤ 4) and Σz·tᵏ (k ≤ 2)."""
+        weight = inlier.astype(float)
+        moments = [np.einsum("nw,nw->n", weight, p) for p in powers]
+        right = np.stack([np.einsum("nw,nw->n", weight * z, p) for p in powers[:3]], axis=1)
+        normal = np.stack(
+            [np.stack([moments[i + j] for j in range(3)], axis=1) for i in range(3)], axis=1
+        )
+        coefficients = np.full((grid_mm.size, 3), np.nan)
+        rows = usable & (inlier.sum(axis=1) >= MIN_FIT_POINTS)
+        scale = np.abs(normal[rows]).max(axis=(1, 2)) ** 3
+        rows[rows] = np.abs(np.linalg.det(normal[rows])) > 1e-12 * scale  # not all at one x
+        coefficients[rows] = np.linalg.solve(normal[rows], right[rows][..., None])[..., 0]
+        return coefficients
+
+    inlier = valid.copy()
+    for _ in range(OUTLIER_PASSES):
+        coefficients = fit(inlier)
+        residual = np.abs(
+            z - (coefficients[:, :1] + coefficients[:, 1:2] * t + coefficients[:, 2:] * t * t)
+        )
+        ranked = np.sort(np.where(inlier, residual, np.inf), axis=1)
+        count = np.maximum(inlier.sum(axis=1), 1)
+        rows = np.arange(grid_mm.size)
+        median = 0.5 * (ranked[rows, (count - 1) // 2] + ranked[rows, count // 2])
+        spread_mm = 1.4826 * median
+        limit = np.maximum(OUTLIER_MADS * spread_mm, OUTLIER_FLOOR_MM)[:, None]
+        kept = valid & (residual <= limit)
+        if np.array_equal(kept, inlier):
+            return coefficients[:, 0]
+        inlier = kept
+    return fit(inlier)[:, 0]
+
+
 def running_surface(x_mm: np.ndarray, z_mm: np.ndarray) -> WheelCurve:
     """The running surface z(x) from the flange top to 110 mm beyond, from measured points.
 
@@ -126,17 +201,7 @@ def running_surface(x_mm: np.ndarray, z_mm: np.ndarray) -> WheelCurve:
     grid = np.arange(start, end, CURVE_STEP_MM)
     half = np.where(grid < start + FLANGE_ZONE_MM, CURVE_HALF_WINDOW_MM, TREAD_HALF_WINDOW_MM)
     order = np.argsort(x_mm[upper], kind="stable")
-    x, z = x_mm[upper][order], z_mm[upper][order]
-    lo, hi = np.searchsorted(x, grid - half), np.searchsorted(x, grid + half)
-    values = np.full(grid.size, np.nan)
-    for i in np.flatnonzero(hi - lo >= 5):
-        t = x[lo[i] : hi[i]] - grid[i]
-        if np.ptp(t) < half[i]:
-            continue
-        try:
-            values[i] = robust_polyfit(t, z[lo[i] : hi[i]], 2, "running surface")[2]
-        except PipelineError:
-            continue
+    values = local_quadratics(x_mm[upper][order], z_mm[upper][order], grid, half)
     good = np.isfinite(values)
     if np.count_nonzero(good) < grid.size / 2:
         raise ContactError("too few tread points for the running surface")

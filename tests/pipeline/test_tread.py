@@ -99,3 +99,28 @@ def test_tread_parameters_report_each_missing_value_with_its_reason():
     assert values.tread_hollow_mm == pytest.approx(0.0, abs=1e-9)
     assert values.flange_angle_deg == pytest.approx(70.0, abs=1e-6)
     assert values.rim_width_mm is None and values.reason.startswith("rim width: ")
+
+
+def test_batched_local_quadratics_equal_robust_polyfit_node_by_node():
+    from pipeline.errors import PipelineError
+    from pipeline.profile.flange import robust_polyfit
+    from pipeline.profile.wheelset import local_quadratics
+
+    rng = np.random.default_rng(11)
+    x = np.sort(rng.uniform(20.0, 120.0, 3000))
+    z = 0.002 * (x - 70) ** 2 + rng.normal(0.0, 0.01, x.size)
+    z[rng.choice(x.size, 60, replace=False)] += rng.uniform(0.2, 1.0, 60)  # glints
+    x[1500:1520] = x[1500]  # a run of points at one x
+    grid = np.arange(21.0, 119.0, 0.1)
+    half = np.where(grid < 40.0, 0.5, 2.0)
+    values = local_quadratics(x, z, grid, half)
+    lo, hi = np.searchsorted(x, grid - half), np.searchsorted(x, grid + half)
+    for i in range(grid.size):
+        t = x[lo[i] : hi[i]] - grid[i]
+        expected = np.nan
+        if t.size >= 5 and np.ptp(t) >= half[i]:
+            try:
+                expected = robust_polyfit(t, z[lo[i] : hi[i]], 2, "test")[2]
+            except PipelineError:
+                pass
+        assert values[i] == pytest.approx(expected, abs=1e-9, nan_ok=True), grid[i]
