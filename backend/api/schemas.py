@@ -149,6 +149,17 @@ class SiteRead(ORMModel):
     name: str
     created_at: datetime
     current_calibration_version: int | None = None
+    rail_profile: str = Field(default="60E1", description="rails the conicity is computed on")
+    rail_inclination: str = Field(default="1:40", description="rail inclination to the centre")
+    gauge_mm: float = Field(default=1435.0, description="track gauge, 14 mm below the rail top")
+
+
+class SiteRails(InputModel):
+    """The rails a site's wheelsets run on, for the equivalent conicity of its axles."""
+
+    rail_profile: Literal["60E1", "54E1"]
+    rail_inclination: Literal["1:40", "1:20"]
+    gauge_mm: float = Field(ge=1400, le=1470)
 
 
 class CalibrationCreate(InputModel):

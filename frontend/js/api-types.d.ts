@@ -226,11 +226,24 @@ export interface SiteCreate {
   name: string;
 }
 
+/** The rails a site's wheelsets run on, for the equivalent conicity of its axles. */
+export interface SiteRails {
+  rail_profile: "60E1" | "54E1";
+  rail_inclination: "1:40" | "1:20";
+  gauge_mm: number;
+}
+
 export interface SiteRead {
   id: number;
   name: string;
   created_at: string;
   current_calibration_version?: number | null;
+  /** rails the conicity is computed on */
+  rail_profile?: string;
+  /** rail inclination to the centre */
+  rail_inclination?: string;
+  /** track gauge, 14 mm below the rail top */
+  gauge_mm?: number;
 }
 
 /** A pass to stream into; without `calibration`, the site's registered one is used (422 when the site has none). */
@@ -313,6 +326,7 @@ export interface ApiResponses {
   "GET /api/audit": AuditRead[];
   "GET /api/sites": SiteRead[];
   "POST /api/sites": SiteRead;
+  "PUT /api/sites/{site_name}/rails": SiteRead;
   "GET /api/sites/{site_name}/calibrations": CalibrationRead[];
   "POST /api/sites/{site_name}/calibrations": CalibrationRead;
   "GET /api/calibrations/{calibration_id}": CalibrationRead;
