@@ -11,10 +11,13 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
+from backend import __version__
 from backend.api.outages import install_outage_handlers
 from backend.api.routes import ROUTERS
 from backend.api.security import (
     AuthLimit,
+    BodyLimits,
+    BodySizeLimit,
     FailedAuthLimiter,
     FailedAuthTracker,
     SecurityHeaders,
@@ -22,7 +25,7 @@ from backend.api.security import (
     install_log_redaction,
 )
 from backend.config import Settings, get_settings
-from backend.errors import MULTIPART_OVERHEAD_BYTES, BodySizeLimit, install_error_handlers
+from backend.errors import install_error_handlers
 from backend.jobs.celery_runner import make_task_runner
 from backend.jobs.runner import TaskRunner
 from backend.services.ingest import incoming_dir
@@ -88,7 +91,7 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     app = FastAPI(
         title="wheelscan",
         summary="Wayside railway wheel profile measurement: passes, wheels, jobs and reports.",
-        version="0.1.0",
+        version=__version__,
         lifespan=lifespan,
     )
     app.state.settings = settings
@@ -99,7 +102,7 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     install_error_handlers(app)
     install_outage_handlers(app)
     app.add_middleware(
-        BodySizeLimit, max_body_bytes=settings.max_upload_bytes + MULTIPART_OVERHEAD_BYTES
+        BodySizeLimit, limits=BodyLimits(settings.max_upload_bytes, settings.max_frame_bytes)
     )
     app.state.auth_tracker = FailedAuthTracker(AuthLimit())
     app.add_middleware(StrictContentTypes)
