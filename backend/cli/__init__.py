@@ -18,6 +18,7 @@ VERB_MODULES: list[str] = [
     "backend.cli.agent",
     "backend.cli.measure",
     "backend.cli.conicity",
+    "backend.cli.profiles",
     "backend.cli.worker",
     "backend.cli.serve",
     "backend.cli.backup",

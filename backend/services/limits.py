@@ -80,6 +80,11 @@ def profile_family(reference_profile: str | None) -> str:
     return REFERENCE_PROFILE_FAMILY.get((reference_profile or "").upper(), "EN")
 
 
+def thickness_key(family: str) -> str:
+    """The flange thickness a limit set checks: Sd at 10 mm for EN, at 12 mm for LM."""
+    return "flange_thickness_en_mm" if family == "EN" else "flange_thickness_mm"
+
+
 def ensure_default_limits(session: Session, fleet: str = "default") -> None:
     """Insert the default limits of `fleet` where it has none yet (never overwrites edits)."""
     present = set(
@@ -151,10 +156,9 @@ def evaluate_alarms(
     For EN limits the flange thickness compared is the one at the EN height (10 mm); for LM
     limits the one at 12 mm. Missing parameters (None) raise no alarm.
     """
-    thickness_key = "flange_thickness_en_mm" if family == "EN" else "flange_thickness_mm"
     checks = [
         ("flange_height_mm", parameters_mm.get("flange_height_mm"), "flange_height"),
-        ("flange_thickness_mm", parameters_mm.get(thickness_key), "flange_thickness"),
+        ("flange_thickness_mm", parameters_mm.get(thickness_key(family)), "flange_thickness"),
         ("qr_mm", parameters_mm.get("qr_mm"), "qr"),
         ("back_to_back_mm", parameters_mm.get("back_to_back_mm"), "back_to_back"),
         ("equivalent_conicity", parameters_mm.get("equivalent_conicity"), "conicity"),

@@ -183,7 +183,15 @@ function render() {
   } else if (route.name === 'wheel') {
     wheelView ??= new WheelView(els.view, {
       setQuery,
-      exportReport: (format) => actions.exportReport(route.params.passId, route.params.wheelId, format),
+      exportReport: (format) => actions.exportReport(store.get().route.params.passId, store.get().route.params.wheelId, format),
+      importReference: (file) => {
+        const { params } = store.get().route;
+        return actions.importReference(params.passId, params.wheelId, file);
+      },
+      exportProfile: (format) => {
+        const { params, query } = store.get().route;
+        return actions.exportProfile(params.passId, params.wheelId, query.method === 'steger' ? 'steger' : 'adaptive', format);
+      },
       openViewer: () => actions.openViewer(store.get().route.params.passId, store.get().route.params.wheelId),
       closeViewer: () => actions.patchWheel({ viewerUrl: null }),
     });

@@ -11,6 +11,7 @@ from backend.api.routes import (
     jobs,
     limits,
     passes,
+    profiles,
     reports,
     streams,
     tokens,
@@ -28,6 +29,7 @@ ROUTERS: list[APIRouter] = [
     jobs.router,
     wheels.router,
     reports.router,
+    profiles.router,
     blobs.router,
     viewer.router,
 ]
