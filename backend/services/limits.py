@@ -3,7 +3,9 @@
 EN defaults (docs/numbers.md, "Alarms"): flange height Sh 27.5–36 mm, flange thickness Sd
 22–33 mm measured at the EN height of 10 mm, qR ≥ 6.5 mm, back-to-back 1357–1363 mm. LM
 defaults follow the operator's rules for LM-profile wheelsets (Sd measured at 12 mm;
-wheelset inner distance 1353 ± 3 mm); both are editable per fleet through the API.
+wheelset inner distance 1353 ± 3 mm); both are editable per fleet through the API. The equivalent
+conicity of an axle (EN 15302, at 3 mm amplitude) alarms above `conicity_max`, 0.4 by
+default: a hunting risk on most vehicles; operators set their own value per fleet.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ DEFAULT_LIMITS_MM: dict[str, dict[str, float]] = {
         "qr_min_mm": 6.5,
         "back_to_back_min_mm": 1357.0,
         "back_to_back_max_mm": 1363.0,
+        "conicity_max": 0.4,
     },
     "LM": {
         "flange_height_min_mm": 25.0,
@@ -40,6 +43,7 @@ DEFAULT_LIMITS_MM: dict[str, dict[str, float]] = {
         "qr_min_mm": 6.5,
         "back_to_back_min_mm": 1350.0,
         "back_to_back_max_mm": 1356.0,
+        "conicity_max": 0.4,
     },
 }
 
@@ -59,12 +63,15 @@ class Alarm:
 
     def as_dict(self) -> dict[str, Any]:
         word = "below" if self.bound == "min" else "above"
+        unit = " mm" if self.parameter.endswith("_mm") else ""
+        digits = 2 if unit else 3
         return {
             "parameter": self.parameter,
             "value_mm": self.value_mm,
             "bound": self.bound,
             "limit_mm": self.limit_mm,
-            "message": f"{self.parameter} {self.value_mm:.2f} mm is {word} {self.limit_mm:g} mm",
+            "message": f"{self.parameter} {self.value_mm:.{digits}f}{unit} is {word} "
+            f"{self.limit_mm:g}{unit}",
         }
 
 
@@ -154,13 +161,14 @@ def evaluate_alarms(
         ("flange_thickness_mm", parameters_mm.get(thickness_key(family)), "flange_thickness"),
         ("qr_mm", parameters_mm.get("qr_mm"), "qr"),
         ("back_to_back_mm", parameters_mm.get("back_to_back_mm"), "back_to_back"),
+        ("equivalent_conicity", parameters_mm.get("equivalent_conicity"), "conicity"),
     ]
     alarms: list[Alarm] = []
     for name, value, stem in checks:
         if value is None:
             continue
         low = limits_mm.get(f"{stem}_min_mm")
-        high = limits_mm.get(f"{stem}_max_mm")
+        high = limits_mm.get(f"{stem}_max_mm", limits_mm.get(f"{stem}_max"))
         if low is not None and value < low:
             alarms.append(Alarm(name, float(value), "min", low))
         if high is not None and value > high:

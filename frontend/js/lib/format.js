@@ -1,14 +1,34 @@
 // @ts-check
 /** Pure formatting helpers for numbers, times and names shown in the UI. */
 
-/** Display names of the measured wheel parameters, in table order. */
+/**
+ * The measured wheel parameters, in table order: key (the API's field), label, title, unit,
+ * decimals shown, the definition shown a click away, and the limit field bounding it from
+ * above where that is not `<stem>_max_mm`.
+ */
 export const PARAMETERS = [
-  { key: 'flange_height_mm', label: 'Sh', title: 'Flange height', unit: 'mm' },
-  { key: 'flange_thickness_mm', label: 'Sd', title: 'Flange thickness at 12 mm', unit: 'mm' },
-  { key: 'flange_thickness_en_mm', label: 'Sd EN', title: 'Flange thickness at 10 mm (EN)', unit: 'mm' },
-  { key: 'qr_mm', label: 'qR', title: 'Flange slope qR', unit: 'mm' },
-  { key: 'back_to_back_mm', label: 'B2B', title: 'Back-to-back distance', unit: 'mm' },
+  { key: 'flange_height_mm', label: 'Sh', title: 'Flange height', unit: 'mm', digits: 2,
+    definition: 'Highest point of the flange above the tread reference point (70 mm from the back face).' },
+  { key: 'flange_thickness_mm', label: 'Sd', title: 'Flange thickness at 12 mm', unit: 'mm', digits: 2,
+    definition: 'Back face to the flange flank, 12 mm above the tread reference point (LM wheels).' },
+  { key: 'flange_thickness_en_mm', label: 'Sd EN', title: 'Flange thickness at 10 mm (EN)', unit: 'mm', digits: 2,
+    definition: 'Back face to the flange flank, 10 mm above the tread reference point (EN 15313).' },
+  { key: 'qr_mm', label: 'qR', title: 'Flange slope qR', unit: 'mm', digits: 2,
+    definition: 'Horizontal distance between the flank at 10 mm and 2 mm below the flange top.' },
+  { key: 'back_to_back_mm', label: 'B2B', title: 'Back-to-back distance', unit: 'mm', digits: 2,
+    definition: 'Distance between the back faces of the axle\'s two wheels.' },
+  { key: 'tread_hollow_mm', label: 'Hollow', title: 'Tread hollow', unit: 'mm', digits: 2,
+    definition: 'Largest depth of the tread below a straight edge through the profile at 60 and 120 mm from the back face (new LMA 0.05 mm, S1002 0.12 mm).' },
+  { key: 'flange_angle_deg', label: 'δ', title: 'Flange angle', unit: '°', digits: 1,
+    definition: 'Steepest angle of the flange flank to the horizontal, from lines over 6 mm of flank height between 3 mm and Sh − 3 mm; it sets Nadal\'s derailment limit Y/Q = (tan δ − μ)/(1 + μ tan δ). Not measured where the flank\'s points leave a gap.' },
+  { key: 'rim_width_mm', label: 'Rim', title: 'Rim width', unit: 'mm', digits: 2,
+    definition: 'Back face to field-side face, where the outer sensor sees that face.' },
+  { key: 'equivalent_conicity', label: 'λe', title: 'Equivalent conicity (axle)', unit: '', digits: 3, limitMax: 'conicity_max',
+    definition: 'The axle\'s equivalent conicity at 3 mm amplitude (EN 15302, nonlinear method): from the rolling-radius difference Δr(y) of both measured wheels at their back-to-back distance on the site\'s rails (60E1 at 1:40, gauge 1435 mm by default), wheel radii taken equal. Above the fleet\'s limit (0.4 by default) the axle may hunt.' },
 ];
+
+/** Why the wheel diameter is not among the parameters (shown on the wheel page). */
+export const DIAMETER_NOTE = 'Wheel diameter is not measured: each sensor\'s single laser plane cuts the wheel in one cross-section, which fixes the profile but not the radius. A second laser plane per sensor at a known offset along the rail, calibrated into the same track frame and triggered so both planes cross the tread reference circle, would give the radius from the two sections\' heights and the rail top.';
 
 /** The two extraction methods, in display order. */
 export const METHODS = ['adaptive', 'steger'];

@@ -164,8 +164,8 @@ function wheelCard(wheel, side, mode, passId) {
     : h('table', {}, SHOWN.map((p) => h('tr', {},
       h('th', { title: p.title }, p.label),
       h('td', { class: 'num' }, mode === 'difference'
-        ? fmtSigned(diff(adaptive?.[p.key], steger?.[p.key]))
-        : fmtNumber(shown?.[p.key])))),
+        ? fmtSigned(diff(adaptive?.[p.key], steger?.[p.key]), p.digits)
+        : fmtNumber(shown?.[p.key], p.digits)))),
   ));
 }
 
