@@ -110,13 +110,14 @@ def _stripe_runs(responses, strides, blocks, shape):
 
 
 @kernel
-def _pixel_strengths(runs, strengths, strides):
+def _pixel_strengths(runs, strengths, strides, width):
     """C = max over scales of σ²|λ1| (bilinear on coarser levels, as V) at every pixel of the
     runs, run after run: (Σ run lengths,) float64."""
     total = 0
     for k in range(runs.shape[0]):
         total += runs[k, 2] - runs[k, 1]
     out = np.zeros(total)
+    u0, u1, fu = column_taps(strengths, strides, width)
     at = 0
     for k in range(runs.shape[0]):
         r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2]
@@ -128,8 +129,7 @@ def _pixel_strengths(runs, strengths, strides):
                 continue
             v0, v1, fv = linear_tap(r, stride, field.shape[0])
             for c in range(c0, c1):
-                u0, u1, fu = linear_tap(c, stride, field.shape[1])
-                value = blend(field, v0, v1, fv, u0, u1, fu)
+                value = blend(field, v0, v1, fv, u0[i, c], u1[i, c], fu[i, c])
                 out[at + c - c0] = max(out[at + c - c0], value)
         at += c1 - c0
     return out
@@ -247,7 +247,7 @@ def segment_band(
     frame) no component comes near the band's edge: the frame's edge counts as band.
     """
     runs = _stripe_runs(responses, strides, blocks, shape)
-    pixel_strength = _pixel_strengths(runs, strengths, strides)
+    pixel_strength = _pixel_strengths(runs, strengths, strides, shape[1])
     label, shapes, strength = _components(runs, _run_peaks(runs, pixel_strength))
     shaped = candidates(shapes)
     floor = MASK_FLOOR * float(strength[shaped].max()) if shaped.any() else 0.0
