@@ -14,6 +14,14 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from backend.services.margins import (
+    ALARM,
+    METHOD_DISAGREEMENT_MM,
+    NEAR_LIMIT_FRACTION,
+    PARAMETERS,
+    Margin,
+    parameter_margins,
+)
 from db.models import FleetLimit
 
 WHEEL_PROFILES = ("EN", "LM")
@@ -42,6 +50,7 @@ DEFAULT_LIMITS_MM: dict[str, dict[str, float]] = {
 REFERENCE_PROFILE_FAMILY = {"S1002": "EN", "LMA": "LM", "LM": "LM"}
 
 LIMIT_FIELDS = tuple(DEFAULT_LIMITS_MM["EN"])
+PARAMETER_LIMITS = {p.key: p.limit for p in PARAMETERS}
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,29 +99,33 @@ def limits_for(session: Session, fleet: str, family: str) -> dict[str, float]:
     return {name: getattr(row, name) for name in LIMIT_FIELDS}
 
 
+def review_thresholds(session: Session, fleet: str, family: str) -> tuple[float, float]:
+    """The fleet's amber band (fraction of each limit band) and its method-disagreement
+    threshold [mm] for a profile family, falling back to the defaults."""
+    row = session.scalar(
+        select(FleetLimit).where(FleetLimit.fleet == fleet, FleetLimit.wheel_profile == family)
+    )
+    if row is None:
+        return NEAR_LIMIT_FRACTION, METHOD_DISAGREEMENT_MM
+    return row.near_limit_fraction, row.method_disagreement_mm
+
+
+def alarms_of(margins: list[Margin]) -> list[dict[str, Any]]:
+    """The alarms (parameters outside their band) among a wheel's margins, as plain dicts.
+
+    For EN limits the flange thickness checked is the one at the EN height (10 mm); for LM
+    limits the one at 12 mm; either is reported as the `flange_thickness_mm` alarm.
+    """
+    return [
+        Alarm(f"{PARAMETER_LIMITS[m.parameter]}_mm", m.value_mm, m.bound, m.limit_mm).as_dict()
+        for m in margins
+        if m.level == ALARM
+    ]
+
+
 def evaluate_alarms(
     parameters_mm: dict[str, float | None], limits_mm: dict[str, float], family: str
 ) -> list[dict[str, Any]]:
     """Compare a wheel's parameters with limits; returns the alarms as plain dicts.
-
-    For EN limits the flange thickness compared is the one at the EN height (10 mm); for LM
-    limits the one at 12 mm. Missing parameters (None) raise no alarm.
-    """
-    thickness_key = "flange_thickness_en_mm" if family == "EN" else "flange_thickness_mm"
-    checks = [
-        ("flange_height_mm", parameters_mm.get("flange_height_mm"), "flange_height"),
-        ("flange_thickness_mm", parameters_mm.get(thickness_key), "flange_thickness"),
-        ("qr_mm", parameters_mm.get("qr_mm"), "qr"),
-        ("back_to_back_mm", parameters_mm.get("back_to_back_mm"), "back_to_back"),
-    ]
-    alarms: list[Alarm] = []
-    for name, value, stem in checks:
-        if value is None:
-            continue
-        low = limits_mm.get(f"{stem}_min_mm")
-        high = limits_mm.get(f"{stem}_max_mm")
-        if low is not None and value < low:
-            alarms.append(Alarm(name, float(value), "min", low))
-        if high is not None and value > high:
-            alarms.append(Alarm(name, float(value), "max", high))
-    return [alarm.as_dict() for alarm in alarms]
+    Missing parameters (None) raise no alarm."""
+    return alarms_of(parameter_margins(parameters_mm, limits_mm, family))

@@ -12,8 +12,10 @@ from backend.api.routes import (
     limits,
     passes,
     reports,
+    review,
     streams,
     tokens,
+    vehicles,
     viewer,
     wheels,
 )
@@ -30,4 +32,6 @@ ROUTERS: list[APIRouter] = [
     reports.router,
     blobs.router,
     viewer.router,
+    review.router,
+    vehicles.router,
 ]

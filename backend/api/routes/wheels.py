@@ -19,15 +19,14 @@ from backend.api.schemas import (
     PassWheelRead,
     ProfileRead,
     Sensor,
-    Side,
-    TrendPoint,
     WheelTrend,
 )
 from backend.errors import ERROR_RESPONSES, GoneError, NotFoundError
 from backend.services.images import SIGMA_COLORMAP, LayerPng, cached_artefacts, frame_png, layer_png
-from backend.services.queries import METHODS, method_result, pass_wheels
+from backend.services.queries import method_result, pass_wheels
+from backend.services.trends import wheel_trend
 from backend.storage.artefacts import FrameArtefacts
-from db.models import Frame, Measurement, MeasurementFrame, Pass, PassWheel
+from db.models import Frame, Measurement, MeasurementFrame, PassWheel
 from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile
 
 router = APIRouter(prefix="/api", tags=["wheels"], responses=ERROR_RESPONSES)
@@ -121,8 +120,7 @@ def get_pass_wheel(
     pass_wheel: PassWheelDep, session: SessionDep, _viewer: ViewerDep
 ) -> PassWheelRead:
     """One wheel of a pass: identity, state, parameters per method, alarms."""
-    rows = pass_wheels(session, pass_wheel.train_pass)
-    return next(row for row in rows if row.wheel_id == pass_wheel.wheel_id)
+    return pass_wheels(session, pass_wheel.train_pass, only=[pass_wheel])[0]
 
 
 @router.get(WHEEL + "/frames/{position}.png", response_class=Response, responses=FRAME_PNG)
@@ -304,35 +302,6 @@ def get_profile(
 
 @router.get("/wheels/{wheel_id}/trend")
 def get_trend(wheel: WheelDep, session: SessionDep, _viewer: ViewerDep) -> WheelTrend:
-    """One wheel across passes, oldest first: its parameters per method and alarms."""
-    rows = session.execute(
-        select(PassWheel, Pass)
-        .join(Pass, PassWheel.pass_id == Pass.id)
-        .where(PassWheel.wheel_id == wheel.id)
-        .order_by(Pass.started_at, Pass.id)
-    ).all()
-    points = [
-        TrendPoint(
-            pass_id=train_pass.id,
-            started_at=train_pass.started_at,
-            site=train_pass.site.name,
-            method=m.method,
-            status=m.status,
-            flange_height_mm=m.flange_height_mm,
-            flange_thickness_mm=m.flange_thickness_mm,
-            flange_thickness_en_mm=m.flange_thickness_en_mm,
-            qr_mm=m.qr_mm,
-            back_to_back_mm=m.back_to_back_mm,
-            alarm_count=m.alarm_count,
-        )
-        for pass_wheel, train_pass in rows
-        for m in pass_wheel.measurements
-        if m.method in METHODS
-    ]
-    return WheelTrend(
-        wheel_id=wheel.id,
-        vehicle_id=wheel.vehicle_id,
-        axle=wheel.axle,
-        side=cast(Side, wheel.side),
-        points=points,
-    )
+    """One wheel across passes, oldest first: its parameters per method and alarms, the
+    limits that apply and a wear forecast per parameter."""
+    return wheel_trend(session, wheel)
