@@ -26,6 +26,7 @@ BENCH_MODULES: list[str] = [
     "benchmarks.load",
     "benchmarks.fuzz",
     "benchmarks.hardening",
+    "benchmarks.review",
 ]
 
 OUTPUT = Path(__file__).resolve().parent.parent / "BENCHMARKS.md"

@@ -16,7 +16,6 @@ from sqlalchemy import (
     JSON,
     Float,
     ForeignKey,
-    Index,
     Integer,
     MetaData,
     String,
@@ -217,14 +216,12 @@ class Measurement(Base):
 class MeasurementMargin(Base):
     """One checked parameter of a measurement and its margin to the nearest limit, kept
     with the alarms (against the limits in force when it was measured). `nearest` marks
-    the measurement's smallest margin as a fraction of its band: the worst-wheels order."""
+    the measurement's smallest margin as a fraction of its band: the worst-wheels order.
+    No index on the margin itself: with one, planners walked every pass's margins in
+    order rather than start from the few pass wheels a filter leaves."""
 
     __tablename__ = "measurement_margin"
-    __table_args__ = (
-        UniqueConstraint("measurement_id", "parameter"),
-        Index("ix_measurement_margin_rank", "parameter", "margin_fraction"),
-        Index("ix_measurement_margin_nearest", "nearest", "margin_fraction"),
-    )
+    __table_args__ = (UniqueConstraint("measurement_id", "parameter"),)
 
     id: Mapped[int] = mapped_column(primary_key=True)
     measurement_id: Mapped[int] = mapped_column(ForeignKey("measurement.id", ondelete="CASCADE"))

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from typing import cast
 
 from sqlalchemy import Select, exists, func, select
-from sqlalchemy.orm import Session, aliased
+from sqlalchemy.orm import Session
 
 from backend.api.schemas import (
     Disagreement,
@@ -67,7 +67,7 @@ class WheelReview:
     disposition: DispositionRead | None
 
 
-def _filtered(query: Select, where: WorstWheelFilter) -> Select:
+def _filtered(query: Select, where: WorstWheelFilter, newest: list[int] | None) -> Select:
     query = query.where(Measurement.method == PRIMARY_METHOD)
     if where.parameter is None:
         query = query.where(MeasurementMargin.nearest.is_(True))
@@ -85,16 +85,8 @@ def _filtered(query: Select, where: WorstWheelFilter) -> Select:
         query = query.where(Wheel.vehicle_id.icontains(where.vehicle, autoescape=True))
     if where.pass_id is not None:
         query = query.where(Pass.id == where.pass_id)
-    if where.latest_only and where.pass_id is None:
-        later_wheel, later_pass = aliased(PassWheel), aliased(Pass)
-        query = query.where(
-            ~exists().where(
-                later_wheel.wheel_id == PassWheel.wheel_id,
-                later_wheel.state == "measured",
-                later_pass.id == later_wheel.pass_id,
-                later_pass.started_at > Pass.started_at,
-            )
-        )
+    if newest is not None:
+        query = query.where(Measurement.pass_wheel_id.in_(newest))
     if where.open_only:
         query = query.where(~exists().where(Disposition.pass_wheel_id == PassWheel.id))
     return query
@@ -110,12 +102,42 @@ def _joined(query: Select) -> Select:
     )
 
 
+def _newest_pass_wheels(session: Session) -> list[int]:
+    """The pass wheel of each wheel's newest measured pass.
+
+    Found first and given to the ranking as ids: planners then start from these few rows
+    (one per wheel) instead of walking every pass's margins (SQLite took 0.7 s for
+    1,000 passes × 64 wheels the other way, 0.09 s this way).
+    """
+    newest = (
+        select(PassWheel.wheel_id, func.max(Pass.started_at).label("started_at"))
+        .join(Pass, PassWheel.pass_id == Pass.id)
+        .where(PassWheel.state == "measured")
+        .group_by(PassWheel.wheel_id)
+        .subquery("newest")
+    )
+    return list(
+        session.scalars(
+            select(PassWheel.id)
+            .join(Pass, PassWheel.pass_id == Pass.id)
+            .join(
+                newest,
+                (newest.c.wheel_id == PassWheel.wheel_id)
+                & (newest.c.started_at == Pass.started_at),
+            )
+        )
+    )
+
+
 def worst_wheels(
     session: Session, where: WorstWheelFilter, offset: int, limit: int
 ) -> Page[WorstWheelRead]:
     """Wheels by their margin to the nearest limit (as a fraction of the band), smallest
     first: alarms, then amber, then the rest; by default each wheel's newest pass only."""
-    total = session.scalar(_filtered(_joined(select(func.count(MeasurementMargin.id))), where))
+    newest = _newest_pass_wheels(session) if where.latest_only and where.pass_id is None else None
+    total = session.scalar(
+        _filtered(_joined(select(func.count(MeasurementMargin.id))), where, newest)
+    )
     rows = session.execute(
         _filtered(
             _joined(
@@ -129,6 +151,7 @@ def worst_wheels(
                 )
             ),
             where,
+            newest,
         )
         .order_by(MeasurementMargin.margin_fraction, MeasurementMargin.id)
         .offset(offset)

@@ -50,12 +50,6 @@ def upgrade() -> None:
             name=op.f("uq_measurement_margin_measurement_id_parameter"),
         ),
     )
-    op.create_index(
-        "ix_measurement_margin_rank", "measurement_margin", ["parameter", "margin_fraction"]
-    )
-    op.create_index(
-        "ix_measurement_margin_nearest", "measurement_margin", ["nearest", "margin_fraction"]
-    )
     op.create_table(
         "disposition",
         sa.Column("id", sa.Integer(), nullable=False),
@@ -87,8 +81,6 @@ def upgrade() -> None:
 def downgrade() -> None:
     op.drop_index(op.f("ix_disposition_pass_wheel_id"), table_name="disposition")
     op.drop_table("disposition")
-    op.drop_index("ix_measurement_margin_nearest", table_name="measurement_margin")
-    op.drop_index("ix_measurement_margin_rank", table_name="measurement_margin")
     op.drop_table("measurement_margin")
     with op.batch_alter_table("fleet_limit", schema=None) as batch_op:
         batch_op.drop_column("method_disagreement_mm")
