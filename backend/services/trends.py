@@ -88,6 +88,8 @@ def _forecast(
         reached_earliest=_when(origin, crossing.x_earliest) if crossing else None,
         reached_latest=_when(origin, crossing.x_latest) if crossing else None,
         note=note,
+        intercept_mm=fit.intercept,
+        fit_from=origin,
     )
 
 

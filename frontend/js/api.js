@@ -46,6 +46,12 @@ const layerPath = (p, w, layer, sensor, index, suffix, method) =>
  * @property {(wheelId: number|string) => Promise<any[]>} trend
  * @property {(passId: number|string, wheelId: number|string|null, format: string) => Promise<{blob: Blob, filename: string}>} report
  * @property {(passId: number|string, wheelId: number|string) => Promise<{url: string}>} viewer
+ * @property {(passId: number|string, wheelId: number|string) => Promise<any>} getWheel
+ * @property {(query: Record<string, string>) => Promise<any>} worstWheels
+ * @property {(text: string) => Promise<string[]>} searchVehicles
+ * @property {(vehicleId: string) => Promise<any>} vehicle
+ * @property {(passId: number|string, wheelId: number|string) => Promise<any[]>} dispositions
+ * @property {(passId: number|string, wheelId: number|string, body: {kind: string, comment?: string}) => Promise<any>} addDisposition
  * @property {(jobId: number|string) => Promise<any>} getJob
  * @property {(file: File, onProgress: (fraction: number) => void) => Promise<{pass_id: number, job_id: number}>} uploadPass
  * @property {(path: 'passes'|string, onMessage: (msg: any) => void, onState: (open: boolean) => void) => () => void} watch
@@ -115,6 +121,14 @@ export function createApi(getToken, base = '') {
       return { blob: await response.blob(), filename };
     },
     viewer: (p, w) => json(`${wheelPath(p, w)}/viewer`),
+    getWheel: (p, w) => json(wheelPath(p, w)),
+    worstWheels: (query) => json(`/api/review/worst-wheels?${new URLSearchParams(query)}`),
+    searchVehicles: (text) => json(`/api/vehicles?${new URLSearchParams({ q: text })}`),
+    vehicle: (vehicleId) => json(`/api/vehicles/${encodeURIComponent(vehicleId)}`),
+    dispositions: (p, w) => json(`${wheelPath(p, w)}/dispositions`),
+    addDisposition: async (p, w, body) => (await request(`${wheelPath(p, w)}/dispositions`, {
+      method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body),
+    })).json(),
     getJob: (jobId) => json(`/api/jobs/${jobId}`),
     uploadPass: (file, onProgress) => uploadWithProgress(base, getToken(), file, onProgress),
     watch: (path, onMessage, onState) => watchSocket(base, getToken, path, onMessage, onState),

@@ -1,14 +1,45 @@
 // @ts-check
 /** Pure formatting helpers for numbers, times and names shown in the UI. */
 
-/** Display names of the measured wheel parameters, in table order. */
+/**
+ * The measured wheel parameters, in table order: the one list every view iterates (as the
+ * service's GET /api/parameters). `families` are the limit sets that check the parameter
+ * (EN checks Sd at 10 mm, LM at 12 mm); `card` marks those a wheel card shows; `colour` is
+ * the parameter's colour in every plot.
+ */
 export const PARAMETERS = [
-  { key: 'flange_height_mm', label: 'Sh', title: 'Flange height', unit: 'mm' },
-  { key: 'flange_thickness_mm', label: 'Sd', title: 'Flange thickness at 12 mm', unit: 'mm' },
-  { key: 'flange_thickness_en_mm', label: 'Sd EN', title: 'Flange thickness at 10 mm (EN)', unit: 'mm' },
-  { key: 'qr_mm', label: 'qR', title: 'Flange slope qR', unit: 'mm' },
-  { key: 'back_to_back_mm', label: 'B2B', title: 'Back-to-back distance', unit: 'mm' },
+  { key: 'flange_height_mm', label: 'Sh', title: 'Flange height', unit: 'mm', families: ['EN', 'LM'], card: true, colour: '#f59e0b' },
+  { key: 'flange_thickness_mm', label: 'Sd', title: 'Flange thickness at 12 mm', unit: 'mm', families: ['LM'], card: true, colour: '#a78bfa' },
+  { key: 'flange_thickness_en_mm', label: 'Sd EN', title: 'Flange thickness at 10 mm (EN)', unit: 'mm', families: ['EN'], card: true, colour: '#c084fc' },
+  { key: 'qr_mm', label: 'qR', title: 'Flange slope qR', unit: 'mm', families: ['EN', 'LM'], card: true, colour: '#34d399' },
+  { key: 'back_to_back_mm', label: 'B2B', title: 'Back-to-back distance', unit: 'mm', families: ['EN', 'LM'], card: false, colour: '#60a5fa' },
 ];
+
+/**
+ * The parameter with `key`, or a stand-in naming the key (a parameter this page predates).
+ * @param {string} key
+ */
+export function parameterOf(key) {
+  return PARAMETERS.find((p) => p.key === key)
+    ?? { key, label: key, title: key, unit: 'mm', families: ['EN', 'LM'], card: false, colour: '#d6dce4' };
+}
+
+/** Dispositions an operator can record, with their labels. */
+export const DISPOSITIONS = [
+  ['re_profile', 'Re-profile'], ['monitor', 'Monitor'], ['false_alarm', 'False alarm'],
+  ['measurement_doubtful', 'Measurement doubtful'], ['comment', 'Comment'],
+];
+
+/**
+ * A disposition in words: "monitor", "false alarm: wet rail"; "open" when there is none.
+ * @param {any} disposition a DispositionRead or null
+ * @returns {string}
+ */
+export function fmtDisposition(disposition) {
+  if (!disposition) return 'open';
+  const label = (DISPOSITIONS.find(([k]) => k === disposition.kind)?.[1] ?? disposition.kind).toLowerCase();
+  return disposition.comment ? `${label}: ${disposition.comment}` : label;
+}
 
 /** The two extraction methods, in display order. */
 export const METHODS = ['adaptive', 'steger'];

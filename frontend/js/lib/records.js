@@ -43,13 +43,32 @@ export function hasAlarmOn(result, key, family) {
 }
 
 /**
+ * The limit family (EN or LM) of a result, from its reference profile.
+ * @param {any} result a MethodResult or null
+ * @returns {'EN'|'LM'}
+ */
+export function familyOf(result) {
+  return /** @type {'EN'|'LM'} */ (PROFILE_FAMILY[/** @type {'S1002'} */ ((result?.reference_profile ?? '').toUpperCase())] ?? 'EN');
+}
+
+/**
+ * The margin of one parameter of a wheel (adaptive), or null.
+ * @param {any} wheel a PassWheelRead
+ * @param {string} key parameter key
+ * @returns {any|null} a MarginRead
+ */
+export function marginOf(wheel, key) {
+  return wheel?.margins?.find((/** @type {any} */ m) => m.parameter === key) ?? null;
+}
+
+/**
  * The limits row that applies to a result's reference profile (EN unless LM).
  * @param {any[]|null} limits the list GET /api/limits returns
  * @param {string|null|undefined} referenceProfile e.g. "S1002", "LMA"
  * @returns {any|null} a LimitsRead
  */
 export function limitsFor(limits, referenceProfile) {
-  const family = PROFILE_FAMILY[/** @type {'S1002'} */ ((referenceProfile ?? '').toUpperCase())] ?? 'EN';
+  const family = familyOf({ reference_profile: referenceProfile });
   return limits?.find((l) => l.wheel_profile === family) ?? null;
 }
 
