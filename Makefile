@@ -5,9 +5,10 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 APT_STAMP := $(VENV)/.apt-installed
+NODE_STAMP := node_modules/.installed
 DEBIAN_PACKAGES := chromium poppler-utils fonts-dejavu-core docker-compose nodejs
 
-.PHONY: run test lint bench venv system-deps clean
+.PHONY: run test lint format bench venv system-deps node-tools clean
 
 venv: $(STAMP)
 
@@ -30,12 +31,30 @@ $(APT_STAMP): Makefile | $(STAMP)
 	fi
 	touch $(APT_STAMP)
 
+# The front end's development tools (tsc, prettier), pinned in package-lock.json; the
+# product itself has no build step and never loads them.
+node-tools: $(NODE_STAMP)
+
+$(NODE_STAMP): package.json package-lock.json | $(APT_STAMP)
+	@command -v npm >/dev/null || { SUDO=$$( [ "$$(id -u)" = 0 ] || echo sudo ); \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq npm >/dev/null; }
+	npm ci --no-audit --no-fund --loglevel=error
+	touch $(NODE_STAMP)
+
 run: $(STAMP)
 	$(VENV)/bin/wheelscan run-demo
 
-lint: $(STAMP)
+lint: $(STAMP) $(NODE_STAMP)
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
+	$(VENV)/bin/mypy
+	$(PY) scripts/api_types.py --check
+	node_modules/.bin/tsc -p tsconfig.json
+
+# Rewrites files in place: Python with ruff, the front end's JavaScript with prettier.
+format: $(STAMP) $(NODE_STAMP)
+	$(VENV)/bin/ruff format .
+	node_modules/.bin/prettier --write frontend tests/frontend
 
 test: $(STAMP) system-deps lint
 	$(PY) -m pytest -q
@@ -44,4 +63,4 @@ bench: $(STAMP)
 	$(PY) -m benchmarks.run
 
 clean:
-	rm -rf $(VENV) data .pytest_cache .hypothesis
+	rm -rf $(VENV) node_modules data .pytest_cache .hypothesis

@@ -45,6 +45,31 @@ class Settings(BaseSettings):
     )
     frontend_dir: Path = Field(default=Path(__file__).resolve().parent.parent / "frontend")
 
+    # Scale-out (Celery) timing, read by the service and by every worker.
+    broker_visibility_timeout_s: float = Field(
+        default=600.0,
+        gt=0,
+        description="a message unacknowledged this long (its worker died) is delivered again",
+    )
+    broker_restore_interval_s: float = Field(
+        default=10.0, gt=0, description="how often workers look for such messages"
+    )
+    lease_retry_s: float = Field(
+        default=5.0, gt=0, description="delay before re-checking a wheel a live worker holds"
+    )
+    sweep_interval_s: float = Field(
+        default=30.0, gt=0, description="how often the service looks for lost messages"
+    )
+    retry_backoff_max_s: int = Field(default=60, ge=1, description="longest retry delay")
+    max_retries: int = Field(default=10, ge=0, description="retries of a transient fault")
+
+    # A worker without the shared frame store reads it over HTTP (backend.storage.remote).
+    store_url: str | None = Field(default=None, description="the API's base URL for blobs")
+    store_token: str | None = Field(default=None, description="operator token for store_url")
+    store_timeout_s: float = Field(default=60.0, gt=0, description="per blob request")
+
+    token: str | None = Field(default=None, description="the station agent's operator token")
+
     @property
     def resolved_database_url(self) -> str:
         """The database URL, defaulting to a SQLite file in the data folder."""

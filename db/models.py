@@ -1,6 +1,6 @@
 """ORM models (SQLAlchemy 2, typed). Units live in column names; times are UTC.
 
-Entities (DESIGN.md, "The service"): site, calibration (versioned, never edited in place),
+Entities (docs/service.md): site, calibration (versioned, never edited in place),
 pass, frame (content-addressed by sha256), wheel (identity vehicle_id + axle + side, so
 trends follow one wheel across passes), pass wheel (one wheel in one pass: its task state),
 measurement (pass wheel x method), measurement frame (per-frame artefacts), job, API token,

@@ -1,6 +1,6 @@
 """Throw-away databases for tests: a SQLite file and a fresh PostgreSQL database.
 
-Both are real (STYLE.md §7): the PostgreSQL one is created on the local server
+Both are real (docs/style.md §7): the PostgreSQL one is created on the local server
 (127.0.0.1:5432, trust auth) for one test session and dropped afterwards.
 """
 

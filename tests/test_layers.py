@@ -1,4 +1,4 @@
-"""The layer boundaries of DESIGN.md and STYLE.md §1, checked by parsing every import."""
+"""The layer boundaries (docs/data-flow.md, docs/style.md §1), checked by parsing imports."""
 
 from __future__ import annotations
 

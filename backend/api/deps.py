@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
-from typing import Annotated, Any
+import inspect
+from collections.abc import Callable, Iterator, Sequence
+from typing import Annotated, Any, get_args, get_origin, get_type_hints
 
-from fastapi import Depends, Path, Query, Request
+from fastapi import Depends, Path, Query, Request, params
+from fastapi.routing import APIRoute
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 from sqlalchemy import select
 from sqlalchemy.orm import Session
@@ -69,15 +71,43 @@ AdminDep = Annotated[ApiToken, Depends(_role_dependency("admin"))]
 _ROUTE_ROLES: dict[int, str] = {}
 
 
-def _declared_role(dependant: Any) -> str:
-    """The highest role any `require_<role>` dependency of `dependant` asks for."""
+def _dependencies(call: Callable[..., Any]) -> list[params.Depends]:
+    """The `Depends(...)` markers of a function's parameters (annotated or as defaults)."""
+    if not inspect.isfunction(call):
+        return []  # a security scheme or a class: it declares no role
+    found: list[params.Depends] = []
+    hints = get_type_hints(call, include_extras=True)
+    for name, parameter in inspect.signature(call).parameters.items():
+        hint = hints.get(name)
+        markers = list(get_args(hint)[1:]) if get_origin(hint) is Annotated else []
+        found.extend(m for m in [*markers, parameter.default] if isinstance(m, params.Depends))
+    return found
+
+
+def _declared_role(dependencies: Sequence[params.Depends]) -> str:
+    """The highest role any `require_<role>` among `dependencies` (or theirs) asks for."""
     found = ROLES[0]
-    for sub in dependant.dependencies:
-        name = getattr(sub.call, "__name__", "").removeprefix("require_")
-        for role in (name, _declared_role(sub)):
+    for depends in dependencies:
+        call = depends.dependency
+        name = getattr(call, "__name__", "").removeprefix("require_")
+        inner = _declared_role(_dependencies(call)) if call is not None else ROLES[0]
+        for role in (name, inner):
             if role in ROLES and ROLES.index(role) > ROLES.index(found):
                 found = role
     return found
+
+
+def _route_role(route: object) -> str:
+    """The role a matched route declares, through its endpoint's and its decorator's
+    dependencies (cached per route)."""
+    role = _ROUTE_ROLES.get(id(route))
+    if role is None:
+        if isinstance(route, APIRoute):
+            role = _declared_role([*route.dependencies, *_dependencies(route.endpoint)])
+        else:
+            role = ROLES[0]
+        _ROUTE_ROLES[id(route)] = role
+    return role
 
 
 def require_route_role(
@@ -86,11 +116,7 @@ def require_route_role(
     credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer_scheme)],
 ) -> ApiToken:
     """Authenticate with the role the matched route declares, before any lookup runs."""
-    route = request.scope.get("route")
-    role = _ROUTE_ROLES.get(id(route))
-    if role is None:
-        role = _declared_role(route.dependant) if hasattr(route, "dependant") else ROLES[0]
-        _ROUTE_ROLES[id(route)] = role
+    role = _route_role(request.scope.get("route"))
     token = authenticate(session, credentials.credentials if credentials else None)
     require_role(token, role)
     return token

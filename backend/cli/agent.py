@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import threading
 from pathlib import Path
@@ -11,6 +10,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from backend.agent.station import check_server_url, load_station
+from backend.config import Settings
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -23,11 +23,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "local disk while the server is away.",
     )
     agent.add_argument("--server", help="server URL (default: the station file's 'server')")
-    agent.add_argument(
-        "--token",
-        default=os.environ.get("WHEELSCAN_TOKEN"),
-        help="operator token (default: $WHEELSCAN_TOKEN)",
-    )
+    agent.add_argument("--token", help="operator token (default: WHEELSCAN_TOKEN)")
     agent.add_argument("--station", required=True, type=Path, help="station file (.toml/.json)")
     agent.add_argument(
         "--allow-missing-cameras",
@@ -56,7 +52,8 @@ def run_agent_verb(args: argparse.Namespace) -> int:
     if server is None:
         raise ValueError("no server: give --server URL or 'server' in the station file")
     server = check_server_url(server)
-    if not args.token:
+    token = Settings().token if args.token is None else args.token
+    if not token:
         raise ValueError("no token: give --token T or set WHEELSCAN_TOKEN")
     bar = tqdm(unit="frame", desc="frames sent", file=sys.stderr, dynamic_ncols=True)
 
@@ -68,7 +65,7 @@ def run_agent_verb(args: argparse.Namespace) -> int:
         summary = run_agent(
             station,
             server,
-            args.token,
+            token,
             allow_missing_cameras=args.allow_missing_cameras,
             sink=lambda line: tqdm.write(line, file=sys.stderr),
             on_tick=on_tick,

@@ -23,8 +23,6 @@ import kombu.exceptions
 import redis.exceptions
 import sqlalchemy.exc
 from celery import Celery, Task
-from pydantic import Field
-from pydantic_settings import BaseSettings, SettingsConfigDict
 from sqlalchemy import Engine, select
 from sqlalchemy.orm import Session, sessionmaker
 
@@ -55,53 +53,27 @@ TRANSIENT_ERRORS: tuple[type[BaseException], ...] = (
 """Faults that pass: the task is retried with exponential backoff instead of failing."""
 
 
-class ScaleSettings(BaseSettings):
-    """Tuning of the scale-out mode (`WHEELSCAN_*` variables, like `Settings`)."""
-
-    model_config = SettingsConfigDict(env_prefix="WHEELSCAN_", frozen=True)
-
-    broker_visibility_timeout_s: float = Field(
-        default=600.0,
-        gt=0,
-        description="a message unacknowledged this long (its worker died) is delivered again",
-    )
-    broker_restore_interval_s: float = Field(
-        default=10.0, gt=0, description="how often workers look for such messages"
-    )
-    lease_retry_s: float = Field(
-        default=5.0, gt=0, description="delay before re-checking a wheel a live worker holds"
-    )
-    sweep_interval_s: float = Field(
-        default=30.0, gt=0, description="how often the service looks for lost messages"
-    )
-    retry_backoff_max_s: int = Field(default=60, ge=1, description="longest retry delay")
-    max_retries: int = Field(default=10, ge=0, description="retries of a transient fault")
-
-
 class WheelscanCelery(Celery):
     """The Celery application of one service or worker process, with its settings."""
 
-    def __init__(self, settings: Settings, scale: ScaleSettings) -> None:
+    def __init__(self, settings: Settings) -> None:
         if not settings.broker_url:
             raise ValueError("broker_url must be set for Celery (WHEELSCAN_BROKER_URL)")
         super().__init__("wheelscan", broker=settings.broker_url, set_as_current=False)
         self.wheelscan_settings = settings
-        self.scale_settings = scale
 
 
-def make_celery_app(settings: Settings, scale: ScaleSettings | None = None) -> WheelscanCelery:
+def make_celery_app(settings: Settings) -> WheelscanCelery:
     """A Celery app for `settings.broker_url` with the per-wheel measurement task.
 
     Parameters
     ----------
     settings : Settings
         `broker_url` (required), `database_url` and `data_dir` (the frame store) of this
-        process: a worker measures against its own settings, never the sender's.
-    scale : ScaleSettings, optional
-        Redelivery, lease and retry timing (default: from the environment).
+        process, and the redelivery, lease and retry timing: a worker measures against its
+        own settings, never the sender's.
     """
-    scale = scale or ScaleSettings()
-    app = WheelscanCelery(settings, scale)
+    app = WheelscanCelery(settings)
     app.conf.update(
         task_serializer="json",
         accept_content=["json"],
@@ -113,8 +85,8 @@ def make_celery_app(settings: Settings, scale: ScaleSettings | None = None) -> W
         broker_connection_retry_on_startup=True,
         broker_connection_max_retries=None,
         broker_transport_options={
-            "visibility_timeout": scale.broker_visibility_timeout_s,
-            "unacked_restore_interval": scale.broker_restore_interval_s,
+            "visibility_timeout": settings.broker_visibility_timeout_s,
+            "unacked_restore_interval": settings.broker_restore_interval_s,
             "unacked_restore_throttle": 1,
         },
     )
@@ -125,9 +97,9 @@ def make_celery_app(settings: Settings, scale: ScaleSettings | None = None) -> W
         reject_on_worker_lost=True,
         autoretry_for=TRANSIENT_ERRORS,
         retry_backoff=True,
-        retry_backoff_max=scale.retry_backoff_max_s,
+        retry_backoff_max=settings.retry_backoff_max_s,
         retry_jitter=True,
-        max_retries=scale.max_retries,
+        max_retries=settings.max_retries,
     )(measure_wheel)
     return app
 
@@ -151,7 +123,7 @@ def measure_wheel(task: Task, pass_wheel_id: int) -> str:
     engine = _lease_engine(database_url)
     with hold_wheel_lease(engine, settings.data_dir / "leases", pass_wheel_id) as held:
         if not held:
-            task.apply_async(args=(pass_wheel_id,), countdown=app.scale_settings.lease_retry_s)
+            task.apply_async(args=(pass_wheel_id,), countdown=settings.lease_retry_s)
             return "busy"
         with Session(engine) as session:
             if requeue_orphaned_wheel(session, pass_wheel_id):
@@ -166,7 +138,7 @@ class CeleryRunner:
         self._settings = settings
         self._session_factory = session_factory
         self._app = make_celery_app(settings)
-        self._sweeper = LostWheelSweeper(self.send_lost, self._app.scale_settings.sweep_interval_s)
+        self._sweeper = LostWheelSweeper(self.send_lost, settings.sweep_interval_s)
 
     def submit(self, pass_wheel_ids: Sequence[int]) -> None:
         """Send one message per wheel; a wheel the broker refuses stays "queued" and is

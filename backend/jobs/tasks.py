@@ -19,7 +19,7 @@ from sqlalchemy import delete, select, update
 from sqlalchemy.orm import Session, sessionmaker
 
 from backend.services.images import prerender_layers
-from backend.services.pass_wheels import refresh_job, rows_changed
+from backend.services.pass_wheels import refresh_job, rows_changed, wheel_frames
 from backend.services.results import apply_alarms, measurement_row
 from backend.storage.artefacts import save_artefacts
 from backend.storage.remote import make_worker_store
@@ -43,7 +43,7 @@ def _worker_context(database_url: str, data_dir: str) -> tuple[sessionmaker[Sess
     from backend.config import Settings
 
     settings = Settings(data_dir=Path(data_dir), database_url=database_url)
-    return make_session_factory(make_engine(database_url)), make_worker_store(settings.frames_dir)
+    return make_session_factory(make_engine(database_url)), make_worker_store(settings)
 
 
 def claim_pass_wheel(session: Session, pass_wheel_id: int) -> bool:
@@ -110,22 +110,6 @@ def measure_pass_wheel(pass_wheel_id: int, database_url: str, data_dir: str) -> 
         return state
 
 
-def _load_frames(session: Session, pass_wheel: PassWheel, position: str) -> list[Frame]:
-    wheel = pass_wheel.wheel
-    return list(
-        session.scalars(
-            select(Frame)
-            .where(
-                Frame.pass_id == pass_wheel.pass_id,
-                Frame.vehicle_id == wheel.vehicle_id,
-                Frame.axle == wheel.axle,
-                Frame.sensor == f"{wheel.side}_{position}",
-            )
-            .order_by(Frame.seq)
-        )
-    )
-
-
 def _decode(store: BlobStore, frame: Frame) -> np.ndarray:
     data = store.get(frame.sha256, ".png")
     return decode_frame(data, f"{frame.sensor} frame {frame.seq}")
@@ -140,7 +124,7 @@ def store_wheel_results(session: Session, store: BlobStore, pass_wheel_id: int) 
     pass_wheel = session.get_one(PassWheel, pass_wheel_id)
     train_pass = pass_wheel.train_pass
     calibration = parse_calibration(train_pass.calibration.document)
-    frames = {p: _load_frames(session, pass_wheel, p) for p in POSITIONS}
+    frames = {p: wheel_frames(session, pass_wheel, (p,)) for p in POSITIONS}
     images = {p: [_decode(store, f) for f in rows] for p, rows in frames.items()}
     session.execute(delete(Measurement).where(Measurement.pass_wheel_id == pass_wheel_id))
     reasons = []

@@ -1,9 +1,9 @@
 """Fleet alarm limits: defaults, lookup, and the comparison of wheel parameters with them.
 
-EN defaults (issue 5): flange height Sh 27.5–36 mm, flange thickness Sd 22–33 mm measured at
-the EN height of 10 mm, qR ≥ 6.5 mm, back-to-back 1357–1363 mm. LM defaults follow the
-operator's rules for LM-profile wheelsets (Sd measured at 12 mm; wheelset inner distance
-1353 ± 3 mm); both are editable per fleet through the API.
+EN defaults (docs/numbers.md, "Alarms"): flange height Sh 27.5–36 mm, flange thickness Sd
+22–33 mm measured at the EN height of 10 mm, qR ≥ 6.5 mm, back-to-back 1357–1363 mm. LM
+defaults follow the operator's rules for LM-profile wheelsets (Sd measured at 12 mm;
+wheelset inner distance 1353 ± 3 mm); both are editable per fleet through the API.
 """
 
 from __future__ import annotations
@@ -14,6 +14,9 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from backend.api.schemas import LimitsRead, LimitsUpdate
+from backend.errors import InvalidInputError
+from backend.services.auth import record_audit
 from backend.services.margins import (
     ALARM,
     METHOD_DISAGREEMENT_MM,
@@ -22,7 +25,8 @@ from backend.services.margins import (
     Margin,
     parameter_margins,
 )
-from db.models import FleetLimit
+from db.models import ApiToken, FleetLimit
+from db.types import utc_now
 
 WHEEL_PROFILES = ("EN", "LM")
 
@@ -87,6 +91,48 @@ def ensure_default_limits(session: Session, fleet: str = "default") -> None:
         if family not in present:
             session.add(FleetLimit(fleet=fleet, wheel_profile=family, **DEFAULT_LIMITS_MM[family]))
     session.flush()
+
+
+def fleet_limits(session: Session, fleet: str) -> list[FleetLimit]:
+    """The limits of `fleet` for both profile families (its defaults stored on first use)."""
+    ensure_default_limits(session, fleet)
+    session.commit()
+    return list(
+        session.scalars(
+            select(FleetLimit).where(FleetLimit.fleet == fleet).order_by(FleetLimit.wheel_profile)
+        )
+    )
+
+
+def replace_limits(
+    session: Session, admin: ApiToken, fleet: str, wheel_profile: str, body: LimitsUpdate
+) -> FleetLimit:
+    """Replace the limits of one fleet and profile family (audited, committed); each
+    minimum must be below its maximum."""
+    for stem in ("flange_height", "flange_thickness", "back_to_back"):
+        low, high = getattr(body, f"{stem}_min_mm"), getattr(body, f"{stem}_max_mm")
+        if low >= high:
+            raise InvalidInputError(f"{stem}_min_mm ({low}) must be below {stem}_max_mm ({high})")
+    ensure_default_limits(session, fleet)
+    row = session.scalars(
+        select(FleetLimit).where(
+            FleetLimit.fleet == fleet, FleetLimit.wheel_profile == wheel_profile
+        )
+    ).one()
+    before = LimitsRead.model_validate(row).model_dump(mode="json")
+    for name, value in body.model_dump().items():
+        setattr(row, name, value)
+    row.updated_at = utc_now()
+    record_audit(
+        session,
+        admin,
+        "limits.update",
+        "fleet_limit",
+        f"{fleet}/{wheel_profile}",
+        {"before": before, "after": body.model_dump()},
+    )
+    session.commit()
+    return row
 
 
 def limits_for(session: Session, fleet: str, family: str) -> dict[str, float]:

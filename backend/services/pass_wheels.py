@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any, cast
 
 from sqlalchemy import CursorResult, Executable, func, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from db.models import TERMINAL_WHEEL_STATES, Job, Pass, PassWheel, Wheel
+from db.models import TERMINAL_WHEEL_STATES, Frame, Job, Measurement, Pass, PassWheel, Wheel
 from db.types import utc_now
 from pipeline import PIPELINE_VERSION
+from pipeline.archive.manifest import POSITIONS
 
 
 def rows_changed(session: Session, statement: Executable) -> int:
@@ -83,3 +85,29 @@ def refresh_job(session: Session, pass_id: int) -> Job:
         job.started_at = job.started_at or now
     session.commit()
     return job
+
+
+def wheel_frames(
+    session: Session, pass_wheel: PassWheel, positions: Sequence[str] = POSITIONS
+) -> list[Frame]:
+    """The frames of one wheel in its pass from the sensors at `positions` ("inner",
+    "outer"), ordered by sensor, then by sequence number."""
+    wheel = pass_wheel.wheel
+    sensors = [f"{wheel.side}_{position}" for position in positions]
+    return list(
+        session.scalars(
+            select(Frame)
+            .where(
+                Frame.pass_id == pass_wheel.pass_id,
+                Frame.vehicle_id == wheel.vehicle_id,
+                Frame.axle == wheel.axle,
+                Frame.sensor.in_(sensors),
+            )
+            .order_by(Frame.sensor, Frame.seq)
+        )
+    )
+
+
+def method_measurement(pass_wheel: PassWheel, method: str) -> Measurement | None:
+    """The wheel's result of `method` ("adaptive", "steger"), or None."""
+    return next((m for m in pass_wheel.measurements if m.method == method), None)

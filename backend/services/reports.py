@@ -33,10 +33,16 @@ from reportlab.platypus import (  # noqa: E402
     Table,
     TableStyle,
 )
+from sqlalchemy.orm import Session  # noqa: E402
 
-from backend.api.schemas import MethodResult, PassSummary, PassWheelRead  # noqa: E402
+from backend.api.schemas import MethodResult, PassReport, PassSummary, PassWheelRead  # noqa: E402
+from backend.services.limits import WHEEL_PROFILES, limits_for  # noqa: E402
+from backend.services.pass_wheels import wheel_frames  # noqa: E402
+from backend.services.queries import pass_summary, pass_wheels  # noqa: E402
 from backend.storage.artefacts import load_artefacts  # noqa: E402
 from backend.storage.store import BlobStore  # noqa: E402
+from db.models import Frame, Pass, PassWheel  # noqa: E402
+from db.types import utc_now  # noqa: E402
 from pipeline.archive.pass_archive import decode_frame  # noqa: E402
 from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile  # noqa: E402
 
@@ -341,3 +347,46 @@ def report_pdf(
     story.extend(_wheel_block(f) for f in figures)
     document.build(story)
     return buffer.getvalue()
+
+
+def _report_frames(session: Session, train_pass: Pass, pass_wheel: PassWheel) -> list[Frame]:
+    """The wheel's frames for the PDF thumbnails; none once retention removed them."""
+    if train_pass.frames_removed_at is not None:
+        return []
+    return wheel_frames(session, pass_wheel)
+
+
+def render_report(
+    session: Session,
+    store: BlobStore,
+    train_pass: Pass,
+    fmt: str,
+    only: PassWheel | None,
+) -> tuple[bytes, str]:
+    """The report of a pass (or of its wheel `only`) as "csv", "json" or "pdf", with its
+    file name."""
+    summary = pass_summary(session, train_pass)
+    wheels = pass_wheels(session, train_pass)
+    if only is not None:
+        wheels = [w for w in wheels if w.wheel_id == only.wheel_id]
+    stem = f"wheelscan-pass-{train_pass.id}" + (f"-wheel-{only.wheel_id}" if only else "")
+    limits = {f: limits_for(session, train_pass.fleet, f) for f in WHEEL_PROFILES}
+    if fmt == "csv":
+        return report_csv(summary, wheels), f"{stem}.csv"
+    if fmt == "json":
+        report = PassReport.model_validate({"pass": summary, "limits": limits, "wheels": wheels})
+        return report.model_dump_json(by_alias=True).encode(), f"{stem}.json"
+    by_wheel = {pw.wheel_id: pw for pw in train_pass.wheels}
+    figures = [
+        load_wheel_figures(
+            store,
+            wheel,
+            by_wheel[wheel.wheel_id].measurements,
+            _report_frames(session, train_pass, by_wheel[wheel.wheel_id]),
+        )
+        for wheel in wheels
+    ]
+    title = "Wheel profile report" if only else "Train pass wheel report"
+    generated = f"{utc_now():%Y-%m-%d %H:%M} UTC"
+    pdf = report_pdf(summary, wheels, limits, figures, title=title, generated_at=generated)
+    return pdf, f"{stem}.pdf"

@@ -23,6 +23,11 @@ REFERENCE_POINT_X_MM = 70.0
 """Tread reference point (z = 0) of the profile frame [mm]."""
 STORED_DECIMALS = 4
 """Profile coordinates are stored to 0.1 µm: far below the measurement's resolution."""
+PARAMETER_NAMES = PARAMETER_KEYS
+"""The wheel parameters of a measurement [mm] (the keys of `margins.PARAMETERS`, the one
+list of them): its columns and the API's fields.
+`flange_thickness_en_mm` is the pipeline's `flange_thickness_10_mm` (Sd at the EN height,
+z = 10 mm above the tread reference point); `flange_thickness_mm` is Sd at z = 12 mm."""
 
 
 @lru_cache(maxsize=1)
@@ -37,7 +42,7 @@ def closest_reference(x_mm: np.ndarray) -> str | None:
     differ by less than wear does, so the service matches the rim width: the measured
     profile's extent from the back face against each reference table's (LMA 135 mm, S1002
     130 mm). This picks the limit set (LM or EN) and the curve drawn behind the profile; it
-    changes no measured parameter. A vehicle register would replace it (see issue 5 notes).
+    changes no measured parameter. A vehicle register would replace it.
     """
     if x_mm.size == 0:
         return None
@@ -147,7 +152,7 @@ def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> M
 def measurement_margins(row: Measurement, fleet: str, session: Session) -> list[Margin]:
     """The margins of a measurement's parameters to its fleet's current limits."""
     family = profile_family(row.reference_profile)
-    values = {key: getattr(row, key) for key in PARAMETER_KEYS}
+    values = {key: getattr(row, key) for key in PARAMETER_NAMES}
     near_limit_fraction, _ = review_thresholds(session, fleet, family)
     limits = limits_for(session, fleet, family)
     return parameter_margins(values, limits, family, near_limit_fraction)

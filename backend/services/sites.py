@@ -10,8 +10,10 @@ from sqlalchemy import func, select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
-from backend.errors import InvalidInputError
-from db.models import Calibration, Site
+from backend.api.schemas import SiteRead
+from backend.errors import ConflictError, InvalidInputError, NotFoundError
+from backend.services.auth import record_audit
+from db.models import ApiToken, Calibration, Site
 from pipeline.calibration.model import (
     StationCalibration,
     calibration_to_document,
@@ -100,4 +102,70 @@ def add_calibration_version(
     )
     session.add(row)
     session.flush()
+    return row
+
+
+def site_read(session: Session, site: Site) -> SiteRead:
+    """A site with its current calibration version."""
+    current = current_calibration(session, site)
+    return SiteRead(
+        id=site.id,
+        name=site.name,
+        created_at=site.created_at,
+        current_calibration_version=current.version if current else None,
+    )
+
+
+def all_sites(session: Session) -> list[SiteRead]:
+    """Every site by name, with its current calibration version."""
+    return [site_read(session, site) for site in session.scalars(select(Site).order_by(Site.name))]
+
+
+def create_site(session: Session, admin: ApiToken, name: str) -> SiteRead:
+    """Register a site called `name` (audited, committed); ConflictError when it exists."""
+    if session.scalar(select(Site).where(Site.name == name)) is not None:
+        raise ConflictError(f"site {name!r} exists already")
+    site = Site(name=name)
+    session.add(site)
+    session.flush()
+    record_audit(session, admin, "site.create", "site", site.id, {"name": site.name})
+    session.commit()
+    return site_read(session, site)
+
+
+def site_calibrations(session: Session, site: Site) -> list[Calibration]:
+    """Every calibration version of `site`, newest first."""
+    return list(
+        session.scalars(
+            select(Calibration)
+            .where(Calibration.site_id == site.id)
+            .order_by(Calibration.version.desc())
+        )
+    )
+
+
+def register_calibration(
+    session: Session, admin: ApiToken, site: Site, document: object, note: str | None
+) -> Calibration:
+    """Validate a wheelscan-calibration/1 document and make it the site's current version
+    (audited, committed)."""
+    station = validate_calibration_document(document)
+    row = add_calibration_version(session, site, station, registered=True, note=note)
+    record_audit(
+        session,
+        admin,
+        "calibration.register",
+        "calibration",
+        row.id,
+        {"site": site.name, "version": row.version, "sha256": row.sha256},
+    )
+    session.commit()
+    return row
+
+
+def calibration_or_404(session: Session, calibration_id: int) -> Calibration:
+    """One calibration version by id; NotFoundError when there is none."""
+    row = session.get(Calibration, calibration_id)
+    if row is None:
+        raise NotFoundError(f"calibration {calibration_id} not found")
     return row

@@ -17,6 +17,7 @@ from sqlalchemy.orm import Session
 from backend.api.schemas import Side, TrendForecast, TrendPoint, WheelLimits, WheelTrend
 from backend.services.limits import limits_for, profile_family, review_thresholds
 from backend.services.margins import PARAMETERS, Parameter
+from backend.services.results import PARAMETER_NAMES
 from backend.services.review import PRIMARY_METHOD
 from db.models import Pass, PassWheel, Wheel
 from pipeline.profile.wear import TooFewPointsError, fit_wear, limit_crossing
@@ -109,11 +110,7 @@ def wheel_trend(session: Session, wheel: Wheel) -> WheelTrend:
             site=train_pass.site.name,
             method=m.method,
             status=m.status,
-            flange_height_mm=m.flange_height_mm,
-            flange_thickness_mm=m.flange_thickness_mm,
-            flange_thickness_en_mm=m.flange_thickness_en_mm,
-            qr_mm=m.qr_mm,
-            back_to_back_mm=m.back_to_back_mm,
+            **{name: getattr(m, name) for name in PARAMETER_NAMES},
             alarm_count=m.alarm_count,
         )
         for pass_wheel, train_pass in rows

@@ -27,6 +27,7 @@ from sqlalchemy.orm import Session
 
 from backend.config import Settings
 from backend.errors import NotFoundError
+from backend.services.pass_wheels import method_measurement
 from backend.storage.artefacts import load_artefacts
 from backend.storage.store import BlobStore
 from db.models import Measurement, PassWheel, Wheel
@@ -303,7 +304,7 @@ def load_wheel_scene_data(
 ) -> WheelSceneData:
     """Gather the scene of a wheel in a pass from the database and the artefact store."""
     pass_id, wheel_id = pass_wheel.pass_id, pass_wheel.wheel_id
-    measurement = _measurement(pass_wheel, method)
+    measurement = method_measurement(pass_wheel, method)
     # A wheel not measured keeps its track points but has no fused profile (no "x_mm").
     if measurement is None or "x_mm" not in (measurement.profile or {}):
         raise NotFoundError(
@@ -314,7 +315,7 @@ def load_wheel_scene_data(
     wheel = pass_wheel.wheel
     points: dict[str, np.ndarray] = {}
     for axle_wheel in _axle_pass_wheels(session, pass_wheel):
-        axle_measurement = _measurement(axle_wheel, method)
+        axle_measurement = method_measurement(axle_wheel, method)
         if axle_measurement is not None:
             points.update(_track_points(store, axle_measurement, calibration))
     profile = measurement.profile or {}
@@ -329,10 +330,6 @@ def load_wheel_scene_data(
         back_face_track_x_mm=profile.get("back_face_track_x_mm"),
         reference_track_z_mm=profile.get("reference_track_z_mm"),
     )
-
-
-def _measurement(pass_wheel: PassWheel, method: str) -> Measurement | None:
-    return next((m for m in pass_wheel.measurements if m.method == method), None)
 
 
 def _axle_pass_wheels(session: Session, pass_wheel: PassWheel) -> list[PassWheel]:

@@ -15,22 +15,12 @@ from pathlib import Path
 from typing import Any
 
 import httpx
-from pydantic_settings import BaseSettings, SettingsConfigDict
 
+from backend.config import Settings
 from backend.storage.store import SHA256_PATTERN, BlobStore
 
 BLOB_SUFFIXES = (".png", ".npz")
 """What the blob route serves: frames and measurement artefacts."""
-
-
-class RemoteStoreSettings(BaseSettings):
-    """Where a worker's frame store is, when it is not on a shared volume."""
-
-    model_config = SettingsConfigDict(env_prefix="WHEELSCAN_", frozen=True)
-
-    store_url: str | None = None
-    store_token: str | None = None
-    store_timeout_s: float = 60.0
 
 
 class BlobIntegrityError(OSError):
@@ -136,14 +126,14 @@ def _check_name(sha256: str, suffix: str) -> None:
         raise ValueError(f"suffix must be one of {', '.join(BLOB_SUFFIXES)}, got {suffix!r}")
 
 
-def make_worker_store(frames_dir: Path) -> BlobStore:
-    """The store a worker measures from: over HTTP, cached in `frames_dir`, when
-    `WHEELSCAN_STORE_URL` is set; else `frames_dir` itself (the shared volume)."""
-    remote = RemoteStoreSettings()
-    if not remote.store_url:
+def make_worker_store(settings: Settings) -> BlobStore:
+    """The store a worker measures from: over HTTP, cached in `settings.frames_dir`, when
+    `WHEELSCAN_STORE_URL` is set; else `settings.frames_dir` itself (the shared volume)."""
+    frames_dir = settings.frames_dir
+    if not settings.store_url:
         return BlobStore(frames_dir)
-    if not remote.store_token:
+    if not settings.store_token:
         raise ValueError("WHEELSCAN_STORE_URL is set: WHEELSCAN_STORE_TOKEN must be too")
     return HttpBlobStore(
-        remote.store_url, remote.store_token, frames_dir, timeout_s=remote.store_timeout_s
+        settings.store_url, settings.store_token, frames_dir, timeout_s=settings.store_timeout_s
     )

@@ -33,26 +33,26 @@ const layerPath = (p, w, layer, sensor, index, suffix, method) =>
 
 /**
  * @typedef {object} Api
- * @property {() => Promise<any>} me
- * @property {(filter: Record<string, string>) => Promise<any>} listPasses
- * @property {(passId: number|string) => Promise<any>} getPass
- * @property {(passId: number|string) => Promise<any[]>} listWheels
- * @property {() => Promise<any>} getLimits
+ * @property {() => Promise<import('./api-types').Me>} me
+ * @property {(filter: Record<string, string>) => Promise<import('./api-types').Page_PassSummary_>} listPasses
+ * @property {(passId: number|string) => Promise<import('./api-types').PassSummary>} getPass
+ * @property {(passId: number|string) => Promise<import('./api-types').PassWheelRead[]>} listWheels
+ * @property {() => Promise<import('./api-types').LimitsRead[]>} getLimits
  * @property {(p: number|string, w: number|string, sensor: string, index: number) => Promise<ImageBitmap>} frameImage
  * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<ImageBitmap>} maskImage
  * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<{bitmap: ImageBitmap, sigma_min_px: number, sigma_max_px: number, colormap: string}>} sigmaImage
- * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string) => Promise<any>} centres
- * @property {(passId: number|string, wheelId: number|string, method: string) => Promise<any>} profile
- * @property {(wheelId: number|string) => Promise<any[]>} trend
+ * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string) => Promise<import('./api-types').CentresRead>} centres
+ * @property {(passId: number|string, wheelId: number|string, method: string) => Promise<import('./api-types').ProfileRead>} profile
+ * @property {(wheelId: number|string) => Promise<import('./api-types').WheelTrend>} trend
  * @property {(passId: number|string, wheelId: number|string|null, format: string) => Promise<{blob: Blob, filename: string}>} report
- * @property {(passId: number|string, wheelId: number|string) => Promise<{url: string}>} viewer
+ * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').ViewerRead>} viewer
  * @property {(passId: number|string, wheelId: number|string) => Promise<any>} getWheel
  * @property {(query: Record<string, string>) => Promise<any>} worstWheels
  * @property {(text: string) => Promise<string[]>} searchVehicles
  * @property {(vehicleId: string) => Promise<any>} vehicle
  * @property {(passId: number|string, wheelId: number|string) => Promise<any[]>} dispositions
  * @property {(passId: number|string, wheelId: number|string, body: {kind: string, comment?: string}) => Promise<any>} addDisposition
- * @property {(jobId: number|string) => Promise<any>} getJob
+ * @property {(jobId: number|string) => Promise<import('./api-types').JobRead>} getJob
  * @property {(file: File, onProgress: (fraction: number) => void) => Promise<{pass_id: number, job_id: number}>} uploadPass
  * @property {(path: 'passes'|string, onMessage: (msg: any) => void, onState: (open: boolean) => void) => () => void} watch
  */

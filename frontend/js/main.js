@@ -56,7 +56,7 @@ async function onHashChange() {
     else stopWatching?.();
   }
   const layers = /** @type {typeof DEFAULT_LAYERS} */ (Object.fromEntries(LAYERS.map(([key]) => [key,
-    route.query[key] === undefined ? DEFAULT_LAYERS[/** @type {keyof DEFAULT_LAYERS} */ (key)] : route.query[key] === '1'])));
+    route.query[key] === undefined ? DEFAULT_LAYERS[/** @type {keyof typeof DEFAULT_LAYERS} */ (key)] : route.query[key] === '1'])));
   if (!store.get().me) {
     store.set({ route, layers });
     return;

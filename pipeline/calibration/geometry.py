@@ -1,4 +1,4 @@
-"""Pixel ↔ millimetre geometry of one laser/camera sensor (DESIGN.md, "Contracts").
+"""Pixel ↔ millimetre geometry of one laser/camera sensor (docs/coordinate-frames.md).
 
 A centre pixel goes: undistort → ray m (camera frame, z = 1) → light-plane intersection
 P = (d / n·m) m → track frame T_track_camera · P. `project_track_points` is the inverse

@@ -42,9 +42,10 @@ WIDER_MARGIN_PX = 36.0
 """Margin of the one wider band tried when a stripe component reaches the first band's
 edge [px]."""
 
-SMALL_MARGIN = 0.8
-"""The longest seed region is the stripe widened by its margin; its length L overstates the
-stripe's by a few margins at most. Regions left out are sized against this share of it."""
+SEED_LENGTH_SHARE = 0.8
+"""Share (0–1) of the longest seed region's length L that regions left out are sized
+against: that region is the stripe widened by its margin, so L overstates the stripe's
+length by a few margins at most."""
 
 MAX_BAND_FRACTION = 0.4
 """A band covering more of the frame than this saves nothing: the full-frame path runs."""
@@ -173,7 +174,7 @@ def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, float]:
 
     A component kept as part of the stripe is at least KEEP_FRACTION of the longest one's
     length L = √(12·λmax) (`segmentation.stripe_components`), and any pixel set of
-    extent D holds none longer than √3·D. Regions with √3·D < KEEP_FRACTION · SMALL_MARGIN ·
+    extent D holds none longer than √3·D. Regions with √3·D < KEEP_FRACTION · SEED_LENGTH_SHARE ·
     the longest region's L (stray spots, another part's short stripe) are left out. Returns
     the grid without them and the largest extent D left out [px of the frame], which the
     caller checks against the stripe's actual length (the regions are the seeds widened).
@@ -184,7 +185,7 @@ def _small_regions(band: np.ndarray, stride: int) -> tuple[np.ndarray, float]:
     sides = _label_sides(labels, count)
     extent = stride * np.hypot(sides[1:, 0] + 1.0, sides[1:, 1] + 1.0)
     length = stride * component_shapes(labels, count).length_px[1:]
-    small = math.sqrt(3.0) * extent < KEEP_FRACTION * SMALL_MARGIN * length.max()
+    small = math.sqrt(3.0) * extent < KEEP_FRACTION * SEED_LENGTH_SHARE * length.max()
     if not small.any():
         return band, 0.0
     return _without(band, labels, np.concatenate(([False], small))), float(extent[small].max())

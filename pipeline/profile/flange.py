@@ -1,4 +1,4 @@
-"""Flange parameters of a wheel profile in the profile frame (DESIGN.md).
+"""Flange parameters of a wheel profile in the profile frame (docs/coordinate-frames.md).
 
 Sh = highest z of the flange; Sd(h) = x of the flange flank (the side facing the tread) at
 z = h, for h = 12 mm (LM wheels) and h = 10 mm (EN); qR = x_flank(10) − x_flank(Sh − 2).
@@ -204,7 +204,8 @@ def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameter
 
     Notes
     -----
-    Sh is the vertex of a quadratic z(x) fitted within ±2.5 mm of the highest points. Each
+    Sh: a quadratic z(x) within ±2.5 mm of the highest points locates the crest, and a circle
+    fitted within ±4 mm of it gives the height (the top is an arc). Each
     flank abscissa is a quadratic x(z) fitted to points on the tread side of the top within
     ±1 mm of the height, evaluated at that height.
     """

@@ -1,10 +1,10 @@
 """From track-frame stripe points to one wheel's fused profile in the profile frame.
 
 Both sensors of a wheel land in the one track frame, so fusion is a union plus a consistency
-check. The datum follows DESIGN.md: x from the back face (found in the inner sensor's points
-as the innermost vertical line), z up towards the flange tip, z = 0 at the tread reference
-point x = 70 mm. At the wheel's lowest section a larger radius is a lower track Z, so
-z = Z(x = 70) − Z.
+check. The datum follows docs/coordinate-frames.md: x from the back face (found in the inner
+sensor's points as the innermost vertical line), z up towards the flange tip, z = 0 at the
+tread reference point x = 70 mm. At the wheel's lowest section a larger radius is a lower
+track Z, so z = Z(x = 70) − Z.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Reference wheel profiles (LMA, S1002) as data, in the profile frame of DESIGN.md.
+"""Reference wheel profiles (LMA, S1002) as data, in the profile frame (docs/coordinate-frames.md).
 
 The coordinate tables ship as package data (`pipeline/profile/data/*.csv`, provenance in
 `pipeline/profile/data/PROVENANCE.md`): x from the back face [mm], z up towards the flange tip [mm],

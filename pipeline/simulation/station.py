@@ -2,13 +2,13 @@
 
 Optics follow the paper's station (Basler acA1600-60gm + Computar M1614-MP2): 1600×1200 px,
 4.5 µm pixels, 16 mm lens (f = 3555.6 px), 405 nm line lasers projecting from both sides of
-each rail. Track frame (DESIGN.md): X along the axle towards the right rail, Y along the
-rail, Z up, Z = 0 at the rail top. Each side has an inner sensor (gauge side: back face and
-flange) and an outer sensor (field side: flange flank, tread and chamfer); their views
-overlap on the flange. The light planes are nearly the vertical plane Y = 0 through the
-wheel's lowest section, each a little tilted and offset as real mountings are, and each
-camera sits 380 mm along the rail from its plane for triangulation. Inner and outer lasers
-are strobed alternately, so each frame shows its own sensor's laser only.
+each rail. Track frame (docs/coordinate-frames.md): X along the axle towards the right rail,
+Y along the rail, Z up, Z = 0 at the rail top. Each side has an inner sensor (gauge side:
+back face and flange) and an outer sensor (field side: flange flank, tread and chamfer);
+their views overlap on the flange. The light planes are nearly the vertical plane Y = 0
+through the wheel's lowest section, each a little tilted and offset as real mountings are,
+and each camera sits 380 mm along the rail from its plane for triangulation. Inner and outer
+lasers are strobed alternately, so each frame shows its own sensor's laser only.
 """
 
 from __future__ import annotations

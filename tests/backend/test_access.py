@@ -51,6 +51,28 @@ def test_a_lower_role_is_403_naming_the_role_needed(client, auth, role, method, 
     assert "needs a" in body["detail"] and role in body["detail"]
 
 
+@pytest.mark.parametrize(
+    ("role", "needed", "method", "path"),
+    [
+        ("viewer", "operator", "get", "/api/passes/999999/frames"),
+        ("viewer", "operator", "post", "/api/passes/999999/close"),
+        ("operator", "admin", "post", "/api/sites/no-such-site/calibrations"),
+    ],
+)
+def test_the_role_is_checked_before_a_lookup_could_tell_an_id_exists(
+    client, auth, role, needed, method, path
+) -> None:
+    # The lookup (pass, site) runs with the role the route declares, so a lower role learns
+    # nothing: 403, where the role the route needs gets the lookup's 404.
+    body_kwargs = {"json": {"document": {}}} if "calibrations" in path else {}
+    lower = client.request(method, path, headers=auth(role), **body_kwargs)
+    assert lower.status_code == 403, lower.text
+    assert needed in lower.json()["detail"]
+    allowed = client.request(method, path, headers=auth(needed), **body_kwargs)
+    assert allowed.status_code == 404, allowed.text
+    assert allowed.json()["code"] == "not_found"
+
+
 def test_revoked_and_expired_tokens_are_refused(client, auth) -> None:
     created = client.post(
         "/api/tokens", headers=auth("admin"), json={"role": "viewer", "name": "kiosk"}

@@ -7,7 +7,8 @@ import functools
 import pytest
 
 from pipeline import extract_centres
-from tests.pipeline.stripe_images import StripeCase, make_stripe, score_centres
+from tests.pipeline.stripe_images import StripeCase, make_stripe
+from tests.pipeline.stripe_scores import score_centres
 
 UNIFORM = [
     StripeCase("uniform-w5", width_start_px=5, width_end_px=5),

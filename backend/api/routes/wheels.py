@@ -10,7 +10,6 @@ from typing import Annotated, Any, Literal, cast
 
 import numpy as np
 from fastapi import APIRouter, Query, Request, Response
-from sqlalchemy import select
 
 from backend.api.deps import PassWheelDep, SessionDep, StoreDep, ViewerDep, WheelDep
 from backend.api.schemas import (
@@ -23,11 +22,15 @@ from backend.api.schemas import (
 )
 from backend.errors import ERROR_RESPONSES, GoneError, NotFoundError
 from backend.services.images import SIGMA_COLORMAP, LayerPng, cached_artefacts, frame_png, layer_png
-from backend.services.queries import method_result, pass_wheels
+from backend.services.queries import pass_wheels
 from backend.services.trends import wheel_trend
+from backend.services.wheel_data import (
+    stored_artefacts,
+    stored_extraction,
+    wheel_frame,
+    wheel_profile,
+)
 from backend.storage.artefacts import FrameArtefacts
-from db.models import Frame, Measurement, MeasurementFrame, PassWheel
-from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile
 
 router = APIRouter(prefix="/api", tags=["wheels"], responses=ERROR_RESPONSES)
 
@@ -45,67 +48,6 @@ MaxWidth = Annotated[int | None, Query(ge=16, le=8192, description="downscale to
 REVALIDATE = {"Cache-Control": "private, no-cache"}
 """Browsers keep the layers and ask again with If-None-Match (a 304 costs one lookup)."""
 FrameIndex = Annotated[int, Query(ge=0, description="frame of this sensor for the wheel, 0-based")]
-
-
-def _frame(session: SessionDep, pass_wheel: PassWheel, position: str, index: int) -> Frame:
-    wheel = pass_wheel.wheel
-    sensor = f"{wheel.side}_{position}"
-    frames = list(
-        session.scalars(
-            select(Frame)
-            .where(
-                Frame.pass_id == pass_wheel.pass_id,
-                Frame.vehicle_id == wheel.vehicle_id,
-                Frame.axle == wheel.axle,
-                Frame.sensor == sensor,
-            )
-            .order_by(Frame.seq)
-        )
-    )
-    if index >= len(frames):
-        raise NotFoundError(f"wheel has {len(frames)} {sensor} frame(s); index {index} is beyond")
-    return frames[index]
-
-
-def _measurement(pass_wheel: PassWheel, method: str) -> Measurement:
-    for measurement in pass_wheel.measurements:
-        if measurement.method == method:
-            return measurement
-    raise NotFoundError(
-        f"wheel {pass_wheel.wheel_id} of pass {pass_wheel.pass_id} has no {method} result "
-        f"(state: {pass_wheel.state.replace('_', ' ')})"
-    )
-
-
-def _artefact_row(
-    session: SessionDep, pass_wheel: PassWheel, method: str, position: str, index: int
-) -> tuple[Frame, MeasurementFrame]:
-    frame = _frame(session, pass_wheel, position, index)
-    measurement = _measurement(pass_wheel, method)
-    row = session.scalar(
-        select(MeasurementFrame).where(
-            MeasurementFrame.measurement_id == measurement.id,
-            MeasurementFrame.sensor == frame.sensor,
-            MeasurementFrame.seq == frame.seq,
-        )
-    )
-    if row is None:
-        raise NotFoundError(
-            f"no {method} extraction is stored for {frame.sensor} frame {frame.seq}"
-        )
-    return frame, row
-
-
-def _artefacts(
-    session: SessionDep,
-    store: StoreDep,
-    pass_wheel: PassWheel,
-    method: str,
-    position: str,
-    index: int,
-) -> tuple[Frame, FrameArtefacts]:
-    frame, row = _artefact_row(session, pass_wheel, method, position, index)
-    return frame, cached_artefacts(store, row.artefact_sha256)
 
 
 def _revalidated(request: Request, etag: str) -> Response | None:
@@ -136,7 +78,7 @@ def get_frame_png(
 ) -> Response:
     """A frame of the wheel's inner or outer sensor as PNG (8/16-bit grey as recorded);
     410 once frame retention removed the pass's frames."""
-    frame = _frame(session, pass_wheel, position, index)
+    frame = wheel_frame(session, pass_wheel, position, index)
     removed_at = pass_wheel.train_pass.frames_removed_at
     if removed_at is not None:
         raise GoneError(
@@ -164,7 +106,7 @@ def get_mask_png(
     max_width: MaxWidth = None,
 ) -> Response:
     """The stripe mask the method searched centres in (255 = stripe)."""
-    _frame_row, row = _artefact_row(session, pass_wheel, method, position, index)
+    _frame_row, row = stored_extraction(session, pass_wheel, method, position, index)
     etag = f'"{row.artefact_sha256[:24]}-mask-{max_width}"'
     if (cached := _revalidated(request, etag)) is not None:
         return cached
@@ -195,7 +137,7 @@ def get_sigma_png(
 ) -> Response:
     """The σ map coloured (transparent where no scale was chosen). Its colour scale is in
     the headers X-Colormap, X-Sigma-Min-Px and X-Sigma-Max-Px."""
-    _frame_row, row = _artefact_row(session, pass_wheel, method, position, index)
+    _frame_row, row = stored_extraction(session, pass_wheel, method, position, index)
     etag = f'"{row.artefact_sha256[:24]}-sigma-{max_width}"'
     if max_width is None and row.sigma_png_sha256 is not None:
         layer = LayerPng(
@@ -235,7 +177,7 @@ def get_sigma_raw(
 ) -> Response:
     """The raw σ map [px]: row-major little-endian float32, 0 outside the mask; the size
     is in the headers X-Width-Px and X-Height-Px (a Float32Array in the browser)."""
-    _frame_row, artefacts = _artefacts(session, store, pass_wheel, method, position, index)
+    _frame_row, artefacts = stored_artefacts(session, store, pass_wheel, method, position, index)
     sigma_map = _sigma_map(artefacts, method)
     height_px, width_px = sigma_map.shape
     return Response(
@@ -256,7 +198,7 @@ def get_centres(
     index: FrameIndex = 0,
 ) -> CentresRead:
     """Centre points of one frame, columnar: x, y [px], sigma [px], strength, nx, ny."""
-    frame, artefacts = _artefacts(session, store, pass_wheel, method, position, index)
+    frame, artefacts = stored_artefacts(session, store, pass_wheel, method, position, index)
     points = {name: np.round(values, 4).tolist() for name, values in artefacts.points.items()}
     return CentresRead(
         method=method,
@@ -274,30 +216,7 @@ def get_profile(
     pass_wheel: PassWheelDep, _viewer: ViewerDep, method: Method = "adaptive"
 ) -> ProfileRead:
     """The fused profile and its reference profile [mm], with the Sh/Sd/qR construction."""
-    measurement = _measurement(pass_wheel, method)
-    profile = measurement.profile or {}
-    reference = measurement.reference_profile
-    ref = load_reference_profile(reference) if reference in REFERENCE_PROFILES else None
-    result = method_result(measurement)
-    return ProfileRead(
-        method=method,
-        reference_profile=reference,
-        x_mm=profile.get("x_mm", []),
-        z_mm=profile.get("z_mm", []),
-        reference_x_mm=ref.x_mm.tolist() if ref else [],
-        reference_z_mm=ref.z_mm.tolist() if ref else [],
-        construction=profile.get("construction", {}),
-        parameters={
-            name: getattr(result, name)
-            for name in (
-                "flange_height_mm",
-                "flange_thickness_mm",
-                "flange_thickness_en_mm",
-                "qr_mm",
-                "back_to_back_mm",
-            )
-        },
-    )
+    return wheel_profile(pass_wheel, method)
 
 
 @router.get("/wheels/{wheel_id}/trend")

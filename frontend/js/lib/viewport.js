@@ -4,7 +4,7 @@
  * function returns a new one.
  *
  * Screen position (CSS px) = image position (px) × scale + offset. Image pixel [r, c] has its
- * centre at (x = c, y = r) (DESIGN.md), so it covers x ∈ [c − 0.5, c + 0.5].
+ * centre at (x = c, y = r) (docs/coordinate-frames.md), so it covers x ∈ [c − 0.5, c + 0.5].
  */
 
 /** @typedef {{scale: number, offsetX: number, offsetY: number}} Viewport */

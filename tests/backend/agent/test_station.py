@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -157,3 +158,15 @@ def test_agent_cli_errors_are_one_line(
     assert result.stderr.count("\n") == 1
     assert result.stderr.startswith("wheelscan agent: error: ")
     assert message in result.stderr
+
+
+def test_agent_takes_its_token_from_wheelscan_token(tmp_path: Path) -> None:
+    station = str(write_json(tmp_path, minimal()))
+    command = [sys.executable, "-m", "backend.cli", "agent", "--station", station]
+    command += ["--server", "http://127.0.0.1:9"]
+    environment = {**os.environ, "WHEELSCAN_TOKEN": "wst_from_the_environment"}
+    with_token = subprocess.run(command, capture_output=True, text=True, env=environment)
+    # Past the token check (without a token it stops there, see above), the agent stops at
+    # the first camera it cannot open.
+    assert with_token.returncode == 2
+    assert "camera '1' for left_inner is not attached" in with_token.stderr
