@@ -5,12 +5,13 @@ the walk-through found (each test would have caught one).
 Three passes of one simulated train (1 vehicle, 2 axles, LMA wheels) are uploaded through
 the API with the LM flange-thickness maximum lowered to 31.3 mm for them (the truth puts
 axle 1's wheels at 31.7–31.8 mm: in alarm; axle 2 left at 30.7 mm: within the amber band),
-then dated 60, 30 and 0 days back. Screenshots land in tests/e2e/screenshots/.
+then dated 60, 30 and 0 days before 2026-11-22. Screenshots land in tests/e2e/screenshots/.
 """
 
 from __future__ import annotations
 
 import base64
+import json
 import subprocess
 import zipfile
 from collections.abc import Iterator
@@ -32,6 +33,9 @@ pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 VIEWPORT = {"width": 1600, "height": 1000}
 LM_SD_MAX_MM = 31.3
 DAYS_BACK = (60, 30, 0)
+NEWEST_AT = datetime(2026, 11, 22, 8, tzinfo=UTC)
+"""The newest of these passes: a day before the simulator's own pass time, so passes other
+browser tests upload stay the newest in the list."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,7 +97,7 @@ def depot(service: Service, tmp_path_factory: pytest.TempPathFactory) -> Depot:
     engine = create_engine(f"sqlite:///{service.data_dir / 'wheelscan.db'}")
     with engine.begin() as connection:
         for pass_id, days in zip(passes, DAYS_BACK, strict=True):
-            when = datetime.now(UTC).replace(microsecond=0) - timedelta(days=days)
+            when = NEWEST_AT - timedelta(days=days)
             connection.execute(update(Pass).where(Pass.id == pass_id).values(started_at=when))
     engine.dispose()
     return Depot(passes)
@@ -297,6 +301,33 @@ def test_defect_2_an_error_banner_clears_on_the_next_page(viewer: Any, service: 
     assert page.locator("#banner .error").count() == 0
 
 
+def test_defect_5_the_difference_plot_shows_every_offset_and_leads_to_the_frame(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    target = wheel_at(service, depot.newest, 1, "left")
+    open_wheel(page, service, depot.newest, target["wheel_id"])
+    plot = page.locator(".diff-plot")
+    data = plot.evaluate("(c) => ({ ...c.dataset })")
+    assert float(data["deltaTopPx"]) >= float(data["maxAbsPx"]) > 0, data
+    assert "shaded: ±RMS" in page.locator(".diff-plot + .note").inner_text()
+    box = plot.bounding_box()
+    before = page.locator(".frame-canvas").get_attribute("data-viewport")
+    y = box["y"] + float(data["zeroY"])
+    for sx in range(int(float(data["left"])), int(float(data["right"])), 3):
+        page.mouse.move(box["x"] + sx, y)
+        if plot.get_attribute("data-hovered") != "-1":
+            break
+    assert plot.get_attribute("data-hovered") != "-1", "no pair found along the zero line"
+    assert "click to show it on the frame" in page.locator(".diff-plot + .note").inner_text()
+    page.mouse.click(box["x"] + sx, y)
+    page.wait_for_function(
+        "(b) => document.querySelector('.frame-canvas').dataset.viewport !== b", arg=before
+    )
+    assert json.loads(page.locator(".frame-canvas").get_attribute("data-viewport"))["scale"] >= 4
+    page.screenshot(path=str(screenshots / "32-difference-click.png"))
+
+
 def test_defect_6_a_narrow_window_gives_the_frame_the_full_width(
     browser: Any, service: Service, depot: Depot, screenshots: Path
 ) -> None:
@@ -400,6 +431,7 @@ def test_defect_10_filters_match_parts_clear_and_wheel_changes_skip_the_wheel_li
     assert page.locator("form.filters input[name=site]").input_value() == ""
     first, second = (w["wheel_id"] for w in wheels(service, depot.newest)[:2])
     open_wheel(page, service, depot.newest, first)
+    page.locator("a[rel=next]").wait_for()  # the pass's wheel list, fetched once, is in
     listed: list[str] = []
     page.on("request", lambda r: listed.append(r.url) if r.url.endswith("/wheels") else None)
     page.locator("a[rel=next]").click()

@@ -122,6 +122,23 @@ export class FrameView {
       xs[1] + STRIPE_MARGIN_PX, ys[1] + STRIPE_MARGIN_PX, widthPx, heightPx);
   }
 
+  /**
+   * Centre the view on an image point, zoomed in to at least `minScale` screen px per
+   * image px, and ring it.
+   * @param {number} x image x [px]
+   * @param {number} y image y [px]
+   * @param {number} [minScale]
+   */
+  centreOn(x, y, minScale = 4) {
+    if (!this.data) return;
+    const w = this.canvas.clientWidth;
+    const hgt = this.canvas.clientHeight;
+    const scale = Math.max(this.viewport?.scale ?? 1, minScale);
+    this.viewport = { scale, offsetX: w / 2 - x * scale, offsetY: hgt / 2 - y * scale };
+    this.highlight = { x, y };
+    this.request();
+  }
+
   /** @param {number} factor */
   zoom(factor) {
     if (!this.viewport) return;

@@ -47,18 +47,23 @@ export function renderProfile(canvas, profiles, methods, marker = null) {
 }
 
 /**
- * Draw the difference plot and return its summary line.
+ * Draw the difference plot and return its summary line and scale.
  * @param {HTMLCanvasElement} canvas
  * @param {import('../lib/method-difference.js').MethodDifference|null} diff
- * @returns {string}
+ * @param {number} [marker] index of the pair to ring
+ * @returns {{note: string, scale: import('../lib/plot-scale.js').PlotScale|null}}
  */
-export function renderDifference(canvas, diff) {
+export function renderDifference(canvas, diff, marker) {
   const { ctx, widthPx, heightPx, pixelRatio } = fitCanvas(canvas);
-  if (!diff || !drawDifference(ctx, diff, { widthPx, heightPx, pixelRatio })) {
+  const scale = diff ? drawDifference(ctx, diff, { widthPx, heightPx, pixelRatio, marker }) : false;
+  if (!diff || !scale) {
     ctx.clearRect(0, 0, canvas.width, canvas.height);
-    return 'no adaptive/Steger pairs to compare';
+    return { note: 'no adaptive/Steger pairs to compare', scale: null };
   }
-  return `${diff.alongPx.length} pairs · mean ${fmtNumber(diff.meanPx, 3)} px · RMS ${fmtNumber(diff.rmsPx, 3)} px · max |Δ| ${fmtNumber(diff.maxAbsPx, 3)} px · ${diff.unmatched} adaptive without a Steger partner within 2 px`;
+  return {
+    note: `${diff.alongPx.length} pairs · mean ${fmtNumber(diff.meanPx, 3)} px · RMS ${fmtNumber(diff.rmsPx, 3)} px (shaded: ±RMS) · max |Δ| ${fmtNumber(diff.maxAbsPx, 3)} px · ${diff.unmatched} adaptive without a Steger partner within 2 px · hover to read, click to show that point on the frame`,
+    scale,
+  };
 }
 
 /** Height of one parameter's trend plot [CSS px]. */

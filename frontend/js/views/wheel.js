@@ -59,6 +59,16 @@ export class WheelView {
     this.profileScale = null;
     this.profileCanvas.addEventListener('pointermove', (e) => this.hoverProfile(e.offsetX, e.offsetY));
     this.profileCanvas.addEventListener('pointerleave', () => this.drawProfilePlot(null));
+    /** @type {import('../lib/method-difference.js').MethodDifference|null} */
+    this.difference = null;
+    /** @type {import('../lib/plot-scale.js').PlotScale|null} */
+    this.diffScale = null;
+    this.diffCanvas.addEventListener('pointermove', (e) => this.drawDifferencePlot(this.pairAt(e.offsetX, e.offsetY)));
+    this.diffCanvas.addEventListener('pointerleave', () => this.drawDifferencePlot(-1));
+    this.diffCanvas.addEventListener('click', (e) => {
+      const i = this.pairAt(e.offsetX, e.offsetY);
+      if (i >= 0 && this.difference) this.frame.centreOn(this.difference.x[i], this.difference.y[i]);
+    });
     /** @type {any} */
     this.shown = {};
     /** @type {any} */
@@ -98,7 +108,8 @@ export class WheelView {
     if (changed('toolbar', JSON.stringify(show))) this.renderToolbar(show);
     if (changed('layers', w.layers)) {
       this.frame.setData({ ...w.layers, sigmaScale: w.sigmaScale, centres: w.centres });
-      this.diffNote.textContent = renderDifference(this.diffCanvas, pairDifference(w.centres));
+      this.difference = pairDifference(w.centres);
+      this.drawDifferencePlot(-1);
     }
     this.frame.setShow(show);
     // which wheel is fully on screen (the browser tests wait for it)
@@ -127,6 +138,36 @@ export class WheelView {
     this.profileNote.textContent = note ?? (hovered
       ? `${hovered.method}: x ${fmtNumber(hovered.x, 2)} mm · z ${fmtNumber(hovered.z, 2)} mm`
       : 'Dashed grey: reference. Constructions of the selected method: Sh (yellow), Sd (green), qR (pink). Hover the profile to read points.');
+  }
+
+  /**
+   * Draw the difference plot, ringing and reading out pair `i` (none when -1).
+   * @param {number} i
+   */
+  drawDifferencePlot(i) {
+    const { note, scale } = renderDifference(this.diffCanvas, this.difference, i);
+    this.diffScale = scale;
+    const d = this.difference;
+    this.diffNote.textContent = i >= 0 && d
+      ? `Δ ${fmtSigned(d.diffPx[i], 3)} px at ${fmtNumber(d.alongPx[i], 0)} px along the stripe (frame x ${fmtNumber(d.x[i], 1)}, y ${fmtNumber(d.y[i], 1)} px): click to show it on the frame`
+      : note;
+    // what the plot spans and holds, for checks that nothing is clipped
+    Object.assign(this.diffCanvas.dataset, {
+      hovered: String(i), deltaTopPx: String(scale?.yRange[1] ?? ''), maxAbsPx: String(d?.maxAbsPx ?? ''),
+      zeroY: String(scale ? scale.toY(0) : ''), left: String(scale?.left ?? ''), right: String(scale?.right ?? ''),
+    });
+  }
+
+  /**
+   * The pair under a point of the difference plot (within 8 CSS px), or -1.
+   * @param {number} sx
+   * @param {number} sy
+   * @returns {number}
+   */
+  pairAt(sx, sy) {
+    const d = this.difference;
+    if (!d || !this.diffScale) return -1;
+    return nearestOnScreen(this.diffScale, d.alongPx, d.diffPx, sx, sy, 8);
   }
 
   /**
