@@ -272,6 +272,10 @@ class CentresRead(BaseModel):
     strength: list[float]
     nx: list[float]
     ny: list[float]
+    rejected_x: list[float] = Field(
+        default_factory=list, description="candidates the method rejected [px], where stored"
+    )
+    rejected_y: list[float] = Field(default_factory=list)
 
 
 class SigmaMapRead(BaseModel):

@@ -69,12 +69,19 @@ def _forecast(
         inset = near_limit_fraction * (high - low)
         near = limit - inset if bound == "max" else limit + inset
     crossing = limit_crossing(fit, limit) if limit is not None else None
+    # the wheel was within its limit at its last pass: no end of the interval is earlier
+    last_day = float(days.max())
     reached = _when(origin, crossing.x) if crossing else None
-    note = (
-        f"robust linear fit of {fit.points} passes; limit reached {reached:%Y-%m-%d} UTC"
-        if reached
-        else "the fit does not reach a limit within 10 years"
-    )
+    earliest = None
+    if crossing and crossing.x_earliest is not None:
+        earliest = _when(origin, max(crossing.x_earliest, last_day))
+    beyond = limit is not None and (values[-1] > limit if bound == "max" else values[-1] < limit)
+    if beyond:
+        note = "beyond the limit at the last pass"
+    elif reached:
+        note = f"robust linear fit of {fit.points} passes; limit reached {reached:%Y-%m-%d} UTC"
+    else:
+        note = "the fit does not reach a limit within 10 years"
     return TrendForecast(
         parameter=parameter.key,
         per="day",
@@ -86,7 +93,7 @@ def _forecast(
         limit_mm=limit,
         near_mm=near,
         reached_at=reached,
-        reached_earliest=_when(origin, crossing.x_earliest) if crossing else None,
+        reached_earliest=earliest,
         reached_latest=_when(origin, crossing.x_latest) if crossing else None,
         note=note,
         intercept_mm=fit.intercept,

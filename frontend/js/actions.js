@@ -286,7 +286,7 @@ async function loadSideLayers(api, store, passId, wheelId, sensor, index, signal
     wheel: {
       ...w,
       layers: { ...w.layers, mask: 'error' in mask ? null : mask, sigma: sigmaOk ? sigma.bitmap : null },
-      sigmaScale: sigmaOk ? { sigma_min_px: sigma.sigma_min_px, sigma_max_px: sigma.sigma_max_px } : null,
+      sigmaScale: sigmaOk ? { sigma_min_px: sigma.sigma_min_px, sigma_max_px: sigma.sigma_max_px, scales_px: sigma.scales_px } : null,
       layerErrors: { mask: 'error' in mask ? mask.error : null, sigma: sigmaOk ? null : sigma.error },
     },
   });

@@ -40,7 +40,7 @@ const layerPath = (p, w, layer, sensor, index, suffix, method) =>
  * @property {() => Promise<import('./api-types').LimitsRead[]>} getLimits
  * @property {(p: number|string, w: number|string, sensor: string, index: number) => Promise<ImageBitmap>} frameImage
  * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<ImageBitmap>} maskImage
- * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<{bitmap: ImageBitmap, sigma_min_px: number, sigma_max_px: number, colormap: string}>} sigmaImage
+ * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<{bitmap: ImageBitmap, sigma_min_px: number, sigma_max_px: number, scales_px: number[], colormap: string}>} sigmaImage
  * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string) => Promise<import('./api-types').CentresRead>} centres
  * @property {(passId: number|string, wheelId: number|string, method: string) => Promise<import('./api-types').ProfileRead>} profile
  * @property {(wheelId: number|string) => Promise<import('./api-types').WheelTrend>} trend
@@ -105,6 +105,7 @@ export function createApi(getToken, base = '') {
       return {
         sigma_min_px: Number(response.headers.get('X-Sigma-Min-Px')),
         sigma_max_px: Number(response.headers.get('X-Sigma-Max-Px')),
+        scales_px: (response.headers.get('X-Sigma-Scales-Px') ?? '').split(',').filter(Boolean).map(Number),
         colormap: response.headers.get('X-Colormap') ?? 'viridis',
         bitmap: await decode(response, path),
       };

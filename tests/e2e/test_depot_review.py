@@ -292,6 +292,29 @@ def test_method_disagreement_beyond_the_fleets_threshold_is_flagged(
         assert api(service, "admin", "PUT", "/api/limits/default/LM", json=body).is_success
 
 
+def test_defect_1_each_user_gets_a_3d_scene_of_their_own(
+    browser: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    pages = [new_page(browser, service, "viewer") for _ in range(2)]
+    targets = [
+        wheel_at(service, depot.newest, 1, "left"),
+        wheel_at(service, depot.newest, 2, "right"),
+    ]
+    urls = []
+    for page, target in zip(pages, targets, strict=True):
+        open_wheel(page, service, depot.newest, target["wheel_id"])
+        page.locator("button[data-action='open-3d']").click()
+        page.frame_locator("iframe.viewer-frame").locator("canvas").first.wait_for(timeout=60_000)
+        urls.append(page.locator("iframe.viewer-frame").get_attribute("src"))
+    assert urls[0] != urls[1], "the second user's wheel replaced the first user's scene"
+    first = pages[0]
+    assert first.locator("iframe.viewer-frame").get_attribute("src") == urls[0]
+    first.wait_for_timeout(2000)  # viser streams the scene, then fades it in
+    first.screenshot(path=str(screenshots / "33-3d-own-scene.png"))
+    for page in pages:
+        page.context.close()
+
+
 def test_defect_2_an_error_banner_clears_on_the_next_page(viewer: Any, service: Service) -> None:
     page = viewer
     page.goto(f"{service.url}/#/passes/987654")
@@ -299,6 +322,28 @@ def test_defect_2_an_error_banner_clears_on_the_next_page(viewer: Any, service: 
     page.locator("header nav a", has_text="Passes").click()
     page.locator("tr[data-pass-id]").first.wait_for()
     assert page.locator("#banner .error").count() == 0
+
+
+def test_defect_4_the_sigma_map_has_one_scale_for_every_frame_and_an_opacity(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    ranges = []
+    for axle, side in ((1, "left"), (2, "right")):
+        target = wheel_at(service, depot.newest, axle, side)
+        open_wheel(page, service, depot.newest, target["wheel_id"], "?sigma=1")
+        page.locator(".legend").wait_for(state="visible")
+        sigma = api(
+            service, "viewer", "GET",
+            f"/api/passes/{depot.newest}/wheels/{target['wheel_id']}/sigma/inner.png",
+        )  # fmt: skip
+        ranges.append((sigma.headers["X-Sigma-Min-Px"], sigma.headers["X-Sigma-Max-Px"]))
+    assert ranges[0] == ranges[1], f"the σ colours differ between frames: {ranges}"
+    assert float(ranges[0][0]) == pytest.approx(5 / 3**0.5, abs=1e-4)
+    slider = page.locator("input.sigma-opacity")
+    assert slider.is_visible() and slider.input_value() == "55"
+    slider.fill("30")
+    page.screenshot(path=str(screenshots / "34-sigma-fixed-scale.png"))
 
 
 def test_defect_5_the_difference_plot_shows_every_offset_and_leads_to_the_frame(

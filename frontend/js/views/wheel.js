@@ -208,7 +208,7 @@ export class WheelView {
       h('span', { class: `badge ${level}`, 'data-level': level },
         r?.reason ? 'not measured' : { ok: 'within limits', near: 'NEAR LIMIT', alarm: 'ALARM', none: r?.state ?? '–' }[level]),
       h('span', { class: `disposition ${r?.disposition ? 'set' : 'open'}` }, fmtDisposition(r?.disposition)),
-      disagreement ? h('span', { class: 'flag disagreement', title: 'adaptive and Steger differ by more than the fleet\'s threshold' }, `methods differ: ${disagreement}`) : null,
+      disagreement ? h('span', { class: 'flag disagreement', title: 'adaptive and Steger differ by more than the fleet\'s threshold' }, `methods differ: ${disagreement}`) : '',
       h('div', { class: 'segmented', role: 'group', 'aria-label': 'frame' }, w.frames.map((/** @type {any} */ f) =>
         h('button', { class: f.sensor === w.sensor && f.index === w.index ? 'on' : null, 'data-sensor': f.sensor,
           onclick: () => this.handlers.setQuery({ sensor: f.sensor, frame: String(f.index) }) },
@@ -293,7 +293,7 @@ export class WheelView {
       h('p', { class: `current disposition ${history.length ? 'set' : 'open'}` }, history.length ? fmtDisposition(history[0]) : 'open (no disposition yet)'),
       form,
       history.length ? h('ul', { class: 'disposition-history' }, history.map((/** @type {any} */ d) =>
-        h('li', {}, h('span', { class: 'mono' }, fmtTime(d.created_at)), ` ${d.actor}: `, fmtDisposition(d)))) : null,
+        h('li', {}, h('span', { class: 'mono' }, fmtTime(d.created_at)), ` ${d.actor}: `, fmtDisposition(d)))) : '',
     );
   }
 
