@@ -6,7 +6,7 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 APT_STAMP := $(VENV)/.apt-installed
 NODE_STAMP := node_modules/.installed
-DEBIAN_PACKAGES := chromium poppler-utils fonts-dejavu-core docker-compose nodejs
+DEBIAN_PACKAGES := chromium poppler-utils fonts-dejavu-core docker-compose nodejs postgresql redis-server
 
 .PHONY: run test lint format bench venv system-deps node-tools clean
 
@@ -19,7 +19,8 @@ $(STAMP): pyproject.toml requirements.lock
 	$(PY) -m pipeline.precompile
 	touch $(STAMP)
 
-# Debian packages the browser tests and report checks need (headless Chromium, pdftoppm).
+# Debian packages the tests need: headless Chromium, pdftoppm, and the PostgreSQL and Redis
+# binaries the tests start throw-away servers from when the machine runs none.
 system-deps: $(APT_STAMP)
 
 $(APT_STAMP): Makefile | $(STAMP)

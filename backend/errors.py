@@ -8,12 +8,11 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from fastapi import FastAPI, Request
+from fastapi import FastAPI, Request, routing
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from sqlalchemy.exc import DataError
 from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.types import ASGIApp, Receive, Scope, Send
 
 from backend.api.schemas import ErrorRead
 from pipeline import PipelineError
@@ -86,9 +85,13 @@ class ForbiddenError(ServiceError):
     code = "forbidden"
 
 
-def error_response(status_code: int, detail: str, code: str) -> JSONResponse:
-    """The one error body shape."""
-    headers = {"WWW-Authenticate": "Bearer"} if status_code == 401 else None
+def error_response(
+    status_code: int, detail: str, code: str, headers: dict[str, str] | None = None
+) -> JSONResponse:
+    """The one error body shape (with `headers`, such as a 405's Allow)."""
+    headers = dict(headers or {})
+    if status_code == 401:
+        headers["WWW-Authenticate"] = "Bearer"
     return JSONResponse({"detail": detail, "code": code}, status_code=status_code, headers=headers)
 
 
@@ -98,6 +101,16 @@ def _format_validation_error(exc: RequestValidationError) -> str:
         where = ".".join(str(item) for item in error.get("loc", ()) if item != "body")
         parts.append(f"{where}: {error.get('msg', 'invalid')}" if where else error["msg"])
     return "; ".join(parts) or "invalid request"
+
+
+def _allowed_methods(request: Request) -> list[str]:
+    """Every method some route of this path takes (Starlette names only the first route's)."""
+    methods: set[str] = set()
+    for context in routing.iter_route_contexts(request.app.routes):
+        pattern = getattr(context, "path_regex", None)
+        if pattern is not None and pattern.match(request.url.path):
+            methods |= set(getattr(context, "methods", None) or ())
+    return sorted(methods)
 
 
 def install_error_handlers(app: FastAPI) -> None:
@@ -125,40 +138,13 @@ def install_error_handlers(app: FastAPI) -> None:
         )
 
     @app.exception_handler(StarletteHTTPException)
-    async def _http_error(_request: Request, exc: StarletteHTTPException) -> JSONResponse:
-        return error_response(exc.status_code, str(exc.detail), f"http_{exc.status_code}")
+    async def _http_error(request: Request, exc: StarletteHTTPException) -> JSONResponse:
+        headers = dict(exc.headers or {})
+        if exc.status_code == 405:
+            headers["Allow"] = ", ".join(_allowed_methods(request))
+        return error_response(exc.status_code, str(exc.detail), f"http_{exc.status_code}", headers)
 
     @app.exception_handler(Exception)
     async def _unexpected(request: Request, exc: Exception) -> JSONResponse:
         logger.exception("unexpected error on %s %s", request.method, request.url.path)
         return error_response(500, f"internal error: {type(exc).__name__}", "internal_error")
-
-
-MULTIPART_OVERHEAD_BYTES = 64 * 1024
-"""Room for multipart headers and boundaries around an upload of the maximum size."""
-
-
-class BodySizeLimit:
-    """Refuse a request whose declared body is larger than allowed before reading it.
-
-    Starlette would otherwise spool a whole multipart upload to disk before the route sees
-    it. Bodies without a Content-Length (chunked) are counted by the routes as they read.
-    """
-
-    def __init__(self, app: ASGIApp, max_body_bytes: int) -> None:
-        self.app = app
-        self.max_body_bytes = max_body_bytes
-
-    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] == "http":
-            declared = dict(scope.get("headers", ())).get(b"content-length", b"0")
-            if declared.isdigit() and int(declared) > self.max_body_bytes:
-                response = error_response(
-                    413,
-                    f"request body of {int(declared)} bytes is larger than "
-                    f"{self.max_body_bytes} bytes; raise WHEELSCAN_MAX_UPLOAD_BYTES or split it",
-                    "too_large",
-                )
-                await response(scope, receive, send)
-                return
-        await self.app(scope, receive, send)

@@ -44,7 +44,7 @@ CAMERAS = 4
 
 
 def _simulate(out: Path) -> Path:
-    command = [sys.executable, "-m", "backend.cli", "synth-pass", str(out)]
+    command = [sys.executable, "-m", "backend.cli", "synth-pass", str(out), "--field", "clean"]
     subprocess.run([*command, "--vehicles", str(VEHICLES)], check=True, capture_output=True)
     return out
 

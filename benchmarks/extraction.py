@@ -6,7 +6,8 @@ Three tables, each one run with every method side by side:
    adaptive method on its band path (the default) and on the full frame (the reference),
    Steger and the classic baseline; then the field-harsh cases
    (tests/pipeline/test_harsh_cases.py): adaptive, Steger and classic on each frame.
-2. 1600×1200 synthetic wheel frames (clean, varying width, clutter, noise σ 10): ms per
+2. 1600×1200 synthetic wheel frames (clean, varying width, clutter, noise σ 10, a lit scene
+   with glints): ms per
    frame and its ratio to one full-frame float32 `cv2.GaussianBlur` at σ 7.5 px timed in
    the same run (each the least of BACK_TO_BACK runs in a row, methods interleaved, median
    of REPEATS), with each method's accuracy on that frame and the path it took. Issue 8
@@ -51,8 +52,11 @@ SPEED_CASES = [
         shape=FULL_FRAME,
     ),
     replace(StripeCase("noise σ 10", read_noise=10, shot_noise=True), shape=FULL_FRAME),
+    replace(
+        StripeCase("lit scene, glints", read_noise=3, shot_noise=True, scene="lit-specular"),
+        shape=FULL_FRAME,
+    ),
 ]
-HARSH_METHODS = ("adaptive", "steger", "classic")
 REAL_BAR_PCT = 95.0
 
 
@@ -75,6 +79,8 @@ VARIANTS = (
     Variant("steger full", "steger", True),
     Variant("classic", "classic", True),
 )
+SIDE_BY_SIDE = tuple(v for v in VARIANTS if v.label != "steger full")
+"""What the field-harsh cases and the real frames are extracted with, each on the same frame."""
 
 
 def _cell(score) -> str:
@@ -118,9 +124,9 @@ def _harsh_cell(score) -> str:
 
 
 def _each_method(image: np.ndarray, score: Callable) -> tuple[str, dict]:
-    """The adaptive path and each of HARSH_METHODS' scores on one frame (default paths)."""
-    found = {m: extract_centres(image, m) for m in HARSH_METHODS}
-    return found["adaptive"].path, {m: score(c.x, c.y) for m, c in found.items()}
+    """The adaptive band path taken and each of SIDE_BY_SIDE's scores on one frame."""
+    found = {v.label: v.extract(image) for v in SIDE_BY_SIDE}
+    return found["adaptive band"].path, {k: score(c.x, c.y) for k, c in found.items()}
 
 
 def _harsh_rows() -> list[str]:
@@ -129,10 +135,10 @@ def _harsh_rows() -> list[str]:
     for case in HARSH:
         stripe = make_stripe(case)
         path, scores = _each_method(stripe.image, lambda x, y: score_centres(stripe, x, y))  # noqa: B023
-        cells = " | ".join(_harsh_cell(scores[m]) for m in HARSH_METHODS)
+        cells = " | ".join(_harsh_cell(scores[v.label]) for v in SIDE_BY_SIDE)
         rows.append(
-            f"| {case.name} | {path} | {scores['adaptive'].bound_px:.4f} | "
-            f"{cells} | {harsh_verdict(case, scores['adaptive'])} |"
+            f"| {case.name} | {path} | {scores['adaptive band'].bound_px:.4f} | "
+            f"{cells} | {harsh_verdict(case, scores['adaptive band'])} |"
         )
     return rows
 
@@ -144,9 +150,10 @@ def _real_frame_rows() -> list[str]:
         frame = load_real_frame(name)
         path, scores = _each_method(frame.image, lambda x, y: score_real_frame(frame, x, y))  # noqa: B023
         cells = " | ".join(
-            f"{scores[m].on_line_pct:.1f} / {scores[m].coverage_pct:.1f}" for m in HARSH_METHODS
+            f"{scores[v.label].on_line_pct:.1f} / {scores[v.label].coverage_pct:.1f}"
+            for v in SIDE_BY_SIDE
         )
-        a = scores["adaptive"]
+        a = scores["adaptive band"]
         verdict = "PASS" if min(a.on_line_pct, a.coverage_pct) >= REAL_BAR_PCT else "FAIL"
         size = "×".join(map(str, frame.image.shape[::-1]))
         rows.append(f"| {name} | {size} | {path} | {cells} | {verdict} |")
@@ -270,17 +277,20 @@ def run() -> str:
                 "",
                 "### Field-harsh cases (issue 15)",
                 "",
-                "Lit, textured, edged scenes, a stripe broken at depth steps, a ghost, an "
-                "asymmetric cross-section and the noise case (tests/pipeline/test_harsh_cases.py, "
-                "docs/extraction-cases.md), 400×640 px, each method on its default path. Per "
-                "method: false points [%] / coverage of the least-covered segment [%] / RMS "
+                "Lit, textured, edged scenes with glints, a stripe broken at depth steps, a "
+                "ghost, flare, speckle, an asymmetric cross-section and the noise case "
+                "(tests/pipeline/test_harsh_cases.py, docs/extraction-cases.md), 400×640 px: "
+                "the adaptive method on the band path and on the full frame, Steger and classic, "
+                "each on the same frame. Per method: false points [%] / coverage of the "
+                "least-covered segment [%] / RMS "
                 "[px] / RMS ÷ the noise bound. Bars: false ≤ 0.5 % (lit scene) or ≤ 0.2 % "
                 f"(dark), every segment ≥ 99 % covered, RMS ≤ {RMS_BAR_PX} px "
                 f"({NOISE_CASE}: ≤ 1.5× the bound); the bars column names those the adaptive "
                 "method misses.",
                 "",
-                "| case | adaptive path | noise bound [px] | adaptive | steger | classic | bars |",
-                "|---|---|---|---|---|---|---|",
+                "| case | adaptive path | noise bound [px] | adaptive band | adaptive full | "
+                "steger band | classic | bars |",
+                "|---|---|---|---|---|---|---|---|",
                 *harsh,
                 "",
                 "### Real frames (issue 15)",
@@ -288,12 +298,13 @@ def run() -> str:
                 "Public laser frames with hand-checked truth (tests/pipeline/real_frames/"
                 "PROVENANCE.md): five grey frames of a welding camera behind its filter (lit "
                 "steel, a specular torch, flare, plate edges) and a red laser on a printed board "
-                "converted to grey. Per method, default settings (widths 5–21 px): centres on the "
+                "converted to grey. Per method (as above), default widths 5–21 px: centres on the "
                 "line [%] (within 3 px of a laser pixel) / the line's medial axis covered [%] (a "
                 f"centre within 2.5 px). Bars: adaptive ≥ {REAL_BAR_PCT:.0f} % on both.",
                 "",
-                "| frame | size | adaptive path | adaptive | steger | classic | bars |",
-                "|---|---|---|---|---|---|---|",
+                "| frame | size | adaptive path | adaptive band | adaptive full | steger band | "
+                "classic | bars |",
+                "|---|---|---|---|---|---|---|---|",
                 *real,
                 "",
                 f"### Speed per 1600×1200 frame, single thread (median of {REPEATS} interleaved "

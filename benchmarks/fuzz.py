@@ -16,7 +16,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 TEST = "tests/backend/test_fuzz_api.py"
 _COUNTS = re.compile(
-    r"fuzzed as (?P<caller>[\w ]+?) on (?P<db>\w+): (?P<ops>\d+) operations, (?P<cases>\d+) cases"
+    r"fuzzed as (?P<caller>[\w ]+?) on (?P<db>\w+): (?P<ops>\d+) operations, (?P<cases>\d+) cases, "
+    r"(?P<server>\d+) server errors, (?P<conformance>\d+) conformance failures"
 )
 _OUTCOME = re.compile(r"^(?P<outcome>PASSED|FAILED) \S+\[(?P<db>\w+)-(?P<caller>[\w ]+)\]", re.M)
 
@@ -32,10 +33,9 @@ def run() -> str:
     elapsed_s = time.perf_counter() - started_s
     counts = {(m["db"], m["caller"]): m for m in _COUNTS.finditer(result.stdout)}
     outcomes = {(m["db"], m["caller"]): m["outcome"] for m in _OUTCOME.finditer(result.stdout)}
-    verdict = {"PASSED": "0 server errors, all as documented", "FAILED": "FAILED"}
     rows = [
-        f"| {db} | {caller} | {m['ops']} | {m['cases']} | "
-        f"{verdict.get(outcomes.get((db, caller), ''), 'not run')} |"
+        f"| {db} | {caller} | {m['ops']} | {m['cases']} | {m['server']} | {m['conformance']} | "
+        f"{outcomes.get((db, caller), 'not run')} |"
         for (db, caller), m in counts.items()
     ]
     total = sum(int(m["cases"]) for m in counts.values())
@@ -49,8 +49,8 @@ def run() -> str:
             "and valid data on a stored pass; checks: no 5xx, documented status, content "
             "type, headers and body schema, invalid data refused.",
             "",
-            "| database | caller | operations | cases | result |",
-            "|---|---|---|---|---|",
+            "| database | caller | operations | cases | 5xx | conformance failures | result |",
+            "|---|---|---|---|---|---|---|",
             *rows,
         ]
     )

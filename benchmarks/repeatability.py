@@ -29,7 +29,14 @@ BARS = {"mae_mm": 0.05, "std_mm": 0.03, "max_error_mm": 0.10}
 BACK_TO_BACK_BAR_MM = 0.2
 
 
-def _verdicts(pooled: tuple[ParameterStats, ...]) -> list[str]:
+def counts(observations) -> tuple[int, int]:
+    """Wheels observed, and values not measured, in a run's observations."""
+    wheels = len({o.wheel for o in observations if o.parameter == "flange_height_mm"})
+    return wheels, sum(1 for o in observations if o.value_mm is None)
+
+
+def verdicts(pooled: tuple[ParameterStats, ...]) -> list[str]:
+    """One line per bar of the adaptive method's pooled figures, with ✓ or ✗."""
     lines = []
     for s in pooled:
         if s.method != "adaptive":
@@ -63,8 +70,7 @@ def run() -> str:
             observations += pass_observations(results, read_truth(path))
         measured_s = time.perf_counter() - start
     per_wheel, pooled = summarise_repeatability(observations)
-    wheels = len({o.wheel for o in observations if o.parameter == "flange_height_mm"})
-    missing = sum(1 for o in observations if o.value_mm is None)
+    wheels, missing = counts(observations)
     lines = [
         "## Repeatability of wheel parameters (simulated passes)",
         "",
@@ -74,7 +80,7 @@ def run() -> str:
         f"method). Values not measured: {missing}. Errors are against the true geometry [mm].",
         "",
         "Bars (issue 4):",
-        *_verdicts(pooled),
+        *verdicts(pooled),
         "",
         repeatability_markdown(per_wheel, pooled),
     ]

@@ -21,6 +21,7 @@ BENCH_MODULES: list[str] = [
     "benchmarks.extraction",
     "benchmarks.camera_rate",
     "benchmarks.repeatability",
+    "benchmarks.field_repeatability",
     "benchmarks.throughput",
     "benchmarks.agent",
     "benchmarks.load",

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from alembic import command
 from alembic.config import Config
-from sqlalchemy import Engine, create_engine, event
+from sqlalchemy import Connection, Engine, create_engine, event
 from sqlalchemy.engine import make_url
 from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import Session, sessionmaker
@@ -43,7 +43,20 @@ def make_engine(database_url: str) -> Engine:
         **({} if in_memory else {"pool_size": POOL_SIZE, "max_overflow": POOL_OVERFLOW}),
     )
     event.listen(engine, "connect", _configure_sqlite_connection)
+    event.listen(engine, "savepoint", _begin_before_savepoint)
     return engine
+
+
+def _begin_before_savepoint(connection: Connection, _name: str) -> None:
+    """Open the SQLite transaction a savepoint belongs to.
+
+    sqlite3 begins a transaction only before its first INSERT/UPDATE/DELETE; a SAVEPOINT
+    issued before that starts one of its own, and releasing it commits, so a row created
+    in a savepoint (a new site or wheel) outlived the request that was then refused.
+    """
+    dbapi_connection = connection.connection.dbapi_connection
+    if dbapi_connection is not None and not dbapi_connection.in_transaction:  # type: ignore[attr-defined]
+        dbapi_connection.execute("BEGIN")  # type: ignore[attr-defined]
 
 
 def _configure_sqlite_connection(dbapi_connection: object, _record: object) -> None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 IMAGE_FLOAT = np.float32
@@ -57,3 +59,28 @@ def validate_image(image: object, *, name: str = "image") -> np.ndarray:
 def to_float_image(image: np.ndarray) -> np.ndarray:
     """Return a validated frame as a contiguous IMAGE_FLOAT array (grey levels unchanged) [px]."""
     return np.ascontiguousarray(validate_image(image), dtype=IMAGE_FLOAT)
+
+
+@dataclass(frozen=True, slots=True)
+class PixelRegion:
+    """A rectangle of the frame: rows row_start … row_stop − 1, columns col_start … col_stop − 1."""
+
+    row_start: int
+    row_stop: int
+    col_start: int
+    col_stop: int
+
+    @property
+    def area_px(self) -> int:
+        """Pixels inside the region."""
+        return (self.row_stop - self.row_start) * (self.col_stop - self.col_start)
+
+    def validate(self, shape: tuple[int, int]) -> None:
+        """Raise ValueError unless the region is non-empty and inside a frame of `shape`."""
+        rows, cols = shape
+        if not (0 <= self.row_start < self.row_stop <= rows) or not (
+            0 <= self.col_start < self.col_stop <= cols
+        ):
+            raise ValueError(
+                f"region must be a non-empty part of a {rows}×{cols} frame, got {self}"
+            )

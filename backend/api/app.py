@@ -15,6 +15,8 @@ from backend.api.outages import install_outage_handlers
 from backend.api.routes import ROUTERS
 from backend.api.security import (
     AuthLimit,
+    BodyLimits,
+    BodySizeLimit,
     FailedAuthLimiter,
     FailedAuthTracker,
     SecurityHeaders,
@@ -22,7 +24,7 @@ from backend.api.security import (
     install_log_redaction,
 )
 from backend.config import Settings, get_settings
-from backend.errors import MULTIPART_OVERHEAD_BYTES, BodySizeLimit, install_error_handlers
+from backend.errors import install_error_handlers
 from backend.jobs.celery_runner import make_task_runner
 from backend.jobs.runner import TaskRunner
 from backend.services.ingest import incoming_dir
@@ -103,7 +105,7 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     install_error_handlers(app)
     install_outage_handlers(app)
     app.add_middleware(
-        BodySizeLimit, max_body_bytes=settings.max_upload_bytes + MULTIPART_OVERHEAD_BYTES
+        BodySizeLimit, limits=BodyLimits(settings.max_upload_bytes, settings.max_frame_bytes)
     )
     app.state.auth_tracker = FailedAuthTracker(AuthLimit())
     app.add_middleware(StrictContentTypes)

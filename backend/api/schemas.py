@@ -2,16 +2,96 @@
 
 from __future__ import annotations
 
-from datetime import datetime
-from typing import Any, Generic, Literal, TypeVar
+import re
+from datetime import UTC, datetime
+from typing import Annotated, Any, Generic, Literal, TypeVar
 
-from pydantic import AwareDatetime, BaseModel, ConfigDict, Field
+from pydantic import (
+    AfterValidator,
+    AwareDatetime,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    model_validator,
+)
 
 from db.types import MAX_INTEGER
 
 Role = Literal["viewer", "operator", "admin"]
 Side = Literal["left", "right"]
 Sensor = Literal["left_inner", "left_outer", "right_inner", "right_outer"]
+
+_ISO_DATE_TIME = re.compile(r"^\d{4}-\d{2}-\d{2}[T ]\d{2}:\d{2}")
+
+
+def _iso_text(value: object) -> object:
+    """Only ISO 8601 text is a date (pydantic would read a number as Unix seconds)."""
+    if isinstance(value, datetime):
+        return value
+    if not isinstance(value, str) or not _ISO_DATE_TIME.match(value):
+        raise ValueError("must be an ISO 8601 date-time such as 2026-05-01T00:00:00Z")
+    return value
+
+
+def _in_utc(value: datetime) -> datetime:
+    try:
+        return value.astimezone(UTC)
+    except OverflowError:
+        raise ValueError("lies outside years 1–9999 once converted to UTC") from None
+
+
+UtcDateTime = Annotated[AwareDatetime, BeforeValidator(_iso_text), AfterValidator(_in_utc)]
+"""An ISO 8601 date-time with a time zone, converted to UTC (years 1–9999 in UTC)."""
+
+CALIBRATION_DOCUMENT_SCHEMA: dict[str, Any] = {
+    "type": "object",
+    "required": ["format", "sensors"],
+    "properties": {
+        "format": {"const": "wheelscan-calibration/1"},
+        "sensors": {
+            "type": "object",
+            "minProperties": 1,
+            "propertyNames": {"enum": ["left_inner", "left_outer", "right_inner", "right_outer"]},
+        },
+    },
+    "description": "a wheelscan-calibration/1 object; every sensor's intrinsics, laser plane "
+    "(|d| ≥ 1 mm) and rigid camera_to_track transform are checked (422 names the fault)",
+}
+"""What a JSON Schema can say of a calibration document; the parser checks the rest."""
+CalibrationDocument = Annotated[
+    dict[str, Any], Field(json_schema_extra=CALIBRATION_DOCUMENT_SCHEMA)
+]
+
+
+def _find_nul(value: object, where: str) -> str | None:
+    """The dotted name of the first text (or key) in `value` holding a NUL, else None."""
+    if isinstance(value, str):
+        return where if "\x00" in value else None
+    if isinstance(value, dict):
+        pairs: Any = value.items()
+    elif isinstance(value, list | tuple):
+        pairs = enumerate(value)
+    else:
+        return None
+    for key, item in pairs:
+        name = f"{where}.{key}" if where else str(key)
+        found = name if "\x00" in str(key) else _find_nul(item, name)
+        if found is not None:
+            return found
+    return None
+
+
+class InputModel(BaseModel):
+    """A request body: no text in it may hold a NUL character (PostgreSQL cannot store one,
+    so SQLite must not accept it either)."""
+
+    @model_validator(mode="after")
+    def _no_nul(self) -> InputModel:
+        where = _find_nul(self.model_dump(), "")
+        if where is not None:
+            raise ValueError(f"{where} must not contain NUL characters")
+        return self
 
 
 class ORMModel(BaseModel):
@@ -38,10 +118,12 @@ class Me(BaseModel):
     prefix: str
 
 
-class TokenCreate(BaseModel):
+class TokenCreate(InputModel):
     role: Role
     name: str = Field(min_length=1, max_length=100)
-    expires_at: AwareDatetime | None = None
+    expires_at: UtcDateTime | None = Field(
+        default=None, description="must lie in the future (422 otherwise); none: never expires"
+    )
 
 
 class TokenRead(ORMModel):
@@ -58,7 +140,7 @@ class TokenCreated(TokenRead):
     token: str = Field(description="the bearer token; shown only once")
 
 
-class SiteCreate(BaseModel):
+class SiteCreate(InputModel):
     name: str = Field(min_length=1, max_length=100, pattern=r"^[^/]+$")
 
 
@@ -69,8 +151,8 @@ class SiteRead(ORMModel):
     current_calibration_version: int | None = None
 
 
-class CalibrationCreate(BaseModel):
-    document: dict[str, Any] = Field(description="a wheelscan-calibration/1 object")
+class CalibrationCreate(InputModel):
+    document: CalibrationDocument
     note: str | None = Field(default=None, max_length=1000)
 
 
@@ -100,7 +182,9 @@ class LimitsRead(ORMModel):
     method_disagreement_mm: float = Field(description="flag adaptive − Steger beyond this [mm]")
 
 
-class LimitsUpdate(BaseModel):
+class LimitsUpdate(InputModel):
+    """New limits; each *_min_mm must lie below its *_max_mm (422 otherwise)."""
+
     flange_height_min_mm: float = Field(gt=0, lt=100)
     flange_height_max_mm: float = Field(gt=0, lt=100)
     flange_thickness_min_mm: float = Field(gt=0, lt=100)
@@ -117,13 +201,16 @@ class PassAccepted(BaseModel):
     job_id: int
 
 
-class StreamOpen(BaseModel):
+class StreamOpen(InputModel):
+    """A pass to stream into; without `calibration`, the site's registered one is used (422
+    when the site has none)."""
+
     site: str = Field(min_length=1, max_length=100)
-    started_at: AwareDatetime
+    started_at: UtcDateTime
     direction: str | None = Field(default=None, max_length=40)
     speed_kmh: float | None = Field(default=None, ge=0, le=500)
     frames_per_sensor: int = Field(default=1, ge=1, le=1000)
-    calibration: dict[str, Any] | None = None
+    calibration: CalibrationDocument | None = None
 
 
 class FramePut(BaseModel):
@@ -139,7 +226,28 @@ class FrameRead(ORMModel):
     axle: int
 
 
-class MissingSensor(BaseModel):
+SENSOR_ON_ITS_SIDE: dict[str, Any] = {
+    "anyOf": [
+        {
+            "properties": {
+                "side": {"const": "left"},
+                "sensor": {"enum": ["left_inner", "left_outer"]},
+            }
+        },
+        {
+            "properties": {
+                "side": {"const": "right"},
+                "sensor": {"enum": ["right_inner", "right_outer"]},
+            }
+        },
+    ]
+}
+"""The schema's way of saying a missing sensor must be one of the wheel's side."""
+
+
+class MissingSensor(InputModel):
+    model_config = ConfigDict(json_schema_extra=SENSOR_ON_ITS_SIDE)
+
     vehicle_id: str = Field(min_length=1, max_length=100)
     axle: int = Field(ge=0, le=MAX_INTEGER)
     side: Side

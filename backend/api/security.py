@@ -9,12 +9,14 @@ import logging
 import re
 import time
 from collections import OrderedDict, deque
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from starlette.datastructures import Headers
+from starlette.responses import Response
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
-from backend.errors import error_response
+from backend.errors import PayloadTooLargeError, error_response
 
 REDACTED = "[redacted]"
 _SECRET_PATTERNS = (
@@ -101,11 +103,29 @@ def _presents_credentials(scope: Scope) -> bool:
     return "authorization" in headers or b"token=" in scope.get("query_string", b"")
 
 
-class FailedAuthLimiter:
-    """Answer 429 to an address after too many 401s to requests that presented a token.
+WS_POLICY_VIOLATION = 4401
+"""Close code of a WebSocket refused for its token (4000 + the HTTP status)."""
+WS_RATE_LIMITED = 4429
+"""Close code of a WebSocket refused for its token from an address over the limit."""
 
-    Requests without any token are not counted: they cannot guess one, and the front end
-    makes them before its user has logged in.
+
+def _refusal(address: str, wait_s: float) -> Response:
+    response = error_response(
+        429,
+        f"too many failed authentications from {address}; retry in {wait_s:.0f} s",
+        "rate_limited",
+    )
+    response.headers["Retry-After"] = str(max(int(wait_s + 0.999), 1))
+    return response
+
+
+class FailedAuthLimiter:
+    """Count the 401s (and refused WebSocket tokens) of each address; over the limit, its
+    failed authentications are answered 429 instead of 401.
+
+    Valid tokens from that address keep working (a depot behind one NAT is not locked out
+    by one guesser); requests without any token are not counted: they cannot guess one,
+    and the front end makes them before its user has logged in.
     """
 
     def __init__(self, app: ASGIApp, tracker: FailedAuthTracker) -> None:
@@ -113,24 +133,28 @@ class FailedAuthLimiter:
         self.tracker = tracker
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        if scope["type"] != "http" or not _presents_credentials(scope):
+        if scope["type"] not in ("http", "websocket") or not _presents_credentials(scope):
             await self.app(scope, receive, send)
             return
         address = (scope.get("client") or ("unknown", 0))[0]
-        wait_s = self.tracker.retry_after_s(address)
-        if wait_s > 0:
-            response = error_response(
-                429,
-                f"too many failed authentications from {address}; retry in {wait_s:.0f} s",
-                "rate_limited",
-            )
-            response.headers["Retry-After"] = str(max(int(wait_s + 0.999), 1))
-            await response(scope, receive, send)
-            return
+        refused = False
 
         async def watch(message: Message) -> None:
-            if message["type"] == "http.response.start" and message["status"] == 401:
+            nonlocal refused
+            failed = (message["type"] == "http.response.start" and message["status"] == 401) or (
+                message["type"] == "websocket.close" and message.get("code") == WS_POLICY_VIOLATION
+            )
+            if failed:
+                wait_s = self.tracker.retry_after_s(address)
                 self.tracker.record_failure(address)
+                if wait_s > 0 and message["type"] == "websocket.close":
+                    message = {**message, "code": WS_RATE_LIMITED, "reason": "rate limited"}
+                elif wait_s > 0:
+                    refused = True
+                    await _refusal(address, wait_s)(scope, receive, send)
+                    return
+            if refused and message["type"] == "http.response.body":
+                return  # the 401's body, replaced by the 429's
             await send(message)
 
         await self.app(scope, receive, watch)
@@ -155,6 +179,91 @@ def expected_body_type(method: str, path: str) -> str | None:
     return JSON_TYPE
 
 
+MULTIPART_OVERHEAD_BYTES = 64 * 1024
+"""Room for multipart headers and boundaries around an upload of the maximum size."""
+MAX_JSON_BODY_BYTES = 8 * 2**20
+"""Bodies of the JSON routes at most (a calibration document has at most 1 MB)."""
+
+
+@dataclass(frozen=True, slots=True)
+class BodyLimits:
+    """Largest request bodies [bytes]: a pass upload, a frame or blob, anything else."""
+
+    upload_bytes: int
+    frame_bytes: int
+    other_bytes: int = MAX_JSON_BODY_BYTES
+
+    def for_request(self, method: str, path: str) -> int:
+        media_type = expected_body_type(method, path)
+        if media_type == "multipart/form-data":
+            return self.upload_bytes + MULTIPART_OVERHEAD_BYTES
+        if media_type in ("image/png", "application/octet-stream"):
+            return self.frame_bytes
+        return self.other_bytes
+
+
+class BodyTooLargeError(PayloadTooLargeError):
+    """Raised by the counting `receive` when a body grows past its limit."""
+
+
+def _too_large(received_bytes: int, limit_bytes: int) -> Response:
+    return error_response(
+        413,
+        f"request body of {received_bytes} bytes or more is larger than {limit_bytes} bytes; "
+        "raise WHEELSCAN_MAX_UPLOAD_BYTES / WHEELSCAN_MAX_FRAME_BYTES or split it",
+        "too_large",
+    )
+
+
+class BodySizeLimit:
+    """Refuse (413) a request body larger than its route's limit, by its Content-Length
+    before reading, and by counting the bytes as they arrive (chunked bodies): reading
+    stops at the limit, so no body is held or spooled beyond it.
+    """
+
+    def __init__(self, app: ASGIApp, limits: BodyLimits) -> None:
+        self.app = app
+        self.limits = limits
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] != "http":
+            await self.app(scope, receive, send)
+            return
+        limit = self.limits.for_request(scope["method"], scope.get("path", ""))
+        declared = Headers(scope=scope).get("content-length", "0")
+        if declared.isdigit() and int(declared) > limit:
+            await _too_large(int(declared), limit)(scope, receive, send)
+            return
+        received = 0
+        state = {"exceeded": False, "started": False}
+
+        async def counted() -> Message:
+            nonlocal received
+            message = await receive()
+            if message["type"] == "http.request":
+                received += len(message.get("body", b""))
+                if received > limit:
+                    state["exceeded"] = True
+                    raise BodyTooLargeError(f"request body is larger than {limit} bytes")
+            return message
+
+        async def answer(message: Message) -> None:
+            if state["exceeded"]:  # whatever the app made of the interrupted body: 413
+                if message["type"] == "http.response.start":
+                    state["started"] = True
+                    await _too_large(received, limit)(scope, receive, send)
+                return
+            state["started"] = state["started"] or message["type"] == "http.response.start"
+            await send(message)
+
+        try:
+            await self.app(scope, counted, answer)
+        except BodyTooLargeError:
+            if state["started"]:
+                raise
+            await _too_large(received, limit)(scope, receive, send)
+
+
 def _has_body(headers: Headers) -> bool:
     length = headers.get("content-length")
     if length is not None:
@@ -162,13 +271,27 @@ def _has_body(headers: Headers) -> bool:
     return "transfer-encoding" in headers
 
 
+def _url_has_nul(scope: Scope) -> bool:
+    return "\x00" in scope.get("path", "") or b"%00" in scope.get("query_string", b"")
+
+
 class StrictContentTypes:
-    """Refuse (415) a request body whose Content-Type is not the one its route reads."""
+    """Refuse (415) a request body whose Content-Type is not the one its route reads, and
+    (422) a URL holding a NUL character, on every database alike."""
 
     def __init__(self, app: ASGIApp) -> None:
         self.app = app
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] in ("http", "websocket") and _url_has_nul(scope):
+            if scope["type"] == "http":
+                response = error_response(
+                    422, "the URL must not contain NUL characters (%00)", "invalid_input"
+                )
+                await response(scope, receive, send)
+            else:
+                await send({"type": "websocket.close", "code": 1008, "reason": "NUL in URL"})
+            return
         if scope["type"] == "http":
             expected = expected_body_type(scope["method"], scope.get("path", ""))
             headers = Headers(scope=scope)
@@ -245,13 +368,24 @@ def redact_secrets(text: str) -> str:
 
 
 class SecretRedactingFilter(logging.Filter):
-    """Rewrite a log record so no token reaches a log (uvicorn logs socket query strings)."""
+    """Rewrite a log record so no token reaches a log (uvicorn logs socket query strings).
+
+    A record's arguments are redacted one by one, so formatters that read them (uvicorn's
+    access log takes client, method, path, version and status from `args`) still work.
+    """
 
     def filter(self, record: logging.LogRecord) -> bool:
-        message = record.getMessage()
-        cleaned = redact_secrets(message)
-        if cleaned != message:
-            record.msg, record.args = cleaned, None
+        if isinstance(record.msg, str):
+            record.msg = redact_secrets(record.msg)
+        if isinstance(record.args, tuple):
+            record.args = tuple(
+                redact_secrets(arg) if isinstance(arg, str) else arg for arg in record.args
+            )
+        elif isinstance(record.args, Mapping):
+            record.args = {
+                key: redact_secrets(arg) if isinstance(arg, str) else arg
+                for key, arg in record.args.items()
+            }
         return True
 
 

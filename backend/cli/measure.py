@@ -14,13 +14,14 @@ from tqdm import tqdm
 from pipeline.archive.pass_archive import read_pass_archive
 from pipeline.calibration.image_sets import calibrate_station, read_calibration_set
 from pipeline.calibration.model import SENSOR_NAMES, read_calibration, write_calibration
-from pipeline.profile.measurement import PassWheelResult, measure_pass
+from pipeline.profile.measurement import PassWheelResult, measure_pass, method_options
 from pipeline.profile.repeatability import (
     pass_observations,
     repeatability_markdown,
     summarise_repeatability,
 )
 from pipeline.simulation.calibration_images import write_synthetic_calibration_set
+from pipeline.simulation.field import FIELD_MODES
 from pipeline.simulation.passes import AXLES_PER_VEHICLE, read_truth, write_synthetic_passes
 from pipeline.version import PIPELINE_VERSION
 
@@ -44,6 +45,7 @@ def _synth_pass(args: argparse.Namespace) -> int:
             bit_depth=args.bit_depth,
             axles_per_vehicle=args.axles,
             frames_per_sensor=args.frames_per_sensor,
+            field=FIELD_MODES[args.field],
             progress=lambda done, _total: bar.update(done - bar.n),
         )
     for folder in folders:
@@ -55,7 +57,6 @@ def wheel_row(result: PassWheelResult) -> dict[str, object]:
     """One wheel × method of a measured pass as the JSON row of `wheelscan measure`."""
     m, wheel = result.measurement, result.wheel
     parameters = m.parameters
-    profile = m.profile
     row: dict[str, object] = {
         "vehicle_id": wheel.vehicle_id,
         "axle": wheel.axle,
@@ -68,19 +69,25 @@ def wheel_row(result: PassWheelResult) -> dict[str, object]:
         row[key] = None if parameters is None else round(getattr(parameters, key), 4)
     b2b = result.back_to_back_mm
     row["back_to_back_mm"] = None if b2b is None else round(b2b, 4)
-    residual = None if profile is None else profile.overlap_residual_mm
+    quality = m.quality_figures()
+    residual = quality["overlap_residual_mm"]
     row["quality"] = {
-        "points_inner": m.points_inner,
-        "points_outer": m.points_outer,
+        **quality,
         "overlap_residual_mm": None if residual is None else round(residual, 4),
-        "overlap_points": 0 if profile is None else profile.overlap_points,
-        "rejected_points": 0 if profile is None else profile.rejected_points,
+        "searched_fraction": round(float(quality["searched_fraction"] or 0.0), 4),
     }
     return row
 
 
 def _methods(text: str) -> tuple[str, ...]:
-    return ("adaptive", "steger") if text == "both" else (text,)
+    """ "both", or method labels separated by commas ("adaptive,steger+curvature")."""
+    labels = ("adaptive", "steger") if text == "both" else tuple(text.split(","))
+    for label in labels:
+        try:
+            method_options(label)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    return labels
 
 
 def _measure(args: argparse.Namespace) -> int:
@@ -145,7 +152,7 @@ def _finite(row: dict[str, object]) -> dict[str, object]:
 
 
 def _rr(args: argparse.Namespace) -> int:
-    methods = _methods(args.method)
+    methods = args.method
     archives = [read_pass_archive(p) for p in args.passes]
     truths = [read_truth(p) for p in args.passes]
     observations = []
@@ -199,6 +206,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     synth.add_argument("--bit-depth", type=int, choices=(8, 16), default=8)
     synth.add_argument("--frames-per-sensor", type=_positive_int, default=1)
+    synth.add_argument(
+        "--field",
+        choices=tuple(FIELD_MODES),
+        default="harsh",
+        help="harsh: the station's daylit scene and every field effect (default); "
+        "clean: the stripe on black",
+    )
     synth.set_defaults(func=_synth_pass)
 
     measure = subparsers.add_parser(
@@ -246,6 +260,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "rr", help="repeatability report over repeated simulated passes (needs truth.json)"
     )
     rr.add_argument("passes", nargs="+", type=Path, metavar="PASS")
-    rr.add_argument("--method", choices=("adaptive", "steger", "both"), default="both")
+    rr.add_argument(
+        "--method",
+        type=_methods,
+        default=("adaptive", "steger"),
+        help="both (default), or method labels separated by commas with ±curvature, "
+        "±asymmetry, ±scatter (e.g. adaptive,adaptive+asymmetry,steger+curvature+asymmetry)",
+    )
     rr.add_argument("--json", required=True, metavar="OUT", help="output JSON file, - for stdout")
     rr.set_defaults(func=_rr)

@@ -13,9 +13,12 @@ from backend.services.sites import add_calibration_version, get_or_create_site
 from backend.storage.store import BlobStore
 from db.engine import make_engine, make_session_factory, upgrade_database
 from pipeline.archive.pass_archive import read_pass_archive
+from pipeline.simulation.field import FIELD_MODES
 from pipeline.simulation.passes import write_synthetic_passes
 
 DEMO_SEED = 2026
+DEMO_FIELD = FIELD_MODES["harsh"]
+"""The demo pass shows the field: the daylit scene and every field effect."""
 FIXED_ZIP_TIME = (2026, 1, 1, 0, 0, 0)
 """Member timestamp of the demo zip, so the same simulation gives the same bytes."""
 
@@ -32,12 +35,12 @@ def zip_folder(folder: Path, out: Path) -> Path:
 def demo_archive(settings: Settings, vehicles: int) -> Path:
     """The demo pass as a zip under data/demo, simulated on first use."""
     demo_dir = settings.data_dir / "demo"
-    out = demo_dir / f"demo-pass-{vehicles}v-seed{DEMO_SEED}.zip"
+    out = demo_dir / f"demo-pass-{vehicles}v-seed{DEMO_SEED}-field.zip"
     if out.exists():
         return out
     folder = demo_dir / f"pass-{vehicles}v"
     sys.stderr.write(f"wheelscan demo: simulating a pass of {vehicles} vehicle(s)…\n")
-    write_synthetic_passes(folder, vehicles=vehicles, seed=DEMO_SEED)
+    write_synthetic_passes(folder, vehicles=vehicles, seed=DEMO_SEED, field=DEMO_FIELD)
     (folder / "truth.json").rename(demo_dir / f"truth-{vehicles}v.json")
     return zip_folder(folder, out)
 

@@ -90,22 +90,26 @@ def existing_upload(session: Session, archive_sha256: str) -> tuple[Pass, Job] |
 
 
 def validate_archive(session: Session, path: Path, settings: Settings) -> PassArchive:
-    """Fully validate an archive (no side effects); InvalidInputError says what to fix."""
+    """Fully validate an archive (no side effects); InvalidInputError says what to fix.
+
+    The caller closes the returned archive once its frames are stored.
+    """
     limits = archive_limits(settings)
     try:
-        archive = read_pass_archive(path, decode_frames=False, limits=limits)
-        if not archive.has_own_calibration:
-            site = session.scalar(select(Site).where(Site.name == archive.manifest.site))
+        site_calibration = None
+        headers = read_pass_archive(path, decode_frames=False, limits=limits)
+        headers.close()
+        if not headers.has_own_calibration:
+            site_name = headers.manifest.site
+            site = session.scalar(select(Site).where(Site.name == site_name))
             registered = current_calibration(session, site) if site is not None else None
             if registered is None:
                 raise InvalidInputError(
-                    f"site {archive.manifest.site!r} has no registered calibration: put "
+                    f"site {site_name!r} has no registered calibration: put "
                     "calibration.json in the archive or register one "
-                    f"(POST /api/sites/{archive.manifest.site}/calibrations)"
+                    f"(POST /api/sites/{site_name}/calibrations)"
                 )
             site_calibration = parse_calibration(registered.document)
-        else:
-            site_calibration = None
         return read_pass_archive(
             path, site_calibration=site_calibration, decode_frames=True, limits=limits
         )
@@ -126,13 +130,11 @@ def store_archive(
 ) -> tuple[Pass, Job, list[int]]:
     """Store a validated archive: frames, pass, wheels (queued) and job, then commit.
 
-    Returns the pass, its job and the ids of the pass wheels to measure. A concurrent upload
-    of the same archive that committed first wins; its pass is returned instead.
+    Returns the pass, its job and the ids of the pass wheels to measure. Concurrent uploads
+    of the same archive all get the pass of the one that committed first (the others'
+    rows collide on its archive_sha256, at their flush or at their commit).
     """
     manifest = archive.manifest
-    station = archive.calibration
-    if station is None:
-        raise InvalidInputError("pass archive: no calibration (validate_archive first)")
     # The frames go to the store before the first row: a SQLite writer holds the database's
     # write lock from its first INSERT to its commit, and concurrent uploads queue behind it.
     frame_sha256 = {
@@ -141,6 +143,29 @@ def store_archive(
         for position in POSITIONS
         for path in entry.frames(position)
     }
+    try:
+        train_pass, job, pass_wheel_ids = _add_pass_rows(
+            session, archive, archive_sha256, frame_sha256
+        )
+        record_audit(
+            session, token, "pass.upload", "pass", train_pass.id, {"sha256": archive_sha256}
+        )
+        session.commit()
+    except IntegrityError:
+        session.rollback()
+        found = existing_upload(session, archive_sha256)
+        if found is None:
+            raise
+        return found[0], found[1], []
+    return train_pass, job, pass_wheel_ids
+
+
+def _add_pass_rows(
+    session: Session, archive: PassArchive, archive_sha256: str, frame_sha256: dict[str, str]
+) -> tuple[Pass, Job, list[int]]:
+    manifest, station = archive.manifest, archive.calibration
+    if station is None:
+        raise InvalidInputError("pass archive: no calibration (validate_archive first)")
     site = get_or_create_site(session, manifest.site)
     calibration: Calibration | None
     if archive.has_own_calibration:
@@ -183,15 +208,6 @@ def store_archive(
         session.flush()
         pass_wheel_ids.append(pass_wheel.id)
     job = create_job(session, train_pass, wheels_total=len(pass_wheel_ids))
-    record_audit(session, token, "pass.upload", "pass", train_pass.id, {"sha256": archive_sha256})
-    try:
-        session.commit()
-    except IntegrityError:
-        session.rollback()
-        found = existing_upload(session, archive_sha256)
-        if found is None:
-            raise
-        return found[0], found[1], []
     return train_pass, job, pass_wheel_ids
 
 
@@ -222,6 +238,23 @@ def _add_frame(
     )
 
 
-def discard(path: Path) -> None:
-    """Remove a received upload (after storing or refusing it)."""
-    path.unlink(missing_ok=True)
+def ingest_upload(
+    session: Session, store: BlobStore, settings: Settings, stream: BinaryIO, token: ApiToken
+) -> tuple[Pass, Job, list[int]]:
+    """Receive, validate and store an uploaded archive (or find the pass made from it).
+
+    Returns the pass, its job and the ids of the pass wheels to measure (none when the
+    archive was uploaded before).
+    """
+    path, archive_sha256 = receive_upload(stream, settings)
+    try:
+        found = existing_upload(session, archive_sha256)
+        if found is not None:
+            return found[0], found[1], []
+        archive = validate_archive(session, path, settings)
+        try:
+            return store_archive(session, store, archive, archive_sha256, token)
+        finally:
+            archive.close()
+    finally:
+        path.unlink(missing_ok=True)

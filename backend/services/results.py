@@ -122,13 +122,7 @@ def _profile_document(result: WheelMeasurement) -> dict[str, Any]:
 def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> Measurement:
     """A Measurement row (not yet attached to a pass wheel) from one method's result."""
     parameters, profile = result.parameters, result.profile
-    quality = {
-        "points_inner": result.points_inner,
-        "points_outer": result.points_outer,
-        "overlap_residual_mm": None if profile is None else profile.overlap_residual_mm,
-        "overlap_points": 0 if profile is None else profile.overlap_points,
-        "rejected_points": 0 if profile is None else profile.rejected_points,
-    }
+    quality = result.quality_figures()
     row = Measurement(
         method=result.method,
         status="measured" if result.status == MEASURED else "not_measured",

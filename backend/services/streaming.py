@@ -25,9 +25,9 @@ from backend.services.sites import (
     validate_calibration_document,
 )
 from backend.storage.store import BlobStore
-from db.models import SENSORS, ApiToken, Calibration, Frame, Job, Pass, PassWheel, Wheel
+from db.models import SENSORS, ApiToken, Calibration, Frame, Job, Pass, PassWheel, Site, Wheel
 from db.types import utc_now
-from pipeline.archive.pass_archive import decode_frame
+from pipeline.archive.pass_archive import decode_frame, png_header
 from pipeline.calibration.model import parse_calibration
 from pipeline.errors import ArchiveError
 
@@ -43,21 +43,23 @@ class FrameStored:
 
 
 def open_stream(session: Session, body: StreamOpen, token: ApiToken) -> tuple[Pass, Job]:
-    """Create an open pass and its job; the calibration is the given one or the site's."""
-    site = get_or_create_site(session, body.site)
+    """Create an open pass and its job; the calibration is the given one or the site's.
+
+    Refused requests create nothing: the calibration is checked before the site is made.
+    """
+    site = session.scalar(select(Site).where(Site.name == body.site))
     calibration: Calibration | None
     if body.calibration is not None:
         station = validate_calibration_document(body.calibration)
+        site = site or get_or_create_site(session, body.site)
         calibration = add_calibration_version(
             session, site, station, registered=False, note="sent with a streamed pass"
         )
-    else:
-        calibration = current_calibration(session, site)
-        if calibration is None:
-            raise InvalidInputError(
-                f"site {body.site!r} has no registered calibration: send one in 'calibration' "
-                f"or register it (POST /api/sites/{body.site}/calibrations)"
-            )
+    elif site is None or (calibration := current_calibration(session, site)) is None:
+        raise InvalidInputError(
+            f"site {body.site!r} has no registered calibration: send one in 'calibration' "
+            f"or register it (POST /api/sites/{body.site}/calibrations)"
+        )
     train_pass = Pass(
         site_id=site.id,
         calibration_id=calibration.id,
@@ -78,21 +80,23 @@ def open_stream(session: Session, body: StreamOpen, token: ApiToken) -> tuple[Pa
 
 
 def _check_frame(data: bytes, calibration: Calibration, sensor: str) -> tuple[int, int, int]:
-    """(width_px, height_px, bit_depth) of a frame that fits its sensor, else 422."""
+    """(width_px, height_px, bit_depth) of a frame that fits its sensor, else 422.
+
+    The PNG header is checked against the sensor before anything is decoded.
+    """
+    expected = parse_calibration(calibration.document).sensor(sensor)
+    wanted = (expected.image_width_px, expected.image_height_px, expected.bit_depth)
     try:
-        image = decode_frame(data, f"{sensor} frame")
+        header = png_header(data, f"{sensor} frame")
+        if header != wanted:
+            raise InvalidInputError(
+                f"frame is {header[0]}x{header[1]} px {header[2]} bit, but sensor {sensor} is "
+                f"calibrated for {wanted[0]}x{wanted[1]} px {wanted[2]} bit"
+            )
+        decode_frame(data, f"{sensor} frame")
     except ArchiveError as exc:
         raise InvalidInputError(f"{exc}; send the PNG bytes as the request body") from None
-    expected = parse_calibration(calibration.document).sensor(sensor)
-    height_px, width_px = image.shape
-    depth = 8 * image.dtype.itemsize
-    wanted = (expected.image_width_px, expected.image_height_px, expected.bit_depth)
-    if (width_px, height_px, depth) != wanted:
-        raise InvalidInputError(
-            f"frame is {width_px}x{height_px} px {depth} bit, but sensor {sensor} is "
-            f"calibrated for {wanted[0]}x{wanted[1]} px {wanted[2]} bit"
-        )
-    return width_px, height_px, depth
+    return wanted
 
 
 def _frame_count(session: Session, pass_id: int, vehicle_id: str, axle: int, sensor: str) -> int:
@@ -164,6 +168,25 @@ def _claim_for_measurement(session: Session, pass_wheel: PassWheel) -> bool:
     return changed == 1
 
 
+def _lock_pass(session: Session, train_pass: Pass) -> None:
+    """Serialise the frame writes of one pass, then read its state afresh.
+
+    A write to the pass row is the one lock both databases take the same way (a row lock
+    on PostgreSQL, the write lock on SQLite, which has no SELECT … FOR UPDATE): without it,
+    concurrent PUTs each counted the frames before any had stored its own (20 PUTs for
+    one frame per sensor stored up to 9). The read transaction is ended first, so that
+    SQLite's write starts from the newest data.
+    """
+    session.commit()
+    session.execute(
+        update(Pass)
+        .where(Pass.id == train_pass.id)
+        .values(state=Pass.state)
+        .execution_options(synchronize_session=False)
+    )
+    session.refresh(train_pass)
+
+
 def put_frame(
     session: Session,
     store: BlobStore,
@@ -180,6 +203,8 @@ def put_frame(
     if sensor not in SENSORS:
         raise InvalidInputError(f"sensor must be one of {', '.join(SENSORS)}, got {sensor!r}")
     sha256 = hashlib.sha256(data).hexdigest()
+    width_px, height_px, depth = _check_frame(data, train_pass.calibration, sensor)
+    _lock_pass(session, train_pass)
     wheel = get_or_create_wheel(session, vehicle_id, axle, sensor.split("_")[0])
     found = _existing_frame(session, train_pass, sensor, seq)
     if found is not None:
@@ -188,7 +213,6 @@ def put_frame(
         return FrameStored(sha256, False, pass_wheel.state != "receiving", None)
     if train_pass.state != "open":
         raise ConflictError(f"pass {train_pass.id} is closed; open a new pass to add frames")
-    width_px, height_px, depth = _check_frame(data, train_pass.calibration, sensor)
     pass_wheel = _pass_wheel(session, train_pass, wheel)
     if pass_wheel.state != "receiving":
         raise ConflictError(
@@ -215,15 +239,8 @@ def put_frame(
         height_px=height_px,
         bit_depth=depth,
     )
-    try:
-        with session.begin_nested():
-            session.add(frame)
-    except IntegrityError:
-        found = _existing_frame(session, train_pass, sensor, seq)
-        if found is None:
-            raise
-        _same_or_conflict(found, sha256, vehicle_id, axle)
-        return FrameStored(sha256, False, pass_wheel.state != "receiving", None)
+    session.add(frame)
+    session.flush()
     complete = _wheel_complete(session, train_pass, pass_wheel)
     queued = complete and _claim_for_measurement(session, pass_wheel)
     record_audit(

@@ -6,7 +6,7 @@ import math
 import posixpath
 import re
 from dataclasses import dataclass
-from datetime import datetime
+from datetime import UTC, datetime
 
 from pipeline.errors import ArchiveError
 
@@ -14,7 +14,10 @@ PASS_FORMAT = "wheelscan-pass/1"
 SIDES = ("left", "right")
 POSITIONS = ("inner", "outer")
 """Sensor positions of a wheel; the sensor name is `<side>_<position>`."""
-MAX_TEXT_CHARS = 200
+MAX_NAME_CHARS = 100
+"""Characters of a site name or vehicle id (the service stores at most this many)."""
+MAX_DIRECTION_CHARS = 40
+"""Characters of a pass's direction (the service stores at most this many)."""
 _DRIVE = re.compile(r"^[A-Za-z]:")
 
 
@@ -73,12 +76,14 @@ class PassManifest:
     wheels: tuple[WheelEntry, ...]
 
 
-def _text(value: object, where: str) -> str:
-    if not isinstance(value, str) or not value.strip() or len(value) > MAX_TEXT_CHARS:
+def _text(value: object, where: str, max_chars: int = MAX_NAME_CHARS) -> str:
+    if not isinstance(value, str) or not value.strip() or len(value) > max_chars:
         raise ArchiveError(
-            f"manifest {where} must be a non-empty string of ≤ {MAX_TEXT_CHARS} characters, "
+            f"manifest {where} must be a non-empty string of ≤ {max_chars} characters, "
             f"got {value!r}"
         )
+    if "\x00" in value:
+        raise ArchiveError(f"manifest {where} must not contain NUL characters, got {value!r}")
     return value
 
 
@@ -147,7 +152,10 @@ def _started_at(value: object) -> datetime:
         raise ArchiveError(f"manifest started_at is not ISO 8601: {value!r}") from None
     if started.tzinfo is None:
         raise ArchiveError(f"manifest started_at must carry a time zone (e.g. 'Z'), got {value!r}")
-    return started
+    try:
+        return started.astimezone(UTC)
+    except OverflowError:
+        raise ArchiveError(f"manifest started_at is out of range in UTC: {value!r}") from None
 
 
 def _vehicles(value: object) -> tuple[str, ...]:
@@ -203,7 +211,7 @@ def parse_manifest(document: object) -> PassManifest:
     return PassManifest(
         site=_text(document["site"], "site"),
         started_at=_started_at(document["started_at"]),
-        direction=_text(document["direction"], "direction"),
+        direction=_text(document["direction"], "direction", MAX_DIRECTION_CHARS),
         speed_kmh=float(speed),
         vehicles=vehicles,
         wheels=wheels,

@@ -27,6 +27,7 @@ from pipeline.archive.manifest import (
     parse_manifest,
 )
 from pipeline.calibration.model import (
+    MAX_FRAME_PIXELS,
     StationCalibration,
     calibration_to_document,
     load_calibration_json,
@@ -68,35 +69,37 @@ DEFAULT_LIMITS = ArchiveLimits()
 
 
 class _ZipSource:
-    """Read access to a validated zip (from a path or bytes)."""
+    """Read access to a validated zip (from a path or bytes), opened once: reopening it per
+    member parsed the central directory again each time (quadratic in the members)."""
 
     def __init__(self, source: Path | bytes, limits: ArchiveLimits) -> None:
-        self._source = source
         self._limits = limits
-        with self._open() as archive:
-            self.sizes = _check_zip_members(archive.infolist(), limits)
-
-    def _open(self) -> zipfile.ZipFile:
         try:
-            if isinstance(self._source, bytes):
-                return zipfile.ZipFile(io.BytesIO(self._source))
-            return zipfile.ZipFile(self._source)
+            opened = io.BytesIO(source) if isinstance(source, bytes) else source
+            self._archive = zipfile.ZipFile(opened)
         except (zipfile.BadZipFile, OSError) as exc:
             raise ArchiveError(f"pass archive is not a readable zip: {exc}") from None
+        try:
+            self.sizes = _check_zip_members(self._archive.infolist(), limits)
+        except ArchiveError:
+            self._archive.close()
+            raise
 
     def has(self, name: str) -> bool:
         return name in self.sizes
 
     def read(self, name: str) -> bytes:
-        with self._open() as archive:
-            try:
-                with archive.open(name) as member:
-                    data = member.read(self._limits.max_member_bytes + 1)
-            except (zipfile.BadZipFile, OSError, EOFError, RuntimeError) as exc:
-                raise ArchiveError(f"archive member {name!r} cannot be read: {exc}") from None
+        try:
+            with self._archive.open(name) as member:
+                data = member.read(self._limits.max_member_bytes + 1)
+        except (zipfile.BadZipFile, OSError, EOFError, RuntimeError, ValueError) as exc:
+            raise ArchiveError(f"archive member {name!r} cannot be read: {exc}") from None
         if len(data) > self._limits.max_member_bytes:
             raise ArchiveError(f"archive member {name!r} is larger than allowed")
         return data
+
+    def close(self) -> None:
+        self._archive.close()
 
 
 class _FolderSource:
@@ -120,6 +123,9 @@ class _FolderSource:
         if path.stat().st_size > self._limits.max_member_bytes:
             raise ArchiveError(f"archive file {name!r} is larger than allowed")
         return path.read_bytes()
+
+    def close(self) -> None:
+        """Nothing is held open."""
 
 
 def _check_zip_members(infos: list[zipfile.ZipInfo], limits: ArchiveLimits) -> dict[str, int]:
@@ -149,8 +155,28 @@ def _check_zip_members(infos: list[zipfile.ZipInfo], limits: ArchiveLimits) -> d
     return sizes
 
 
-def _png_header(data: bytes, name: str) -> tuple[int, int, int]:
-    """(width, height, bit depth) of a grey PNG, from its IHDR chunk."""
+def png_header(data: bytes, name: str) -> tuple[int, int, int]:
+    """(width, height, bit depth) of a grey 8/16-bit PNG from its IHDR, before decoding.
+
+    Parameters
+    ----------
+    data : bytes
+        The PNG file.
+    name : str
+        What the frame is, for the messages.
+
+    Returns
+    -------
+    tuple of int
+        Width [px], height [px] and bit depth [bits].
+
+    Raises
+    ------
+    ArchiveError
+        Not a PNG (signature, IHDR first), not grey, not 8 or 16 bit, more than
+        `MAX_FRAME_PIXELS` pixels, chunks running past the data, or bytes after IEND (they
+        would be stored with the frame and never read).
+    """
     if len(data) < 33 or not data.startswith(_PNG_SIGNATURE) or data[12:16] != b"IHDR":
         raise ArchiveError(f"frame {name!r} is not a PNG image")
     width, height, depth, colour = struct.unpack(">IIBB", data[16:26])
@@ -158,12 +184,32 @@ def _png_header(data: bytes, name: str) -> tuple[int, int, int]:
         raise ArchiveError(f"frame {name!r} must be a grey PNG, got PNG colour type {colour}")
     if depth not in (8, 16):
         raise ArchiveError(f"frame {name!r} must be 8 or 16 bit, got {depth} bit")
+    if not 0 < width * height <= MAX_FRAME_PIXELS:
+        raise ArchiveError(
+            f"frame {name!r} claims {width}x{height} px; frames have 1 to {MAX_FRAME_PIXELS} pixels"
+        )
+    _check_chunks(data, name)
     return width, height, depth
+
+
+def _check_chunks(data: bytes, name: str) -> None:
+    offset = len(_PNG_SIGNATURE)
+    while offset + 12 <= len(data):
+        length, kind = struct.unpack_from(">I4s", data, offset)
+        offset += 12 + length  # length, type, data, CRC
+        if kind == b"IEND":
+            if offset != len(data):
+                raise ArchiveError(
+                    f"frame {name!r} has {len(data) - offset} bytes after its IEND chunk; "
+                    "send the PNG without trailing data"
+                )
+            return
+    raise ArchiveError(f"frame {name!r} is truncated: it ends before its IEND chunk")
 
 
 def decode_frame(data: bytes, name: str) -> np.ndarray:
     """Decode PNG bytes into a 2-D uint8 or uint16 frame; ArchiveError when it is not one."""
-    _png_header(data, name)
+    png_header(data, name)
     image = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     if image is None or image.ndim != 2 or image.dtype not in (np.uint8, np.uint16):
         raise ArchiveError(f"frame {name!r} is not a decodable grey 8/16-bit PNG image")
@@ -197,6 +243,10 @@ class PassArchive:
         """Decode frame `path` into a 2-D uint8 or uint16 array [grey levels]."""
         return decode_frame(self._source.read(path), path)
 
+    def close(self) -> None:
+        """Close the zip (a folder holds nothing open)."""
+        self._source.close()
+
 
 def _open_source(source: str | Path | bytes, limits: ArchiveLimits) -> _ZipSource | _FolderSource:
     if isinstance(source, bytes | bytearray):
@@ -226,9 +276,7 @@ def _check_frames(
     seen: dict[str, tuple[int, int, int, str]] = {}
     for sensor, path in listed:
         data = archive.frame_bytes(path)
-        width, height, depth = _png_header(data, path)
-        if decode_frames:
-            decode_frame(data, path)
+        width, height, depth = png_header(data, path)
         if archive.calibration is not None:
             cal = archive.calibration.sensor(sensor)
             expected = (cal.image_width_px, cal.image_height_px, cal.bit_depth)
@@ -243,6 +291,8 @@ def _check_frames(
                 f"frame {path!r} ({width}x{height} px {depth} bit) differs from {first[3]!r} "
                 f"of the same sensor {sensor}"
             )
+        if decode_frames:  # only once the header fits: never decode what is refused anyway
+            decode_frame(data, path)
 
 
 def read_pass_archive(
@@ -279,30 +329,36 @@ def read_pass_archive(
         without calibration, or an invalid calibration.json.
     """
     src = _open_source(source, limits)
-    if not src.has(MANIFEST_NAME):
-        raise ArchiveError(f"pass archive lacks {MANIFEST_NAME}")
-    manifest = parse_manifest(_read_json(src, MANIFEST_NAME, limits.max_manifest_bytes))
-    calibration = site_calibration
-    own = src.has(CALIBRATION_NAME)
-    if own:
-        try:
-            calibration = load_calibration_json(src.read(CALIBRATION_NAME))
-        except CalibrationError as exc:
-            raise ArchiveError(f"{CALIBRATION_NAME} in the archive: {exc}") from None
-    listed = [
-        (wheel.sensor_name(position), path)
-        for wheel in manifest.wheels
-        for position in ("inner", "outer")
-        for path in wheel.frames(position)
-    ]
-    for sensor, path in listed:
-        if not src.has(path):
-            raise ArchiveError(f"manifest lists frame {path!r}, which the archive lacks")
-        if calibration is not None and sensor not in calibration.sensor_names:
-            raise ArchiveError(f"frame {path!r} is from sensor {sensor}, which is not calibrated")
-    archive = PassArchive(manifest, calibration, own, src)
-    _check_frames(archive, decode_frames=decode_frames, listed=listed)
-    return archive
+    try:
+        if not src.has(MANIFEST_NAME):
+            raise ArchiveError(f"pass archive lacks {MANIFEST_NAME}")
+        manifest = parse_manifest(_read_json(src, MANIFEST_NAME, limits.max_manifest_bytes))
+        calibration = site_calibration
+        own = src.has(CALIBRATION_NAME)
+        if own:
+            try:
+                calibration = load_calibration_json(src.read(CALIBRATION_NAME))
+            except CalibrationError as exc:
+                raise ArchiveError(f"{CALIBRATION_NAME} in the archive: {exc}") from None
+        listed = [
+            (wheel.sensor_name(position), path)
+            for wheel in manifest.wheels
+            for position in ("inner", "outer")
+            for path in wheel.frames(position)
+        ]
+        for sensor, path in listed:
+            if not src.has(path):
+                raise ArchiveError(f"manifest lists frame {path!r}, which the archive lacks")
+            if calibration is not None and sensor not in calibration.sensor_names:
+                raise ArchiveError(
+                    f"frame {path!r} is from sensor {sensor}, which is not calibrated"
+                )
+        archive = PassArchive(manifest, calibration, own, src)
+        _check_frames(archive, decode_frames=decode_frames, listed=listed)
+        return archive
+    except BaseException:
+        src.close()
+        raise
 
 
 def encode_frame(image: np.ndarray) -> bytes:

@@ -23,6 +23,12 @@ SENSOR_NAMES = ("left_inner", "left_outer", "right_inner", "right_outer")
 """The four sensors of a station, `<side>_<position>`."""
 BIT_DEPTHS = (8, 16)
 MAX_CALIBRATION_BYTES = 1_000_000
+MAX_FRAME_PIXELS = 2**25
+"""Pixels of a frame at most (33.5 Mpx: 64 MiB decoded at 16 bit), so no calibration can
+ask the service to decode more; OpenCV's own limit is 2^30."""
+MIN_PLANE_DISTANCE_MM = 1.0
+"""Smallest |d| of a laser plane: a plane through the camera centre (d = 0) holds every
+ray it meets, so no stripe point can be triangulated from it."""
 """A calibration file is a few kB; anything larger is not one."""
 
 
@@ -168,6 +174,10 @@ def _parse_size(entry: dict, where: str) -> tuple[int, int, int]:
         or not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in size)
     ):
         raise CalibrationError(f"{where}.image_size must be [width, height] in px, got {size!r}")
+    if size[0] * size[1] > MAX_FRAME_PIXELS:
+        raise CalibrationError(
+            f"{where}.image_size {size[0]}x{size[1]} px exceeds {MAX_FRAME_PIXELS} pixels"
+        )
     depth = entry.get("bit_depth")
     if depth not in BIT_DEPTHS or isinstance(depth, bool):
         raise CalibrationError(f"{where}.bit_depth must be 8 or 16, got {depth!r}")
@@ -180,7 +190,13 @@ def _parse_plane(value: object, where: str) -> LaserPlane:
     normal = _matrix(value["normal"], (3,), f"{where}.normal")
     if abs(np.linalg.norm(normal) - 1.0) > 1e-6:
         raise CalibrationError(f"{where}.normal must be a unit vector, got {normal.tolist()}")
-    return LaserPlane(normal=normal, d_mm=_number(value["d"], f"{where}.d"))
+    d_mm = _number(value["d"], f"{where}.d")
+    if abs(d_mm) < MIN_PLANE_DISTANCE_MM:
+        raise CalibrationError(
+            f"{where}.d must be at least {MIN_PLANE_DISTANCE_MM} mm from 0 (a plane through "
+            f"the camera centre cannot be triangulated), got {d_mm}"
+        )
+    return LaserPlane(normal=normal, d_mm=d_mm)
 
 
 def _optional_residual(entry: dict, key: str, where: str) -> float | None:

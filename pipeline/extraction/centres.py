@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -18,9 +18,10 @@ from pipeline.extraction.adaptive import (
     scale_map,
     stripe_scales,
 )
+from pipeline.extraction.asymmetry import asymmetry_bias, peak_offsets
 from pipeline.extraction.band import band_pixels
 from pipeline.extraction.band_analysis import analyse_band
-from pipeline.extraction.curvature import remove_curvature_bias
+from pipeline.extraction.curvature import local_curvature, remove_curvature_bias
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
 from pipeline.extraction.linking import link_points
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
@@ -28,7 +29,7 @@ from pipeline.extraction.scalespace import ScaleLevel, scale_levels
 from pipeline.extraction.segmentation import segment_classic, segment_ridges
 from pipeline.extraction.steger import centre_pixels, newton_step
 from pipeline.extraction.widths import stripe_widths
-from pipeline.imaging import GEOMETRY_FLOAT, to_float_image, validate_image
+from pipeline.imaging import GEOMETRY_FLOAT, PixelRegion, to_float_image, validate_image
 
 METHODS = ("adaptive", "steger", "classic")
 """Extraction methods of `extract_centres`."""
@@ -69,6 +70,8 @@ class Centres:
         scale, the camera-rate path), "wide band" (the same in a wider band, because a stripe
         component reached the first one's edge), "full" (the whole frame, the reference), or
         "fallback" (the whole frame because no band could be trusted for this frame).
+    region : PixelRegion or None
+        The part of the frame searched (None: all of it); nothing outside it is in the mask.
 
     All arrays are read-only.
     """
@@ -86,6 +89,7 @@ class Centres:
     method: str
     sigmas_px: tuple[float, ...]
     path: str
+    region: PixelRegion | None = None
 
     def __post_init__(self) -> None:
         arrays = [self.x, self.y, self.nx, self.ny, self.sigma, self.strength, self.width_px]
@@ -202,6 +206,32 @@ def _select_fixed(scale: LevelResponse, mask: np.ndarray, blocks: np.ndarray | N
     )
 
 
+def _remove_asymmetry(x, y, nx, ny, sigma, widths, polylines, levels):
+    """Centres moved by their asymmetry bias, measured against the next smaller scale (the
+    next larger one for the smallest)."""
+    sigmas = np.array([level.sigma_px for level in levels])
+    moves = np.full(x.size, np.nan)
+    second = np.full(x.size, np.nan)
+    for own in np.unique(sigma):
+        smaller, larger = np.flatnonzero(sigmas < own), np.flatnonzero(sigmas > own)
+        if smaller.size:  # the maximum moves most towards the true line at small scales
+            other = smaller[np.argmax(sigmas[smaller])]
+        elif larger.size:
+            other = larger[np.argmin(sigmas[larger])]
+        else:
+            continue
+        at = np.flatnonzero(sigma == own)
+        moves[at] = peak_offsets(levels[other], x[at], y[at], nx[at], ny[at])
+        second[at] = sigmas[other]
+    # A curved stripe's maximum moves between scales too, by (σb² − σa²)·κ/2 towards its
+    # centre of curvature: that part of the move is not asymmetry.
+    for chain in polylines:
+        kappa = local_curvature(x[chain], y[chain], nx[chain], ny[chain], sigma[chain])
+        moves[chain] -= 0.5 * (second[chain] ** 2 - sigma[chain] ** 2) * kappa
+    bias = asymmetry_bias(moves, sigma, second, widths, polylines)
+    return x - bias * nx, y - bias * ny
+
+
 def _orient_normals(nx: np.ndarray, ny: np.ndarray, chains: list[np.ndarray]) -> None:
     """Flip normals in place so they turn smoothly along each chain; first one has ny ≥ 0."""
     for chain in chains:
@@ -224,6 +254,8 @@ def _assemble(
     sigmas_px: tuple[float, ...],
     width_max: float,
     curvature_correction: bool,
+    scatter_support: bool,
+    second_levels: tuple[ScaleLevel, ...],
     path: str,
 ) -> Centres:
     nx = selected.nx.astype(GEOMETRY_FLOAT)
@@ -254,8 +286,14 @@ def _assemble(
     )
     sigma = selected.sigma[order].astype(GEOMETRY_FLOAT)
     x, y = x[order], y[order]
-    if curvature_correction:
-        x, y = remove_curvature_bias(x, y, nx[order], ny[order], sigma, polylines)
+    if second_levels:
+        x, y = _remove_asymmetry(
+            x, y, nx[order], ny[order], sigma, widths, polylines, second_levels
+        )
+    if curvature_correction or scatter_support:
+        x, y = remove_curvature_bias(
+            x, y, nx[order], ny[order], sigma, polylines, scatter_support=scatter_support
+        )
     return Centres(
         x=x,
         y=y,
@@ -281,7 +319,10 @@ def extract_centres(
     sigma: float | None = None,
     *,
     curvature_correction: bool | None = None,
+    asymmetry_correction: bool = False,
+    scatter_support: bool = False,
     full_frame: bool = False,
+    region: PixelRegion | None = None,
 ) -> Centres:
     """Extract the sub-pixel centre line of the bright laser stripe in a frame.
 
@@ -307,10 +348,23 @@ def extract_centres(
         polyline), removing the bias Gaussian smoothing gives curved stripes (0.28 px at
         σ = 7.5 px, R = 100 px). Default: on for "adaptive", off for "steger" and "classic",
         which stay the paper's baselines.
+    asymmetry_correction : bool
+        Move each point by the bias an asymmetric cross-section gives it, estimated from
+        how far the maximum moves at the nearest other scale of the analysis
+        (`pipeline.extraction.asymmetry`), before the curvature correction ("adaptive" and
+        "steger").
+    scatter_support : bool
+        In the curvature fit (run for this even when `curvature_correction` is off), choose
+        each point's window along the stripe from the measured centre scatter σl and put
+        the point on its fitted curve: texture-robust centres
+        (`pipeline.extraction.curvature.remove_curvature_bias`).
     full_frame : bool
         Analyse the whole frame (the reference) instead of the stripe band located on the
         coarsest scale (the camera-rate path, "adaptive" and "steger"); the band path falls
         back to the whole frame by itself when it cannot trust the band (see `Centres.path`).
+    region : PixelRegion, optional
+        Search only this part of the frame (e.g. where the calibration says a wheel's stripe
+        can lie, `pipeline.calibration.search_region`); coordinates stay the frame's.
 
     Returns
     -------
@@ -354,6 +408,21 @@ def extract_centres(
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     _check_widths(width_min, width_max)
     _check_sigma(sigma, method)
+    if region is not None:
+        region.validate(image.shape)
+        crop = image[region.row_start : region.row_stop, region.col_start : region.col_stop]
+        found = extract_centres(
+            np.ascontiguousarray(crop),
+            method,
+            width_min,
+            width_max,
+            sigma,
+            curvature_correction=curvature_correction,
+            asymmetry_correction=asymmetry_correction,
+            scatter_support=scatter_support,
+            full_frame=full_frame,
+        )
+        return _in_frame(found, region, image.shape)
     sigmas = stripe_scales(float(width_min), float(width_max))
     fixed_sigma = float(sigma) if sigma is not None else sigmas[1]
     c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
@@ -361,11 +430,14 @@ def extract_centres(
     sigma_map = None
     blocks = None
     path = "full"
+    second_levels: tuple[ScaleLevel, ...] = ()
     if method == "classic":
         mask = segment_classic(image)
         selected = _select_fixed(_fixed_scale(image, fixed_sigma, c_grey), mask, None)
     else:
         scales, mask, blocks, path = _analyse(image, sigmas, c_grey, width_max, full_frame)
+        if asymmetry_correction:
+            second_levels = tuple(scale.level for scale in scales)
         if method == "steger":
             reuse = [sc for sc in scales if sc.level.sigma_px == fixed_sigma]
             scale = reuse[0] if reuse else _fixed_scale(image, fixed_sigma, c_grey)
@@ -380,7 +452,29 @@ def extract_centres(
         sigmas_px=sigmas if method == "adaptive" else (fixed_sigma,),
         width_max=width_max,
         curvature_correction=bool(correct),
+        scatter_support=scatter_support,
+        second_levels=second_levels,
         path=path,
+    )
+
+
+def _in_frame(found: Centres, region: PixelRegion, shape: tuple[int, int]) -> Centres:
+    """Centres of a crop placed back in the frame: coordinates offset, mask and σ map padded."""
+    rows = slice(region.row_start, region.row_stop)
+    cols = slice(region.col_start, region.col_stop)
+    mask = np.zeros(shape, bool)
+    mask[rows, cols] = found.mask
+    sigma_map = None
+    if found.sigma_map is not None:
+        sigma_map = np.zeros(shape, found.sigma_map.dtype)
+        sigma_map[rows, cols] = found.sigma_map
+    return replace(
+        found,
+        x=found.x + region.col_start,
+        y=found.y + region.row_start,
+        mask=mask,
+        sigma_map=sigma_map,
+        region=region,
     )
 
 

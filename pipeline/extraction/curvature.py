@@ -15,6 +15,12 @@ WINDOW_SIGMAS = 2.0
 FIT_ROUNDS = 3
 """Curvature fits per polyline; each round fits the points corrected by the previous one."""
 
+SUPPORT_FACTORS = (1.0, 1.5, 2.0, 3.0)
+"""Window scales tried by the scatter-chosen support, in units of the point's σ."""
+LEPSKI_Z = 2.5
+"""A wider window is accepted while its fit stays within 2.5 standard errors of each
+narrower one's."""
+
 MIN_HALF_WINDOW_PX = 4.0
 """Least half-width of the fitting window [px]: enough points for a stable quadratic."""
 
@@ -64,8 +70,9 @@ def _window_offsets(x, y, nx, ny, half, lo, hi, b0, b1, most) -> tuple[int, int]
 
 
 @kernel
-def _fit_curvatures(x, y, nx, ny, sigma, bounds, kappa) -> None:
-    """κ of each polyline points[bounds[c]:bounds[c + 1]] (see `local_curvature`).
+def _fit_curvatures(x, y, nx, ny, sigma, bounds, kappa, fit_offset, count) -> None:
+    """κ of each polyline points[bounds[c]:bounds[c + 1]] (see `local_curvature`), the fitted
+    curve's offset a from each point along n, and the points in each window.
 
     Blocks of BLOCK_POINTS points share one loop over the offsets j − i of their window:
     across the block it vectorises, and each point's sums still run over j in order. Points
@@ -111,21 +118,26 @@ def _fit_curvatures(x, y, nx, ny, sigma, bounds, kappa) -> None:
                     sums[m + _ROWS[8]] += 1.0 if inside else 0.0
             for i in range(b0, b1):
                 s0, s1, s2, s3, s4, t0, t1, t2, inside = sums[i - b0 :: BLOCK_POINTS]
+                count[i] = inside
                 if inside < 5:
                     kappa[i] = 0.0
+                    fit_offset[i] = 0.0
                     continue
                 # Normal equations of v = a + b·u + (κ/2)·u² with the basis (1, u, u²/2).
-                _, _, kappa[i] = solve_symmetric3(
+                fit_offset[i], _, kappa[i] = solve_symmetric3(
                     s0, s1, 0.5 * s2, s2, 0.5 * s3, 0.25 * s4, t0, t1, 0.5 * t2
                 )
 
 
 @kernel
-def _remove_bias(x, y, nx, ny, sigma, bounds, x_out, y_out) -> None:
-    """FIT_ROUNDS of κ on (x_out, y_out), each moving the points to (x, y) − σ²κ/2·n."""
+def _remove_bias(x, y, nx, ny, sigma, window_sigma, bounds, x_out, y_out) -> None:
+    """FIT_ROUNDS of κ on (x_out, y_out) with windows of `window_sigma`, each moving the
+    points to (x, y) − σ²κ/2·n."""
     kappa = np.empty(x.size)
+    offset = np.empty(x.size)
+    count = np.empty(x.size)
     for _ in range(FIT_ROUNDS):
-        _fit_curvatures(x_out, y_out, nx, ny, sigma, bounds, kappa)
+        _fit_curvatures(x_out, y_out, nx, ny, window_sigma, bounds, kappa, offset, count)
         for i in range(x.size):
             shift = 0.5 * sigma[i] ** 2 * kappa[i]
             x_out[i] = x[i] - shift * nx[i]
@@ -153,12 +165,50 @@ def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> 
     """
     out = np.empty(np.size(x))
     fx, fy, fnx, fny, fsigma = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny, sigma))
-    _fit_curvatures(fx, fy, fnx, fny, fsigma, np.array([0, out.size]), out)
+    spare = np.empty((2, out.size))
+    _fit_curvatures(fx, fy, fnx, fny, fsigma, np.array([0, out.size]), out, *spare)
     return out
 
 
+def _scatter_windows(x, y, nx, ny, sigma, bounds) -> np.ndarray:
+    """Window scale per point chosen from the measured centre scatter σl (Lepski's rule).
+
+    σl of each polyline is the robust spread (1.4826 × MAD) of the points about their local
+    fits at the base window. Each point's window grows through `SUPPORT_FACTORS` × σ while
+    the fitted curve stays within LEPSKI_Z·σl·√(2/N) of its fit on every smaller window
+    (N the independent centres in that window: the points over the 2σ the smoothing
+    correlates them along the stripe): wider where texture makes the centres scatter and
+    the stripe is smooth, no wider where its shape changes.
+    """
+    fits = []
+    for factor in SUPPORT_FACTORS:
+        kappa, offset, count = (np.empty(x.size) for _ in range(3))
+        _fit_curvatures(x, y, nx, ny, sigma * factor, bounds, kappa, offset, count)
+        fits.append((offset, np.maximum(count, 1.0)))
+    scatter = np.empty(x.size)
+    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+        a = fits[0][0][lo:hi]
+        scatter[lo:hi] = 1.4826 * np.median(np.abs(a - np.median(a)))
+    chosen = np.full(x.size, SUPPORT_FACTORS[0])
+    admissible = np.ones(x.size, bool)
+    for k in range(1, len(SUPPORT_FACTORS)):
+        for j in range(k):
+            independent = np.maximum(fits[j][1] / np.maximum(2.0 * sigma, 1.0), 1.0)
+            limit = LEPSKI_Z * scatter * np.sqrt(2.0 / independent)
+            admissible &= np.abs(fits[k][0] - fits[j][0]) <= limit
+        chosen[admissible] = SUPPORT_FACTORS[k]
+    return sigma * chosen
+
+
 def remove_curvature_bias(
-    x: np.ndarray, y: np.ndarray, nx, ny, sigma, polylines: tuple[np.ndarray, ...]
+    x: np.ndarray,
+    y: np.ndarray,
+    nx,
+    ny,
+    sigma,
+    polylines: tuple[np.ndarray, ...],
+    *,
+    scatter_support: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Move each centre by σ²κ/2 away from its centre of curvature.
 
@@ -168,6 +218,11 @@ def remove_curvature_bias(
         Centres [px], unit normals and scales [px].
     polylines : tuple of ndarray of int
         Disjoint ordered index arrays into the points.
+    scatter_support : bool
+        Choose each point's fitting window from the measured centre scatter σl (paper
+        eq. (2)) instead of σ alone (`_scatter_windows`), and put the point on its fitted
+        curve: texture-robust centres, averaged along the stripe over the support the
+        scatter calls for.
 
     Returns
     -------
@@ -193,7 +248,12 @@ def remove_curvature_bias(
     fx, fy, fnx, fny, fsigma = (
         np.ascontiguousarray(a[order], np.float64) for a in (x, y, nx, ny, sigma)
     )
+    window = _scatter_windows(fx, fy, fnx, fny, fsigma, bounds) if scatter_support else fsigma
     cx, cy = fx.copy(), fy.copy()
-    _remove_bias(fx, fy, fnx, fny, fsigma, bounds, cx, cy)
+    _remove_bias(fx, fy, fnx, fny, fsigma, window, bounds, cx, cy)
+    if scatter_support:
+        kappa, offset, count = (np.empty(fx.size) for _ in range(3))
+        _fit_curvatures(cx, cy, fnx, fny, window, bounds, kappa, offset, count)
+        cx, cy = cx + offset * fnx, cy + offset * fny
     x_out[order], y_out[order] = cx, cy
     return x_out, y_out

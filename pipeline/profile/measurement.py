@@ -9,8 +9,9 @@ usable stripe is returned as "not measured" with the reason; it never fails the 
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -18,16 +19,23 @@ from pipeline.archive.manifest import POSITIONS, WheelEntry
 from pipeline.archive.pass_archive import PassArchive
 from pipeline.calibration.geometry import pixels_to_track_points
 from pipeline.calibration.model import SensorCalibration, StationCalibration
+from pipeline.calibration.search_region import stripe_search_region
 from pipeline.errors import PipelineError
 from pipeline.extraction.centres import Centres, extract_centres
 from pipeline.imaging import validate_image
 from pipeline.profile.flange import FlangeParameters, fit_flange_parameters
 from pipeline.profile.fusion import FusedProfile, fuse_profile
+from pipeline.profile.window import in_wheel_window, locate_back_face
 from pipeline.version import PIPELINE_VERSION
 
 MEASURED = "measured"
 NOT_MEASURED = "not measured"
 MEASURE_METHODS = ("adaptive", "steger")
+CORRECTIONS = ("curvature", "asymmetry", "scatter")
+"""Corrections a method label can switch on (+name) or off (−name): "steger+curvature",
+"adaptive+asymmetry", "adaptive-curvature", "adaptive+scatter" (the along-stripe support
+chosen by the centre scatter); a bare method keeps its defaults (curvature on for
+adaptive, off for Steger; asymmetry and scatter off)."""
 MIN_SENSOR_POINTS = 50
 """A sensor with fewer centre points than this has no usable stripe (a wheel's stripe gives
 over a thousand)."""
@@ -51,7 +59,11 @@ class FrameCentres:
     points_track_mm : ndarray of shape (K, 3), float64
         The centres in the track frame [mm] (same order as the centres).
     used : ndarray of shape (K,), bool
-        Centres on chains of at least `MIN_CHAIN_POINTS` points, the ones measured.
+        The centres measured: on pieces of chains of at least `MIN_CHAIN_POINTS` points
+        (inside the wheel window, when the station's knowledge is used).
+    excluded_bright_px : int
+        Pixels outside the search region at least as bright as the stripe's median centre
+        pixel: light the region left out (0 without a region).
     """
 
     sensor: str
@@ -59,6 +71,7 @@ class FrameCentres:
     centres: Centres
     points_track_mm: np.ndarray
     used: np.ndarray
+    excluded_bright_px: int = 0
 
     def __post_init__(self) -> None:
         self.points_track_mm.flags.writeable = False
@@ -103,6 +116,59 @@ class WheelMeasurement:
         """Track-frame X of the back face, when the wheel was measured [mm]."""
         return None if self.profile is None else self.profile.back_face_track_x_mm
 
+    def quality_figures(self) -> dict[str, float | int | None]:
+        """The measurement's quality figures: points per sensor, the sensors' overlap, points
+        rejected by fusion, and what the search regions left out (bright pixels outside
+        them, and the searched share of the frames' area)."""
+        profile = self.profile
+        searched = [
+            f.centres.region.area_px / f.centres.mask.size
+            for f in self.frames
+            if f.centres.region is not None
+        ]
+        return {
+            "points_inner": self.points_inner,
+            "points_outer": self.points_outer,
+            "overlap_residual_mm": None if profile is None else profile.overlap_residual_mm,
+            "overlap_points": 0 if profile is None else profile.overlap_points,
+            "rejected_points": 0 if profile is None else profile.rejected_points,
+            "excluded_bright_px": sum(f.excluded_bright_px for f in self.frames),
+            "searched_fraction": float(np.mean(searched)) if searched else 1.0,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class MethodOptions:
+    """An extraction method with its corrections, parsed from a method label."""
+
+    method: str
+    curvature_correction: bool
+    asymmetry_correction: bool
+    scatter_support: bool
+
+
+def method_options(label: str) -> MethodOptions:
+    """Parse a method label: a method of `MEASURE_METHODS`, then ±correction tokens.
+
+    Raises
+    ------
+    ValueError
+        On an unknown method or correction.
+    """
+    tokens = re.split(r"(?=[+-])", label)
+    if tokens[0] not in MEASURE_METHODS:
+        raise ValueError(f"method must be one of {', '.join(MEASURE_METHODS)}, got {label!r}")
+    switches = {"curvature": tokens[0] == "adaptive", "asymmetry": False, "scatter": False}
+    for token in tokens[1:]:
+        if token[1:] not in CORRECTIONS:
+            raise ValueError(
+                f"method {label!r}: corrections are +/-{' +/-'.join(CORRECTIONS)}, got {token!r}"
+            )
+        switches[token[1:]] = token[0] == "+"
+    return MethodOptions(
+        tokens[0], switches["curvature"], switches["asymmetry"], switches["scatter"]
+    )
+
 
 def _check_frame(image: object, sensor: SensorCalibration, where: str) -> np.ndarray:
     image = validate_image(image, name=where)
@@ -115,16 +181,63 @@ def _check_frame(image: object, sensor: SensorCalibration, where: str) -> np.nda
     return image
 
 
-def _frame_centres(images, sensor, method, widths) -> list[FrameCentres]:
+def _excluded_bright_px(image: np.ndarray, centres: Centres) -> int:
+    """Pixels outside the centres' search region at least as bright as their median centre."""
+    region = centres.region
+    if region is None or len(centres) == 0:
+        return 0
+    rows = np.clip(np.round(centres.y).astype(int), 0, image.shape[0] - 1)
+    cols = np.clip(np.round(centres.x).astype(int), 0, image.shape[1] - 1)
+    level = np.median(image[rows, cols])
+    bright = int(np.count_nonzero(image >= level))
+    inside = image[region.row_start : region.row_stop, region.col_start : region.col_stop]
+    return bright - int(np.count_nonzero(inside >= level))
+
+
+def _used(centres: Centres, inside: np.ndarray) -> np.ndarray:
+    """Centres on pieces of chains of ≥ MIN_CHAIN_POINTS points with `inside` set."""
+    used = np.zeros(len(centres), bool)
+    for chain in centres.polylines:
+        breaks = np.flatnonzero(np.diff(inside[chain].astype(np.int8))) + 1
+        for piece in np.split(chain, breaks):
+            used[piece] = piece.size >= MIN_CHAIN_POINTS and inside[piece[0]]
+    return used
+
+
+def _frame_centres(images, sensor, options: MethodOptions, widths, region) -> list[FrameCentres]:
     result = []
     for index, image in enumerate(images):
         image = _check_frame(image, sensor, f"{sensor.name} frame {index}")
-        centres = extract_centres(image, method=method, width_min=widths[0], width_max=widths[1])
+        centres = extract_centres(
+            image,
+            method=options.method,
+            width_min=widths[0],
+            width_max=widths[1],
+            curvature_correction=options.curvature_correction,
+            asymmetry_correction=options.asymmetry_correction,
+            scatter_support=options.scatter_support,
+            region=region,
+        )
         points = pixels_to_track_points(centres.x, centres.y, sensor)
-        used = np.zeros(len(centres), bool)
-        for chain in centres.polylines:
-            used[chain] = chain.size >= MIN_CHAIN_POINTS
-        result.append(FrameCentres(sensor.name, index, centres, points, used))
+        used = _used(centres, np.ones(len(centres), bool))
+        excluded = _excluded_bright_px(image, centres)
+        result.append(FrameCentres(sensor.name, index, centres, points, used, excluded))
+    return result
+
+
+def _in_window(frames: list[FrameCentres], side: str) -> list[FrameCentres]:
+    """The frames measuring only the pieces of chains that can lie on the wheel: inside
+    the wheel window, then near the profiles at the back-face position most points agree on."""
+    windowed = [in_wheel_window(f.points_track_mm, side) for f in frames]
+    candidates = [
+        f.points_track_mm[_used(f.centres, w)] for f, w in zip(frames, windowed, strict=True)
+    ]
+    back_face = locate_back_face(np.concatenate(candidates), side) if candidates else None
+    result = []
+    for frame, inside in zip(frames, windowed, strict=True):
+        if back_face is not None:
+            inside = in_wheel_window(frame.points_track_mm, side, back_face_mm=back_face)
+        result.append(replace(frame, used=_used(frame.centres, inside)))
     return result
 
 
@@ -143,6 +256,7 @@ def measure_wheel(
     method: str = "adaptive",
     width_min: float = 5,
     width_max: float = 21,
+    search_region: bool = True,
 ) -> WheelMeasurement:
     """Measure one wheel from its inner and outer frames.
 
@@ -155,9 +269,15 @@ def measure_wheel(
     side : str
         "left" or "right".
     method : str
-        Centre extraction method: "adaptive" or "steger".
+        Centre extraction method, "adaptive" or "steger", optionally with corrections
+        switched on or off ("steger+curvature+asymmetry", see `method_options`).
     width_min, width_max : float
         Stripe width range for the extraction [px].
+    search_region : bool
+        Use what the station knows: search each frame only where the calibration says the
+        wheel's stripe can lie (`pipeline.calibration.search_region`), and measure only the
+        centres whose laser-plane points can be on a wheel (`pipeline.profile.window`);
+        False searches the whole frame and keeps every long enough chain.
 
     Returns
     -------
@@ -173,11 +293,15 @@ def measure_wheel(
     """
     if side not in ("left", "right"):
         raise ValueError(f"side must be 'left' or 'right', got {side!r}")
-    if method not in MEASURE_METHODS:
-        raise ValueError(f"method must be one of {', '.join(MEASURE_METHODS)}, got {method!r}")
+    options = method_options(method)
     sensors = [calibration.sensor(f"{side}_{position}") for position in POSITIONS]
-    inner = _frame_centres(frames_inner, sensors[0], method, (width_min, width_max))
-    outer = _frame_centres(frames_outer, sensors[1], method, (width_min, width_max))
+    widths = (width_min, width_max)
+    regions = [stripe_search_region(s, side) if search_region else None for s in sensors]
+    inner = _frame_centres(frames_inner, sensors[0], options, widths, regions[0])
+    outer = _frame_centres(frames_outer, sensors[1], options, widths, regions[1])
+    if search_region:
+        windowed = _in_window(inner + outer, side)
+        inner, outer = windowed[: len(inner)], windowed[len(inner) :]
     inner_points, outer_points = _stack(inner), _stack(outer)
     counts = (len(inner_points), len(outer_points))
 
@@ -234,7 +358,7 @@ def measure_pass(
     archive : PassArchive
         From `read_pass_archive`.
     methods : sequence of str
-        Extraction methods, each of `MEASURE_METHODS`.
+        Extraction method labels (`method_options`).
     calibration : StationCalibration, optional
         Overrides the archive's calibration.
     progress : callable(done, total), optional
@@ -249,8 +373,7 @@ def measure_pass(
     if calibration is None:
         raise ValueError("the pass has no calibration.json; give the site's calibration")
     for method in methods:
-        if method not in MEASURE_METHODS:
-            raise ValueError(f"methods must be among {', '.join(MEASURE_METHODS)}, got {method!r}")
+        method_options(method)
     total = len(archive.manifest.wheels) * len(methods)
     measured: dict[tuple[str, int, str, str], WheelMeasurement] = {}
     for wheel in archive.manifest.wheels:

@@ -110,12 +110,24 @@ def _nearest_on_runs(samples: StripeSamples, pixels: np.ndarray) -> tuple[np.nda
     return best_d, best_i, best_t
 
 
-def draw_stripe(image: np.ndarray, samples: StripeSamples, peak_dn: np.ndarray) -> None:
-    """Add a Gaussian stripe along the samples (peak grey per sample) to `image` in place."""
+def draw_stripe(
+    image: np.ndarray,
+    samples: StripeSamples,
+    peak_dn: np.ndarray,
+    *,
+    skew: np.ndarray | None = None,
+) -> None:
+    """Add a Gaussian stripe along the samples (peak grey per sample) to `image` in place.
+
+    With `skew` (α per sample, |α| < 1) the cross-section is two-sided: σ(1 + α) on the
+    left of the samples' direction of travel and σ(1 − α) on the right, its peak still on
+    the true line (a slope or reflectance change across the lit band).
+    """
     if samples.pixels.shape[0] < 2:
         return
     mask = np.zeros(image.shape, np.uint8)
-    reach = int(np.ceil(REACH_SIGMAS * samples.width_px.max() / 4)) + 1
+    most = 1.0 if skew is None else 1.0 + float(np.abs(skew).max())
+    reach = int(np.ceil(REACH_SIGMAS * most * samples.width_px.max() / 4)) + 1
     for run in np.unique(samples.run_id):
         pts = np.round(samples.pixels[samples.run_id == run] * 16).astype(np.int32)
         cv2.polylines(mask, [pts], False, 255, 2 * reach + 1, cv2.LINE_8, shift=4)
@@ -126,6 +138,12 @@ def draw_stripe(image: np.ndarray, samples: StripeSamples, peak_dn: np.ndarray) 
     width = (1 - t) * samples.width_px[index] + t * samples.width_px[nxt]
     peak = (1 - t) * peak_dn[index] + t * peak_dn[nxt]
     sigma = width / 4.0
+    if skew is not None:
+        seg = samples.pixels[nxt] - samples.pixels[index]
+        rel = pixels - samples.pixels[index]
+        left = seg[:, 0] * rel[:, 1] - seg[:, 1] * rel[:, 0] > 0
+        alpha = (1 - t) * skew[index] + t * skew[nxt]
+        sigma = sigma * np.where(left, 1 + alpha, 1 - alpha)
     near = distance <= REACH_SIGMAS * sigma
     value = peak * np.exp(-0.5 * (distance / sigma) ** 2)
     np.add.at(image, (rows[near], cols[near]), value[near].astype(IMAGE_FLOAT))

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -19,9 +19,22 @@ import numpy as np
 
 from pipeline.archive.manifest import PassManifest, WheelEntry
 from pipeline.archive.pass_archive import write_pass_archive
+from pipeline.calibration.geometry import camera_centre_track
 from pipeline.calibration.model import SENSOR_NAMES
 from pipeline.profile.flange import FlangeParameters
 from pipeline.profile.reference import load_reference_profile
+from pipeline.simulation.field import (
+    FieldEffects,
+    add_spots_on_stripe,
+    bloom,
+    cut_at_flange,
+    ghost,
+    glare,
+    long_part,
+    shiny_bands,
+    skew,
+    stripe_texture,
+)
 from pipeline.simulation.frame_render import (
     Appearance,
     add_specular_spots,
@@ -33,6 +46,15 @@ from pipeline.simulation.frame_render import (
     wheel_appearance,
 )
 from pipeline.simulation.render import WheelPose, plate_section, wheel_section
+from pipeline.simulation.scene import (
+    draw_edges,
+    plate_surface,
+    rail_surfaces,
+    render_scene,
+    scene_edges,
+    scene_grey,
+    wheel_surfaces,
+)
 from pipeline.simulation.station import NOMINAL_BACK_TO_BACK_MM, Station, build_station
 from pipeline.simulation.wheel import Wear, WheelProfile, wheel_profile
 
@@ -123,31 +145,70 @@ def _pose(wheel: SimWheel, offset_mm: float, yaw_rad: float, along_mm: float) ->
 
 
 def _render_frame(
-    station: Station, name: str, wheel: SimWheel, pose: WheelPose, rng: np.random.Generator
+    station: Station,
+    name: str,
+    wheel: SimWheel,
+    pose: WheelPose,
+    rng: np.random.Generator,
+    field: FieldEffects | None,
 ) -> np.ndarray:
     sensor = station.calibration.sensor(name)
     laser = station.laser_origin(name)
+    # Each field effect draws from its own stream, so switching one off leaves the others'
+    # draws (and the clean frame's) as they were.
+    streams = dict(zip(FieldEffects.names(), rng.spawn(len(FieldEffects.names())), strict=True))
+    on = dict.fromkeys(FieldEffects.names(), False) if field is None else asdict(field)
     appearance = pass_appearance(wheel.appearance, rng)
     samples = wheel_section(wheel.profile, pose, sensor, laser, scatter_mm=appearance.scatter_mm)
-    image = np.zeros((sensor.image_height_px, sensor.image_width_px), np.float32)
-    draw_stripe(
-        image, samples, stripe_peaks(samples, appearance.reflectivity[samples.outline_index])
-    )
+    if on["flange_cut"] and name.endswith("outer"):
+        samples = cut_at_flange(wheel.profile, samples, streams["flange_cut"])
+    shape = (sensor.image_height_px, sensor.image_width_px)
+    image = np.zeros(shape, np.float32)
+    reflectivity = appearance.reflectivity[samples.outline_index]
+    if on["shiny_bands"]:
+        factor, band = shiny_bands(wheel.profile, samples, streams["shiny_bands"])
+        reflectivity = reflectivity * factor
+    peaks = stripe_peaks(samples, reflectivity)
+    alpha = skew(wheel.profile, samples, streams["asymmetry"]) if on["asymmetry"] else None
+    draw_stripe(image, samples, peaks, skew=alpha)
+    reflected = ghost(wheel.profile, samples, peaks, streams["ghost"]) if on["ghost"] else None
+    if reflected is not None:
+        draw_stripe(image, *reflected)
+    if on["texture"]:
+        image *= stripe_texture(shape, streams["texture"])
+    if on["shiny_bands"]:
+        draw_stripe(image, *glare(samples, band, streams["shiny_bands"]))
     top_x = wheel.profile.x_mm[np.argmax(wheel.profile.z_mm)]
     on_flange = np.abs(wheel.profile.x_mm[samples.outline_index] - top_x) < 12.0
     add_specular_spots(image, samples, on_flange, rng)
+    if on["spots"]:
+        add_spots_on_stripe(image, samples, streams["spots"])
+    surfaces = []
     if name.endswith("outer"):
         plate_x = pose.side_sign * (pose.back_face_axial_mm + 135.0 + rng.uniform(25.0, 45.0))
-        plate = plate_section(
-            sensor,
-            laser,
-            plate_x_mm=plate_x + pose.centre_track_mm[0],
-            z_range_mm=(20.0, 90.0),
-            scatter_mm=0.5,
-        )
+        plate_x += pose.centre_track_mm[0]
+        z_range = (-30.0, 250.0) if on["long_part_stripe"] else (20.0, 90.0)
+        plate = plate_section(sensor, laser, plate_x_mm=plate_x, z_range_mm=z_range, scatter_mm=0.5)
+        if on["long_part_stripe"]:
+            plate = long_part(plate, samples, streams["long_part_stripe"])
         draw_stripe(image, plate, stripe_peaks(plate, np.full(plate.width_px.size, 0.5)))
+        facing = float(np.sign(camera_centre_track(sensor)[0] - plate_x))
+        surfaces.append(plate_surface(plate_x, (-30.0, 250.0), facing))
+    if on["scene"]:
+        surfaces += [*wheel_surfaces(wheel.profile, pose), *rail_surfaces(pose.side_sign)]
+        _add_scene(image, surfaces, wheel, pose, sensor, streams["scene"])
     add_stray_light(image, rng)
+    if on["blooming"]:
+        bloom(image)
     return expose(image, sensor.bit_depth, rng)
+
+
+def _add_scene(image, surfaces, wheel: SimWheel, pose: WheelPose, sensor, rng) -> None:
+    """The daylit scene and its bright corners under the stripe, in place."""
+    sky = np.array([rng.uniform(-0.4, 0.4), rng.uniform(-0.3, 0.3), 1.0])
+    shade, distance = render_scene(surfaces, sensor, sky / np.linalg.norm(sky))
+    image += scene_grey(shade, rng)
+    draw_edges(image, scene_edges(wheel.profile, pose), distance, sensor, rng)
 
 
 def _truth_row(wheel: SimWheel) -> dict:
@@ -173,6 +234,7 @@ def simulate_pass(
     started_at: datetime,
     frames_per_sensor: int = 1,
     site: str = "sim-station",
+    field: FieldEffects | None = None,
 ) -> SimulatedPass:
     """Render one pass of `train` over `station`.
 
@@ -187,6 +249,8 @@ def simulate_pass(
     frames_per_sensor : int
         Frames each sensor takes of each wheel (the wheel moves 2 mm between them).
     site : str
+    field : FieldEffects, optional
+        The field effects the frames show; None: the clean stripe on black.
 
     Returns
     -------
@@ -212,7 +276,7 @@ def simulate_pass(
                 name = f"{wheel.side}_{position}"
                 counters[name] += 1
                 path = f"frames/{name}/{counters[name]:06d}.png"
-                frames[path] = _render_frame(station, name, wheel, pose, rng)
+                frames[path] = _render_frame(station, name, wheel, pose, rng, field)
                 paths[position].append(path)
         entries.append(
             WheelEntry(
@@ -231,7 +295,11 @@ def simulate_pass(
         vehicles=train.vehicles,
         wheels=tuple(entries),
     )
-    return SimulatedPass(manifest, frames, {"wheels": [_truth_row(w) for w in train.wheels]})
+    truth = {
+        "field": None if field is None else asdict(field),
+        "wheels": [_truth_row(w) for w in train.wheels],
+    }
+    return SimulatedPass(manifest, frames, truth)
 
 
 def pass_start_time(index: int) -> datetime:
@@ -248,6 +316,7 @@ def write_synthetic_passes(
     bit_depth: int = 8,
     axles_per_vehicle: int = AXLES_PER_VEHICLE,
     frames_per_sensor: int = 1,
+    field: FieldEffects | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> list[Path]:
     """Simulate `repeat` passes of one train and write them as pass folders with truth.
@@ -270,6 +339,8 @@ def write_synthetic_passes(
         8 or 16.
     frames_per_sensor : int
         Frames per sensor and wheel.
+    field : FieldEffects, optional
+        Field effects of every frame (`FIELD_MODES["harsh"]`: all); None: clean frames.
     progress : callable(done, total), optional
         Called after each pass.
 
@@ -293,6 +364,7 @@ def write_synthetic_passes(
             rng,
             started_at=pass_start_time(index),
             frames_per_sensor=frames_per_sensor,
+            field=field,
         )
         write_pass_archive(
             folder, simulated.manifest, simulated.frames, calibration=station.calibration

@@ -28,6 +28,7 @@ from backend.ops.backup import create_backup, database_snapshot, dump_tables
 from backend.ops.demo import zip_folder
 from backend.ops.restore import restore_backup
 from backend.ops.snapshot import blob_columns, read_revision
+from backend.services.retention import remove_expired_frames
 from backend.storage.store import BlobStore
 from db.engine import alembic_config, make_engine, make_session_factory, upgrade_database
 from db.models import Base, Frame, Site
@@ -244,16 +245,13 @@ def test_every_sha256_column_of_the_models_is_known_to_name_a_blob_or_not():
 
 
 def test_a_pass_whose_frames_retention_removed_is_backed_up_without_them(tmp_path):
-    retention = pytest.importorskip(
-        "backend.services.retention", reason="frame retention not there yet"
-    )
     settings = Settings(data_dir=tmp_path / "data")
     measure(settings, ingest(settings, small_pass(tmp_path, 1)))
     ingest(settings, small_pass(tmp_path, 2))  # its wheels still queued: it keeps its frames
     engine = make_engine(settings.resolved_database_url)
     with make_session_factory(engine)() as session:
         store = BlobStore(settings.frames_dir)
-        removed = retention.remove_expired_frames(session, store, 1.0)
+        removed = remove_expired_frames(session, store, 1.0)
     engine.dispose()
     assert [removal.pass_id for removal in removed] == [1]
 

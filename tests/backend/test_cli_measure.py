@@ -13,7 +13,7 @@ from backend.cli import main
 @pytest.fixture(scope="module")
 def sim_pass(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("cli") / "pass"
-    assert main(["synth-pass", str(out), "--axles", "1", "--seed", "2"]) == 0
+    assert main(["synth-pass", str(out), "--axles", "1", "--seed", "2", "--field", "clean"]) == 0
     return out
 
 
@@ -61,13 +61,19 @@ def test_broken_manifest_is_one_line(tmp_path: Path, capsys) -> None:
 
 def test_rr_reports_both_methods_against_truth(tmp_path: Path) -> None:
     out = tmp_path / "rr"
-    assert main(["synth-pass", str(out), "--axles", "1", "--repeat", "2", "--seed", "9"]) == 0
+    synth = ["synth-pass", str(out), "--axles", "1", "--repeat", "2", "--seed", "9"]
+    assert main([*synth, "--field", "clean"]) == 0
     report = tmp_path / "rr.json"
     passes = [str(out / "pass-001"), str(out / "pass-002")]
-    assert main(["rr", *passes, "--json", str(report)]) == 0
+    methods = "adaptive,steger,steger+curvature+asymmetry"
+    assert main(["rr", *passes, "--method", methods, "--json", str(report)]) == 0
     document = json.loads(report.read_text())
     pooled = {(r["method"], r["parameter"]): r for r in document["pooled"]}
-    assert set(pooled) >= {("adaptive", "flange_height_mm"), ("steger", "flange_thickness_mm")}
+    assert set(pooled) >= {
+        ("adaptive", "flange_height_mm"),
+        ("steger", "flange_thickness_mm"),
+        ("steger+curvature+asymmetry", "flange_height_mm"),
+    }
     sh = pooled[("adaptive", "flange_height_mm")]
     assert sh["passes"] == 4 and sh["mae_mm"] < 0.1
     assert pooled[("adaptive", "back_to_back_mm")]["max_error_mm"] < 0.2

@@ -78,7 +78,7 @@ def test_a_date_without_time_zone_is_refused(client, auth, passes) -> None:
         "/api/passes", headers=auth("viewer"), params={"started_from": "2026-05-02T00:00:00"}
     )
     assert response.status_code == 422
-    assert "time zone" in response.json()["detail"]
+    assert "timezone" in response.json()["detail"]
 
 
 def test_a_listed_pass_shows_its_wheels_alarms_and_job(client, auth, passes) -> None:

@@ -16,8 +16,13 @@ from fastapi.testclient import TestClient
 from sqlalchemy import select
 from starlette.websockets import WebSocketDisconnect
 
-from backend.api.routes.jobs import WS_POLICY_VIOLATION
-from backend.api.security import AuthLimit, FailedAuthTracker, redact_secrets
+from backend.api.security import (
+    WS_POLICY_VIOLATION,
+    WS_RATE_LIMITED,
+    AuthLimit,
+    FailedAuthTracker,
+    redact_secrets,
+)
 from backend.services.auth import create_token
 from db.models import ROLES, ApiToken
 from db.types import utc_now
@@ -116,10 +121,28 @@ def test_repeated_failed_authentication_is_rate_limited_per_address(client, auth
     bad = {"Authorization": "Bearer wst_guess"}
     codes = [guesser.get("/api/me", headers=bad).status_code for _ in range(limit.max_failures)]
     assert codes == [401] * limit.max_failures
-    refused = guesser.get("/api/me", headers=auth("viewer"))
+    refused = guesser.get("/api/me", headers=bad)
     assert refused.status_code == 429 and int(refused.headers["Retry-After"]) >= 1
     assert refused.json()["code"] == "rate_limited"
+    # A valid token from the same address (a depot behind one NAT) is not locked out.
+    assert guesser.get("/api/me", headers=auth("viewer")).status_code == 200
     assert client.get("/api/me", headers=auth("viewer")).status_code == 200
+
+
+def test_failed_socket_authentications_count_towards_the_limit(client, auth, tokens) -> None:
+    limit = client.app.state.auth_tracker.limit
+    guesser = TestClient(client.app, client=("203.0.113.8", 4000))
+    codes = []
+    for _ in range(limit.max_failures + 1):
+        with pytest.raises(WebSocketDisconnect) as refused:
+            with guesser.websocket_connect("/api/ws/passes?token=wst_guess") as socket:
+                socket.receive_json()
+        codes.append(refused.value.code)
+    assert codes == [WS_POLICY_VIOLATION] * limit.max_failures + [WS_RATE_LIMITED]
+    assert guesser.get("/api/me", headers={"Authorization": "Bearer x"}).status_code == 429
+    assert guesser.get("/api/me", headers=auth("viewer")).status_code == 200
+    with guesser.websocket_connect(f"/api/ws/passes?token={tokens['viewer']}"):
+        pass  # accepted
 
 
 def test_the_failure_tracker_forgets_old_failures_and_bounds_its_memory() -> None:

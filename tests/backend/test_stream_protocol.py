@@ -66,7 +66,7 @@ def test_a_frame_is_201_then_200_when_identical_and_409_when_different(client, a
 def test_bad_frames_are_422_and_not_stored(client, auth) -> None:
     pass_id = open_pass(client, auth)["pass_id"]
     cases = {
-        "unknown sensor": ("top_inner", frame_png(), "sensor must be one of"),
+        "unknown sensor": ("top_inner", frame_png(), "path.sensor: Input should be"),
         "not an image": ("left_inner", b"hello", "is not a PNG image"),
         "wrong size": ("left_inner", frame_png((20, 40)), "40x20 px"),
         "wrong depth": ("left_inner", frame_png(dtype=np.uint16), "16 bit"),

@@ -142,6 +142,8 @@ def pass_archive(tmp_path_factory: pytest.TempPathFactory) -> Path:
             *WHEELSCAN,
             "synth-pass",
             str(folder),
+            "--field",
+            "clean",
             "--vehicles",
             "1",
             "--axles",

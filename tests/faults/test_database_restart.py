@@ -4,7 +4,6 @@ service recovers by itself and no accepted pass is lost."""
 
 from __future__ import annotations
 
-import subprocess
 import threading
 from collections import Counter
 from collections.abc import Callable, Iterator
@@ -13,7 +12,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.databases import throwaway_database
+from tests.databases import PostgresServer, throwaway_database
 from tests.faults.live import (
     LiveServer,
     check_database,
@@ -28,30 +27,25 @@ from tests.scale.topology import wait_until
 
 pytestmark = pytest.mark.postgres
 
-PG_CTL = "pg_ctlcluster --skip-systemctl-redirect $(ls /etc/postgresql) main"
 PASSES = 4
 REQUEST_TIMEOUT_S = 15.0
 """Longer than any answer may take: a request still open after this counts as a hang."""
 JOB_TIMEOUT_S = 180.0
 
 
-def postgres(action: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        f"{PG_CTL} {action}", shell=True, capture_output=True, text=True, timeout=120, check=False
-    )
+@pytest.fixture
+def postgres_server() -> Iterator[PostgresServer]:
+    """A PostgreSQL server of this test's own, to restart (never the machine's)."""
+    server = PostgresServer()
+    server.start()
+    yield server
+    server.remove()
 
 
 @pytest.fixture
-def postgres_url(tmp_path: Path) -> Iterator[str]:
-    """A throw-away database on the machine's PostgreSQL, left running whatever happens."""
-    if not Path("/etc/postgresql").is_dir():
-        pytest.skip("no local PostgreSQL cluster (/etc/postgresql): database restart NOT tested")
-    try:
-        with throwaway_database("postgresql", tmp_path) as url:
-            yield url
-    finally:
-        if postgres("status").returncode != 0:
-            postgres("start")
+def postgres_url(postgres_server: PostgresServer, tmp_path: Path) -> Iterator[str]:
+    with throwaway_database("postgresql", tmp_path, port=postgres_server.port) as url:
+        yield url
 
 
 class Traffic:
@@ -100,7 +94,10 @@ class Traffic:
 
 
 def test_postgresql_restart_under_load_gives_503s_then_recovers_with_nothing_lost(
-    make_server: Callable[..., LiveServer], postgres_url: str, axle_archive: bytes
+    make_server: Callable[..., LiveServer],
+    postgres_server: PostgresServer,
+    postgres_url: str,
+    axle_archive: bytes,
 ) -> None:
     server = make_server(database_url=postgres_url, workers=1)
     archives = [vary_archive(axle_archive, index) for index in range(PASSES)]
@@ -110,7 +107,7 @@ def test_postgresql_restart_under_load_gives_503s_then_recovers_with_nothing_los
             if index == PASSES // 2:
                 first = accepted[0]["pass_id"]
                 wait_until(lambda f=first: being_measured(client, f), 60, "a wheel measured")
-                restart = threading.Thread(target=postgres, args=("restart",))
+                restart = threading.Thread(target=postgres_server.restart)
                 restart.start()
             response = traffic.record(f"upload {index}", lambda a=archive: upload(client, a))
             if response is not None and response.status_code == 202:
@@ -118,7 +115,7 @@ def test_postgresql_restart_under_load_gives_503s_then_recovers_with_nothing_los
                 traffic.pass_ids.append(response.json()["pass_id"])
         restart.join(timeout=120)
         wait_until(lambda: healthy(client), 60, "the service to answer again")
-    assert postgres("status").returncode == 0, "PostgreSQL was left down"
+    assert postgres_server.running, "PostgreSQL was left down"
     assert not traffic.bad, "\n".join(traffic.bad)
     with server.client("operator", REQUEST_TIMEOUT_S) as client:
         for index, archive in enumerate(archives):

@@ -60,6 +60,17 @@ GHOST_SHIFT_PX = 30.0
 GHOST_WIDENING = 1.4
 """The ghost lies GHOST_SHIFT_PX below the stripe [px], GHOST_WIDENING× as wide (diffuse)."""
 
+FLARE_AT = 0.7
+"""Where the flare starts, as a fraction of the stripe's arc inside the frame: the flange root."""
+FLARE_LENGTHS_PX = (60.0, 130.0, 80.0, 110.0, 50.0, 120.0, 70.0, 100.0)
+"""Radial streaks of the flare, one per 45° from 20°, starting 8 px out [px long]."""
+FLARE_PEAK_GREY = 50.0
+FLARE_WIDTH_PX = 3.0
+"""A streak's peak where it starts, fading linearly to 0 at its end, and its 1/e² width."""
+GLARE_PEAK_GREY = 150.0
+GLARE_SIGMA_PX = 3.0
+"""The glare spot at the flare's origin, on the stripe: peak above it and Gaussian σ."""
+
 
 @dataclass(frozen=True)
 class StripeCase:
@@ -83,13 +94,15 @@ class StripeCase:
     ghost_ratio: float = 0.0
     asymmetry: float = 1.0
     speckle: float = 0.0
+    flare: bool = False
     """Field-harsh options: `peak_grey` the stripe's peak above the background (8-bit
     levels); `scene` "dark" (BACKGROUND_GREY), "lit" (lit plates beside the stripe),
     "lit-crossing" (plate edges crossing it) or "lit-specular" ("lit" with specular glints);
     `broken` the stripe cut into BROKEN_* segments; `ghost_ratio` the ghost's peak relative to
     the stripe's (0: none); `asymmetry` the reflectance left of the centre relative to the
     right's (1: symmetric); `speckle` the standard deviation of the laser speckle multiplying
-    the stripe, relative to its mean (correlated over SPECKLE_SIGMA_PX)."""
+    the stripe, relative to its mean (correlated over SPECKLE_SIGMA_PX); `flare` radial
+    streaks and a glare spot where the stripe bends at the flange root (FLARE_*, GLARE_*)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -320,6 +333,22 @@ def _ghost(shape, whole: _Piece, ratio: float) -> _Piece:
     return _Piece(line, whole.arc[sel], whole.width[sel] * GHOST_WIDENING, whole.peak[sel] * ratio)
 
 
+def _flare(shape, whole: _Piece) -> tuple[list[_Piece], np.ndarray]:
+    """Radial streaks from the stripe at FLARE_AT, and the glare spot there (grey image)."""
+    tau = _arc_in_frame(shape, whole)
+    origin = whole.line[np.searchsorted(tau, FLARE_AT)]
+    streaks = []
+    for k, length in enumerate(FLARE_LENGTHS_PX):
+        angle = np.deg2rad(20 + 45 * k)
+        along = np.arange(8.0, 8.0 + length, TRUTH_STEP_PX)
+        line = origin + along[:, None] * [np.cos(angle), np.sin(angle)]
+        fade = FLARE_PEAK_GREY * (1 - (along - 8.0) / length)
+        streaks.append(_Piece(line, along, np.full(len(line), FLARE_WIDTH_PX), fade))
+    rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]]
+    d2 = (cols - origin[0]) ** 2 + (rows - origin[1]) ** 2
+    return streaks, GLARE_PEAK_GREY * np.exp(-d2 / (2 * GLARE_SIGMA_PX**2))
+
+
 def noise_bound_px(amplitude, background, width_px, *, read_noise, shot_noise, bits) -> np.ndarray:
     """Cramér–Rao bound of a Gaussian stripe's centre found with the adaptive scale [px].
 
@@ -438,6 +467,12 @@ def make_stripe(case: StripeCase) -> SyntheticStripe:
         ghost = _ghost(case.shape, whole, case.ghost_ratio)
         image += _render_line(case.shape, ghost.line, ghost.width, ghost.peak)[0]
         extras.append(ghost.line)
+    if case.flare:
+        streaks, glare = _flare(case.shape, whole)
+        image += glare
+        for streak in streaks:
+            image += _render_line(case.shape, streak.line, streak.width, streak.peak)[0]
+            extras.append(streak.line)
     for bright in scene_lines:
         n = len(bright.xy)
         image += _render_line(

@@ -23,8 +23,10 @@ TEXTURE_SIGMA_PX = 2.5
 """Correlation of the reflectance texture: the Gaussian σ its white noise is smoothed with [px]
 (autocorrelation e^(-d²/(4σ²)), 1/e at d = 2σ = 5 px)."""
 
-TEXTURE_CONTRAST = 0.3
-"""Standard deviation of the reflectance texture relative to the mean reflectance."""
+TEXTURE_CONTRAST = 0.15
+"""Standard deviation of the reflectance texture relative to the mean reflectance: 2–3× the
+real frames' 5–7 % (tests/pipeline/real_frames, fine detail beside the laser, noise included),
+for rust and wear."""
 
 EDGE_BLUR_PX = 0.8
 """Optics blur of a plate outline: Gaussian σ of the step edge [px]."""
@@ -88,14 +90,17 @@ def _edge_samples(a: np.ndarray, b: np.ndarray, inset_px: float, step_px: float)
     return a + inward * inset_px + np.arange(n + 1)[:, None] * step_px * tangent
 
 
-LAYOUT_SHAPE = (400, 640)
-"""Frame (rows, cols) the layouts are drawn for."""
-
 _BESIDE = (
     ((380, 352), (660, 352), (660, 420), (380, 420)),
     ((-20, 40), (60, 40), (60, 420), (-20, 420)),
     ((175, 160), (290, 160), (290, 330), (175, 330)),
     ((430, 170), (610, 170), (610, 265), (430, 265)),
+)
+_BESIDE_FULL = (
+    ((850, 880), (1620, 880), (1620, 1220), (850, 1220)),
+    ((-20, 150), (150, 150), (150, 1220), (-20, 1220)),
+    ((400, 520), (500, 520), (500, 1000), (400, 1000)),
+    ((800, 450), (1400, 450), (1400, 700), (800, 700)),
 )
 _BESIDE_EDGES = ((0, 0), (1, 1), (2, 3), (3, 2))
 
@@ -103,30 +108,45 @@ LAYOUTS = {
     # Plates beside the stripe, none crossing it: a rail head 35 px below the tread (its gauge
     # corner lit), a web plate left of the flange back, a lit patch inside the flange's curve
     # and a brake block above the tread, with highlights on the edges nearest the stripe.
-    "lit": Layout(_BESIDE, _BESIDE_EDGES),
+    "lit": {(400, 640): Layout(_BESIDE, _BESIDE_EDGES)},
     # Plate edges crossing the stripe: a slanted edge across the tread and a level one across
     # the flange back, each with its highlight; the stripe runs on the lit plates beyond them.
-    "lit-crossing": Layout(
-        (
-            ((470, 200), (660, 200), (660, 420), (520, 420)),
-            ((-20, 250), (200, 250), (200, 420), (-20, 420)),
-        ),
-        ((0, 3), (1, 0)),
-    ),
+    "lit-crossing": {
+        (400, 640): Layout(
+            (
+                ((470, 200), (660, 200), (660, 420), (520, 420)),
+                ((-20, 250), (200, 250), (200, 420), (-20, 420)),
+            ),
+            ((0, 3), (1, 0)),
+        )
+    },
     # The "lit" plates with specular lines as the real frames show them: a polished rod above
     # the tread (a brake rod, an axle-box bolt) with a bright narrow glint and a dimmer second
-    # one, and the rail head's polished running band, longer than the stripe's pieces.
-    "lit-specular": Layout(
-        (*_BESIDE, ((505, -20), (555, -20), (555, 150), (505, 150))),
-        _BESIDE_EDGES,
-        (
-            ((520, -20), (520, 148), 8.0, 170.0),
-            ((542, -20), (542, 148), 5.0, 90.0),
-            ((380, 388), (660, 388), 12.0, 110.0),
+    # one, and the rail head's polished running band, longer than the stripe's pieces. Also
+    # drawn for 1200×1600 frames (the speed benchmark), the plates as far from the stripe.
+    "lit-specular": {
+        (400, 640): Layout(
+            (*_BESIDE, ((505, -20), (555, -20), (555, 150), (505, 150))),
+            _BESIDE_EDGES,
+            (
+                ((520, -20), (520, 148), 8.0, 170.0),
+                ((542, -20), (542, 148), 5.0, 90.0),
+                ((380, 388), (660, 388), 12.0, 110.0),
+            ),
         ),
-    ),
+        (1200, 1600): Layout(
+            (*_BESIDE_FULL, ((1200, -20), (1300, -20), (1300, 380), (1200, 380))),
+            _BESIDE_EDGES,
+            (
+                ((1230, -20), (1230, 378), 8.0, 170.0),
+                ((1275, -20), (1275, 378), 5.0, 90.0),
+                ((850, 920), (1620, 920), 12.0, 110.0),
+            ),
+        ),
+    },
 }
-"""The lit scenes' layouts, drawn for LAYOUT_SHAPE frames."""
+"""The lit scenes' layouts per frame shape (rows, cols), placed around the stripe of
+`stripe_images.wheel_line` (whose shape does not scale with the frame)."""
 
 
 def lit_scene(
@@ -139,8 +159,7 @@ def lit_scene(
     rng : numpy.random.Generator
         Source of the reflectance texture.
     shape : tuple of int
-        Frame (rows, cols): LAYOUT_SHAPE, the frame the plates are placed for around the
-        stripe of `stripe_images.wheel_line` (whose shape does not scale with the frame).
+        Frame (rows, cols): one of the shapes the layout is drawn for (LAYOUTS).
     layout : {"lit", "lit-crossing", "lit-specular"}
         Plates, highlighted edges and glints (LAYOUTS). Each plate is lit 2.2× the ambient
         level behind it; a highlight runs 1.5 px inside its edge, HIGHLIGHT_WIDTH_PX wide and
@@ -148,9 +167,9 @@ def lit_scene(
     step_px : float
         Spacing of the bright lines' samples [px].
     """
-    if tuple(shape) != LAYOUT_SHAPE:
-        raise ValueError(f"lit scenes are laid out for {LAYOUT_SHAPE} frames, got {shape}")
-    plan = LAYOUTS[layout]
+    if tuple(shape) not in LAYOUTS[layout]:
+        raise ValueError(f"{layout!r} is laid out for {sorted(LAYOUTS[layout])}, got {shape}")
+    plan = LAYOUTS[layout][tuple(shape)]
     plates = [np.asarray(c, float) for c in plan.plates]
     rows, cols = np.mgrid[0 : shape[0], 0 : shape[1]].astype(float)
     ambient = 26.0 + 14.0 * (cols / shape[1]) + 8.0 * np.sin(rows / shape[0] * np.pi)

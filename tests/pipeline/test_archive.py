@@ -5,15 +5,29 @@ from __future__ import annotations
 import json
 import os
 import stat
+import struct
+import time
 import zipfile
+from dataclasses import fields
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 
-from pipeline.archive.manifest import manifest_to_document, parse_manifest
-from pipeline.archive.pass_archive import ArchiveLimits, read_pass_archive, write_pass_archive
+from pipeline.archive.manifest import (
+    PassManifest,
+    WheelEntry,
+    manifest_to_document,
+    parse_manifest,
+)
+from pipeline.archive.pass_archive import (
+    ArchiveLimits,
+    encode_frame,
+    png_header,
+    read_pass_archive,
+    write_pass_archive,
+)
 from pipeline.errors import ArchiveError
 from tests.pipeline.archive_helpers import small_calibration, small_frames, small_manifest
 
@@ -111,6 +125,10 @@ def test_not_a_zip(tmp_path: Path) -> None:
         (lambda d: d.update(speed_kmh=-3), r"speed_kmh must be in \(0, 400\]"),
         (lambda d: d.update(started_at="yesterday"), "started_at is not ISO 8601"),
         (lambda d: d.update(started_at="2026-11-23T12:00:00"), "must carry a time zone"),
+        (lambda d: d.update(started_at="0001-01-01T00:00:00+14:00"), "out of range in UTC"),
+        (lambda d: d.update(direction="x" * 41), "direction must be a non-empty string of ≤ 40"),
+        (lambda d: d.update(site="a\x00b"), "site must not contain NUL"),
+        (lambda d: d.update(vehicles=["V" * 101]), r"vehicles\[0\] must be a non-empty string"),
         (lambda d: d.update(format="other/2"), "format must be 'wheelscan-pass/1'"),
         (lambda d: d.update(vehicles=[]), "vehicles must be a non-empty list"),
         (lambda d: d["wheels"][0].update(side="middle"), "side must be 'left' or 'right'"),
@@ -149,10 +167,51 @@ def test_frame_that_is_not_an_image(pass_folder: Path) -> None:
         read_pass_archive(pass_folder)
 
 
-def test_truncated_png_is_refused_when_decoding(pass_folder: Path) -> None:
+def test_truncated_png_is_refused(pass_folder: Path) -> None:
     path = pass_folder / "frames/left_inner/000001.png"
     path.write_bytes(path.read_bytes()[:60])
+    with pytest.raises(ArchiveError, match="truncated: it ends before its IEND"):
+        read_pass_archive(pass_folder)
+
+
+def test_png_whose_image_data_is_broken_is_refused_when_decoding(pass_folder: Path) -> None:
+    path = pass_folder / "frames/left_inner/000001.png"
+    data = bytearray(path.read_bytes())
+    start = data.index(b"IDAT") + 4
+    data[start : start + 8] = b"\xff" * 8  # chunk layout intact, zlib stream not
+    path.write_bytes(bytes(data))
+    read_pass_archive(pass_folder, decode_frames=False)  # the header is fine
     with pytest.raises(ArchiveError, match="not a decodable"):
+        read_pass_archive(pass_folder)
+
+
+def test_bytes_after_iend_are_refused(pass_folder: Path) -> None:
+    path = pass_folder / "frames/left_inner/000001.png"
+    path.write_bytes(path.read_bytes() + bytes(1000))
+    with pytest.raises(ArchiveError, match="1000 bytes after its IEND chunk"):
+        read_pass_archive(pass_folder, decode_frames=False)
+
+
+def _claiming(data: bytes, width: int, height: int) -> bytes:
+    """`data` (a PNG) whose IHDR claims width x height (CRCs are not checked before)."""
+    return data[:16] + struct.pack(">II", width, height) + data[24:]
+
+
+@pytest.mark.parametrize(("width", "height"), [(60000, 60000), (0, 30), (2**31, 1)])
+def test_a_header_beyond_the_pixel_cap_is_refused_before_decoding(
+    pass_folder: Path, width: int, height: int
+) -> None:
+    with pytest.raises(ArchiveError, match=f"claims {width}x{height} px"):
+        png_header(_claiming(encode_frame(np.zeros((30, 40), np.uint8)), width, height), "f")
+
+
+def test_a_frame_of_another_size_is_refused_by_its_header_not_decoded(
+    pass_folder: Path,
+) -> None:
+    # 4000x3000 claimed by a small file: the header alone refuses it.
+    path = pass_folder / "frames/left_inner/000001.png"
+    path.write_bytes(_claiming(path.read_bytes(), 4000, 3000))
+    with pytest.raises(ArchiveError, match="is 4000x3000 px 8 bit, but sensor left_inner"):
         read_pass_archive(pass_folder)
 
 
@@ -248,3 +307,33 @@ def test_zip_member_count_limit(pass_folder: Path, tmp_path: Path) -> None:
 def test_writer_refuses_a_manifest_frame_it_was_not_given(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="frames lacks"):
         write_pass_archive(tmp_path / "p", small_manifest(), {})
+
+
+def test_validating_a_zip_of_4000_frames_reads_its_directory_once(tmp_path: Path) -> None:
+    # The zip was reopened for every member (its central directory parsed again each
+    # time): 4,000 tiny frames took 55 s. CPU time, so other processes do not count.
+    frames_per_sensor = 1000
+    manifest = small_manifest()
+    wheels = tuple(
+        WheelEntry(
+            vehicle_id="V1",
+            axle=1,
+            side=side,
+            frames_inner=tuple(f"{side}_inner/{i}.png" for i in range(frames_per_sensor)),
+            frames_outer=tuple(f"{side}_outer/{i}.png" for i in range(frames_per_sensor)),
+        )
+        for side in ("left", "right")
+    )
+    many = PassManifest(
+        **{f.name: getattr(manifest, f.name) for f in fields(manifest) if f.name != "wheels"},
+        wheels=wheels,
+    )
+    out = write_pass_archive(
+        tmp_path / "many.zip", many, small_frames(many), calibration=small_calibration()
+    )
+    started_s = time.process_time()
+    archive = read_pass_archive(out)
+    elapsed_s = time.process_time() - started_s
+    archive.close()
+    assert sum(len(w.frames_inner) + len(w.frames_outer) for w in archive.manifest.wheels) == 4000
+    assert elapsed_s <= 2.0, f"{elapsed_s:.1f} s of CPU to validate 4,000 members"

@@ -67,6 +67,9 @@ def _sensor(document: dict) -> dict:
             "normal must be a unit vector",
         ),
         (lambda d: _sensor(d)["laser_plane"].update(d=float("nan")), "d must be a finite"),
+        (lambda d: _sensor(d)["laser_plane"].update(d=0.0), "through the camera centre"),
+        (lambda d: _sensor(d)["laser_plane"].update(d=-0.5), "at least 1.0 mm from 0"),
+        (lambda d: _sensor(d).update(image_size=[60000, 60000]), "exceeds 33554432 pixels"),
         (lambda d: _sensor(d).update(camera_to_track=np.diag([1, 1, -1, 1]).tolist()), "det"),
         (
             lambda d: _sensor(d).update(camera_to_track=(2 * np.eye(4)).tolist()),

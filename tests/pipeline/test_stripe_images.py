@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import cv2
 import numpy as np
 import pytest
@@ -24,6 +26,12 @@ from tests.pipeline.stripe_scenes import SCENE_GREY_RANGE, lit_scene
 from tests.pipeline.stripe_scores import score_centres
 
 QUIET = {"bits": 16}  # no noise, quantisation 1/257 grey
+
+
+@functools.cache
+def _made(case: StripeCase):
+    """Each frame rendered once for the module (about 1 s each)."""
+    return make_stripe(case)
 
 
 def _cross_sections(stripe, *, straight=False):
@@ -53,7 +61,7 @@ def _cross_sections(stripe, *, straight=False):
 
 
 def test_each_segment_is_centred_on_its_truth_with_its_width() -> None:
-    stripe = make_stripe(StripeCase("broken", broken=True, **QUIET))
+    stripe = _made(StripeCase("broken", broken=True, **QUIET))
     signed, segment, grey = _cross_sections(stripe, straight=True)
     assert len(np.unique(stripe.segment)) == len(BROKEN_WIDTHS_PX)
     assert len(np.unique(segment)) >= 4  # the others lie on the flange's curves
@@ -68,7 +76,7 @@ def test_each_segment_is_centred_on_its_truth_with_its_width() -> None:
 
 
 def test_segments_are_shifted_apart_and_at_their_own_peaks() -> None:
-    stripe = make_stripe(StripeCase("broken", broken=True, **QUIET))
+    stripe = _made(StripeCase("broken", broken=True, **QUIET))
     unbroken = wheel_line(stripe.image.shape)
     arc = np.concatenate([[0], np.cumsum(np.hypot(*np.diff(unbroken, axis=0).T))])
     for i, shift in enumerate(BROKEN_SHIFTS_PX):
@@ -83,21 +91,21 @@ def test_segments_are_shifted_apart_and_at_their_own_peaks() -> None:
 
 
 def test_laser_mask_holds_the_pixels_lit_to_e2_of_the_peak() -> None:
-    stripe = make_stripe(StripeCase("whole", **QUIET))
+    stripe = _made(StripeCase("plain", **QUIET))
     laser = stripe.image / 257 - BACKGROUND_GREY
     assert laser[stripe.laser_mask].min() >= 170 * np.exp(-2) * 0.98
     assert laser[~stripe.laser_mask].max() <= 170 * np.exp(-2) * 1.02
 
 
 def test_asymmetric_stripe_is_dimmer_on_one_side_about_the_same_centre() -> None:
-    stripe = make_stripe(StripeCase("asymmetric", asymmetry=0.5, **QUIET))
+    stripe = _made(StripeCase("asymmetric", asymmetry=0.5, **QUIET))
     signed, _, grey = _cross_sections(stripe)
     left, right = grey[signed < -1].sum(), grey[signed > 1].sum()
     assert left / right == pytest.approx(0.5, rel=0.02)
 
 
 def test_ghost_lies_beside_the_stripe_at_its_ratio() -> None:
-    stripe = make_stripe(StripeCase("ghost", ghost_ratio=0.2, **QUIET))
+    stripe = _made(StripeCase("ghost", ghost_ratio=0.2, **QUIET))
     (ghost,) = stripe.extras
     assert cKDTree(stripe.line_xy).query(ghost)[0].min() > 25
     c, r = np.rint(ghost[len(ghost) // 2]).astype(int)
@@ -119,7 +127,7 @@ def test_lit_scene_grey_range_and_texture_correlation(layout: str) -> None:
     ("layout", "crosses"), [("lit", False), ("lit-specular", False), ("lit-crossing", True)]
 )
 def test_scene_lines_stay_beside_the_stripe_or_cross_it(layout: str, crosses: bool) -> None:
-    stripe = make_stripe(StripeCase(layout, scene=layout, **QUIET))
+    stripe = _made(StripeCase(layout, scene=layout, **QUIET))
     tree = cKDTree(stripe.line_xy)
     nearest = [tree.query(line)[0].min() for line in stripe.extras]
     if crosses:
@@ -129,8 +137,8 @@ def test_scene_lines_stay_beside_the_stripe_or_cross_it(layout: str, crosses: bo
 
 
 def test_speckle_modulates_the_stripe_by_its_contrast() -> None:
-    plain = make_stripe(StripeCase("plain", **QUIET))
-    grainy = make_stripe(StripeCase("speckle", speckle=0.1, **QUIET))
+    plain = _made(StripeCase("plain", **QUIET))
+    grainy = _made(StripeCase("speckle", speckle=0.1, **QUIET))
     lit = plain.laser_mask
     ratio = (grainy.image[lit] / 257 - BACKGROUND_GREY) / (plain.image[lit] / 257 - BACKGROUND_GREY)
     assert ratio.mean() == pytest.approx(1, abs=0.01)
@@ -139,12 +147,22 @@ def test_speckle_modulates_the_stripe_by_its_contrast() -> None:
 
 
 def test_noise_of_the_noise_case() -> None:
-    stripe = make_stripe(StripeCase("noise", read_noise=10, shot_noise=True, peak_grey=120))
+    stripe = _made(StripeCase("noise", read_noise=10, shot_noise=True, peak_grey=120))
     flat = stripe.image[300:380, 20:60].astype(float)  # dark background, no stripe
     sigma = np.sqrt(10**2 + SHOT_GAIN * BACKGROUND_GREY)
     # The same noise drawn on its own, rounded and clipped at 0 as the frame is.
     drawn = np.random.default_rng(1).normal(BACKGROUND_GREY, sigma, 200_000)
     assert flat.std() == pytest.approx(np.clip(np.rint(drawn), 0, 255).std(), rel=0.05)
+
+
+def test_flare_radiates_from_the_stripe_and_is_not_laser() -> None:
+    plain = _made(StripeCase("plain", **QUIET))
+    flared = _made(StripeCase("flare", flare=True, **QUIET))
+    assert np.array_equal(flared.laser_mask, plain.laser_mask)
+    starts = np.array([streak[0] for streak in flared.extras])
+    origin = starts.mean(axis=0)
+    assert np.allclose(np.hypot(*(starts - origin).T), 8.0, atol=1e-6)
+    assert cKDTree(flared.line_xy).query(origin)[0] < 0.05
 
 
 @pytest.mark.parametrize("width_px", [5.0, 13.0, 21.0])
@@ -167,7 +185,7 @@ def test_noise_bound_is_the_fisher_bound_of_a_sampled_profile(width_px: float) -
 
 
 def test_scores_of_the_truth_itself_and_of_wrong_points() -> None:
-    stripe = make_stripe(StripeCase("broken", broken=True, **QUIET))
+    stripe = _made(StripeCase("broken", broken=True, **QUIET))
     x, y = stripe.line_xy[::10].T
     exact = score_centres(stripe, x, y)
     assert exact.rms_px < 1e-9 and exact.false_pct == 0 and exact.max_gap_px == 0

@@ -3,7 +3,9 @@ PostgreSQL database, the machine's Redis and a private Redis that tests may rest
 
 from __future__ import annotations
 
-import subprocess
+import os
+import shutil
+import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -15,7 +17,6 @@ from backend.config import Settings
 from backend.jobs.celery_runner import MEASURE_QUEUE
 from tests.databases import throwaway_database
 from tests.scale.topology import (
-    REDIS_SERVER,
     TEST_SCALE_ENV,
     RedisServer,
     api,
@@ -25,12 +26,8 @@ from tests.scale.topology import (
     wait_for_pass,
 )
 
-SHARED_REDIS_URL = "redis://127.0.0.1:6379/13"
+SHARED_REDIS_URL = os.environ.get("WHEELSCAN_TEST_REDIS_URL", "redis://127.0.0.1:6379/13")
 """The machine's Redis; database 13 is reserved for these tests."""
-REDIS_START = (
-    'redis-server --daemonize yes --bind 127.0.0.1 -::1 --port 6379 --save "" '
-    "--appendonly no --dir /var/lib/redis --logfile /var/log/redis/ci.log"
-)
 PASS_TIMEOUT_S = 120.0
 
 
@@ -64,20 +61,29 @@ def _clear_queue(client: redis.Redis) -> None:
     client.delete(MEASURE_QUEUE, "unacked", "unacked_index", "unacked_mutex")
 
 
-@pytest.fixture
-def shared_redis_url() -> str:
-    """The machine's Redis (started when down), its test database emptied of our keys."""
+@pytest.fixture(scope="session")
+def _redis_url() -> Iterator[str]:
+    """The machine's Redis when it answers (database 13), else one of the tests' own."""
     client = redis.Redis.from_url(SHARED_REDIS_URL, socket_connect_timeout=2)
     try:
         client.ping()
     except redis.exceptions.ConnectionError:
-        subprocess.run(REDIS_START, shell=True, check=False, capture_output=True)
-        try:
-            client.ping()
-        except redis.exceptions.ConnectionError as exc:
-            pytest.skip(f"Redis at 127.0.0.1:6379 is down and would not start: {exc}")
-    _clear_queue(client)
+        folder = Path(tempfile.mkdtemp(prefix="wheelscan-redis-"))
+        own = RedisServer(folder, persistent=False)
+        own.start()
+        yield own.url
+        own.stop()
+        shutil.rmtree(folder, ignore_errors=True)
+        return
     yield SHARED_REDIS_URL
+
+
+@pytest.fixture
+def shared_redis_url(_redis_url: str) -> Iterator[str]:
+    """A Redis the tests share, emptied of our keys before and after each test."""
+    client = redis.Redis.from_url(_redis_url, socket_connect_timeout=2)
+    _clear_queue(client)
+    yield _redis_url
     _clear_queue(client)
 
 
@@ -92,8 +98,6 @@ def fast_redelivery(monkeypatch: pytest.MonkeyPatch) -> None:
 @pytest.fixture
 def private_redis(tmp_path: Path) -> Iterator[RedisServer]:
     """A Redis of this test's own that keeps nothing across a restart."""
-    if REDIS_SERVER is None:
-        pytest.skip("redis-server is not installed: the broker-restart test needs its own Redis")
     server = RedisServer(tmp_path / "redis", persistent=False)
     server.start()
     yield server

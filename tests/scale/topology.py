@@ -8,9 +8,7 @@ from __future__ import annotations
 
 import os
 import re
-import shutil
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -32,9 +30,9 @@ from backend.config import Settings
 from backend.services.auth import create_token
 from db.models import Job, Measurement, PassWheel, Wheel
 from pipeline.simulation.passes import write_synthetic_passes
+from tests.databases import free_port, redis_server_binary
 
 WHEELSCAN = str(Path(sys.executable).parent / "wheelscan")
-REDIS_SERVER = shutil.which("redis-server")
 
 TEST_SCALE_ENV = {
     "WHEELSCAN_BROKER_VISIBILITY_TIMEOUT_S": "10",
@@ -58,12 +56,6 @@ def wait_until(predicate: Callable[[], bool], timeout_s: float, what: str) -> No
         pause.wait(0.1)
 
 
-def free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
-
 def synthetic_pass_zip(folder: Path, vehicles: int, axles_per_vehicle: int, seed: int = 7) -> bytes:
     """A simulated pass archive (`wheelscan synth-pass`) zipped for upload."""
     (pass_dir,) = write_synthetic_passes(
@@ -82,8 +74,7 @@ class RedisServer:
     docker-compose.yml), else keeping nothing across a restart (as this machine's Redis)."""
 
     def __init__(self, folder: Path, *, persistent: bool = True) -> None:
-        if REDIS_SERVER is None:
-            raise FileNotFoundError("redis-server is not installed")
+        self.binary = redis_server_binary()
         self.folder = folder
         self.port = free_port()
         self.url = f"redis://127.0.0.1:{self.port}/0"
@@ -92,7 +83,7 @@ class RedisServer:
 
     def start(self) -> None:
         self.folder.mkdir(parents=True, exist_ok=True)
-        command = [REDIS_SERVER, "--port", str(self.port), "--bind", "127.0.0.1"]
+        command = [self.binary, "--port", str(self.port), "--bind", "127.0.0.1"]
         command += ["--dir", str(self.folder), "--save", ""]
         command += ["--appendonly", "yes", "--appendfsync", "always"] if self.persistent else []
         log = (self.folder / "redis.log").open("ab")

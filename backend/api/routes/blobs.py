@@ -9,8 +9,8 @@ from typing import Annotated
 from fastapi import APIRouter, Path, Request, Response
 from starlette.concurrency import run_in_threadpool
 
-from backend.api.deps import OperatorDep, SettingsDep, StoreDep
-from backend.errors import ERROR_RESPONSES, InvalidInputError, NotFoundError, PayloadTooLargeError
+from backend.api.deps import OperatorDep, StoreDep
+from backend.errors import ERROR_RESPONSES, InvalidInputError, NotFoundError
 from backend.storage.remote import BLOB_SUFFIXES
 
 router = APIRouter(prefix="/api/blobs", tags=["blobs"], responses=ERROR_RESPONSES)
@@ -54,16 +54,11 @@ async def put_blob(
     name: BlobName,
     request: Request,
     store: StoreDep,
-    settings: SettingsDep,
     _operator: OperatorDep,
 ) -> Response:
-    """Store a blob (a no-op when stored); its bytes must hash to its name."""
+    """Store a blob (a no-op when stored); its bytes must hash to its name (422 otherwise)."""
     sha256, suffix = _split(name)
-    data = await request.body()
-    if len(data) > settings.max_frame_bytes:
-        raise PayloadTooLargeError(
-            f"a blob may have at most {settings.max_frame_bytes} bytes, got {len(data)}"
-        )
+    data = await request.body()  # at most max_frame_bytes (BodySizeLimit)
     actual = hashlib.sha256(data).hexdigest()
     if actual != sha256:
         raise InvalidInputError(f"the body hashes to {actual}, not to the name's {sha256}")

@@ -9,8 +9,9 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
-from backend.api.deps import JobDep, ViewerDep
+from backend.api.deps import JobDep, RowId, ViewerDep
 from backend.api.schemas import JobProgress, JobRead
+from backend.api.security import WS_POLICY_VIOLATION
 from backend.errors import ERROR_RESPONSES, ServiceError
 from backend.services.auth import authenticate, require_role
 from backend.services.queries import job_progress
@@ -20,8 +21,6 @@ router = APIRouter(prefix="/api", tags=["jobs"], responses=ERROR_RESPONSES)
 
 POLL_INTERVAL_S = 0.25
 """How often a progress socket looks at the job rows (the database is the truth)."""
-
-WS_POLICY_VIOLATION = 4401
 
 
 @router.get("/jobs/{job_id}")
@@ -74,7 +73,7 @@ async def _push_progress(websocket: WebSocket, job_id: int | None) -> None:
 
 
 @router.websocket("/ws/jobs/{job_id}")
-async def job_socket(websocket: WebSocket, job_id: int) -> None:
+async def job_socket(websocket: WebSocket, job_id: RowId) -> None:
     """Pushes {"job_id", "pass_id", "state", "progress", "wheels_done", "wheels_total"} on
     every change, and closes once the job is done."""
     await _push_progress(websocket, job_id)

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-from datetime import datetime
 from typing import Annotated
 
-from fastapi import APIRouter, Query, UploadFile, status
+from fastapi import APIRouter, Query, Request, status
+from starlette.concurrency import run_in_threadpool
+from starlette.datastructures import UploadFile
 
 from backend.api.deps import (
     Offset,
@@ -17,23 +18,41 @@ from backend.api.deps import (
     StoreDep,
     ViewerDep,
 )
-from backend.api.schemas import Page, PassAccepted, PassSummary, PassWheelRead
+from backend.api.schemas import Page, PassAccepted, PassSummary, PassWheelRead, UtcDateTime
 from backend.errors import ERROR_RESPONSES, InvalidInputError
-from backend.services.ingest import (
-    discard,
-    existing_upload,
-    receive_upload,
-    store_archive,
-    validate_archive,
-)
+from backend.services.ingest import ingest_upload
 from backend.services.queries import PassFilter, list_passes, pass_summary, pass_wheels
 
 router = APIRouter(prefix="/api/passes", tags=["passes"], responses=ERROR_RESPONSES)
 
 
-@router.post("", status_code=status.HTTP_202_ACCEPTED)
-def upload_pass(
-    file: UploadFile,
+UPLOAD_BODY = {
+    "requestBody": {
+        "required": True,
+        "content": {
+            "multipart/form-data": {
+                "schema": {
+                    "type": "object",
+                    "required": ["file"],
+                    "properties": {
+                        "file": {
+                            "type": "string",
+                            "format": "binary",
+                            "minLength": 1,
+                            "description": "a wheelscan-pass/1 zip",
+                        }
+                    },
+                }
+            }
+        },
+    }
+}
+"""The multipart body, documented by hand: the route reads it itself, after authentication."""
+
+
+@router.post("", status_code=status.HTTP_202_ACCEPTED, openapi_extra=UPLOAD_BODY)
+async def upload_pass(
+    request: Request,
     session: SessionDep,
     settings: SettingsDep,
     store: StoreDep,
@@ -42,21 +61,16 @@ def upload_pass(
 ) -> PassAccepted:
     """Upload a wheelscan-pass/1 zip; it is validated in full before anything is stored.
 
-    The same archive uploaded again returns the pass made from it the first time.
+    The token is checked before the body is read; the same archive uploaded again returns
+    the pass made from it the first time.
     """
-    if file.filename is not None and not file.filename:
-        raise InvalidInputError("file: send the pass archive as multipart field 'file'")
-    path, archive_sha256 = receive_upload(file.file, settings)
-    try:
-        found = existing_upload(session, archive_sha256)
-        if found is not None:
-            return PassAccepted(pass_id=found[0].id, job_id=found[1].id)
-        archive = validate_archive(session, path, settings)
-        train_pass, job, pass_wheel_ids = store_archive(
-            session, store, archive, archive_sha256, operator
+    async with request.form(max_files=1) as form:
+        file = form.get("file")
+        if not isinstance(file, UploadFile) or not file.filename:
+            raise InvalidInputError("file: send the pass archive as multipart field 'file'")
+        train_pass, job, pass_wheel_ids = await run_in_threadpool(
+            ingest_upload, session, store, settings, file.file, operator
         )
-    finally:
-        discard(path)
     runner.submit(pass_wheel_ids)
     return PassAccepted(pass_id=train_pass.id, job_id=job.id)
 
@@ -67,8 +81,12 @@ def get_passes(
     _viewer: ViewerDep,
     site: str | None = None,
     vehicle: str | None = None,
-    started_from: Annotated[datetime | None, Query(description="ISO 8601, inclusive")] = None,
-    started_to: Annotated[datetime | None, Query(description="ISO 8601, exclusive")] = None,
+    started_from: Annotated[
+        UtcDateTime | None, Query(description="ISO 8601 with a time zone, inclusive")
+    ] = None,
+    started_to: Annotated[
+        UtcDateTime | None, Query(description="ISO 8601 with a time zone, exclusive")
+    ] = None,
     alarm: Annotated[
         bool | None, Query(description="only passes with (true) or without alarms")
     ] = None,
@@ -76,9 +94,6 @@ def get_passes(
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
 ) -> Page[PassSummary]:
     """Passes, newest first, with wheels measured / not measured, alarms and live progress."""
-    for name, value in (("started_from", started_from), ("started_to", started_to)):
-        if value is not None and value.tzinfo is None:
-            raise InvalidInputError(f"{name} must carry a time zone (e.g. 2026-05-01T00:00:00Z)")
     where = PassFilter(site, vehicle, started_from, started_to, alarm)
     return list_passes(session, where, offset, limit)
 

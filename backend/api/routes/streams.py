@@ -7,16 +7,17 @@ from typing import Annotated
 from fastapi import APIRouter, Path, Query, Request, Response, status
 from starlette.concurrency import run_in_threadpool
 
-from backend.api.deps import OperatorDep, PassDep, RunnerDep, SessionDep, SettingsDep, StoreDep
+from backend.api.deps import OperatorDep, PassDep, RunnerDep, SessionDep, StoreDep
 from backend.api.schemas import (
     FramePut,
     FrameRead,
     MissingSensor,
     PassAccepted,
+    Sensor,
     StreamOpen,
     WheelStateRead,
 )
-from backend.errors import ERROR_RESPONSES, PayloadTooLargeError
+from backend.errors import ERROR_RESPONSES
 from backend.services.streaming import (
     close_pass,
     declare_missing,
@@ -44,11 +45,10 @@ def post_stream(body: StreamOpen, session: SessionDep, operator: OperatorDep) ->
 async def put_pass_frame(
     request: Request,
     response: Response,
-    sensor: str,
+    sensor: Sensor,
     seq: Annotated[int, Path(ge=0, le=MAX_INTEGER)],
     train_pass: PassDep,
     session: SessionDep,
-    settings: SettingsDep,
     store: StoreDep,
     runner: RunnerDep,
     operator: OperatorDep,
@@ -56,11 +56,7 @@ async def put_pass_frame(
     axle: Annotated[int, Query(ge=1, le=MAX_INTEGER)],
 ) -> FramePut:
     """Store one frame (PNG body); idempotent by sha256, any order, resumable."""
-    data = bytearray()
-    async for chunk in request.stream():
-        data.extend(chunk)
-        if len(data) > settings.max_frame_bytes:
-            raise PayloadTooLargeError(f"a frame may be at most {settings.max_frame_bytes} bytes")
+    data = await request.body()  # at most max_frame_bytes (BodySizeLimit)
     stored = await run_in_threadpool(
         put_frame,
         session,
@@ -70,7 +66,7 @@ async def put_pass_frame(
         seq=seq,
         vehicle_id=vehicle_id,
         axle=axle,
-        data=bytes(data),
+        data=data,
         token=operator,
     )
     if stored.queued_pass_wheel_id is not None:

@@ -39,7 +39,7 @@ TERMINAL = ("measured", "not_measured", "failed")
 def sim_pass(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """One simulated vehicle, 2 axles, 2 frames per sensor and wheel (16 frames)."""
     out = tmp_path_factory.mktemp("sim") / "pass"
-    command = [sys.executable, "-m", "backend.cli", "synth-pass", str(out)]
+    command = [sys.executable, "-m", "backend.cli", "synth-pass", str(out), "--field", "clean"]
     command += ["--vehicles", "1", "--axles", "2", "--frames-per-sensor", str(FRAMES_PER_SENSOR)]
     subprocess.run(command, check=True, capture_output=True)
     return out

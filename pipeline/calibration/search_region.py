@@ -1,0 +1,75 @@
+"""Where a wheel's stripe can lie in a camera: what the station's calibration already knows.
+
+The laser plane meets a wheel only inside the track window: the wheel's back face is half
+a back-to-back from the track centre, the wheelset shifts laterally by its flangeway play,
+and the rim's cross-section spans a known box of the profile frame (back face to beyond
+the field face, a worn flange's tip to the rim's inner edge). That box, cut by the laser
+plane and projected through the camera, bounds the stripe in the image; wayside systems
+search and segment there first.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pipeline.calibration.geometry import laser_plane_track, project_track_points
+from pipeline.calibration.model import SensorCalibration
+from pipeline.imaging import PixelRegion
+
+HALF_BACK_TO_BACK_MM = (1350.0 / 2, 1363.0 / 2)
+"""Half back-to-back range: LM wheelsets 1353 ± 3 mm, EN (S1002) 1357–1363 mm."""
+LATERAL_SHIFT_MM = 10.0
+"""Wheelset offset from the track centre either way: the flangeway play on straight track
+(≈ 7 mm a side) plus yaw at the measuring plane."""
+PROFILE_X_MM = (-8.0, 150.0)
+"""Profile-frame x from just outside the back face to beyond the field face (≈ 135–140)."""
+PROFILE_Z_MM = (-45.0, 40.0)
+"""Profile-frame z from the rim's inner edge (−40) to a worn flange's tip (< 36 + 4)."""
+MARGIN_PX = 24
+"""Added on every side: half the widest stripe (21 px) and the filters' reach."""
+
+
+def stripe_search_region(sensor: SensorCalibration, side: str) -> PixelRegion:
+    """The part of the sensor's frame where a wheel's stripe can lie.
+
+    Parameters
+    ----------
+    sensor : SensorCalibration
+        A sensor of the wheel's side; its laser plane and camera.
+    side : str
+        "left" or "right": which rail the wheel runs on.
+
+    Returns
+    -------
+    PixelRegion
+        The bounding box of the projected window, widened by `MARGIN_PX` and clipped to
+        the frame.
+
+    Notes
+    -----
+    At the wheel's lowest section a profile point (x, z) sits at track X = s·(b/2 + x) + e
+    and Z = −z (s = ±1 the side, b the back-to-back, e the lateral shift); the laser plane
+    n·P = d fixes Y = (d − n_X·X − n_Z·Z)/n_Y. A 33 × 33 grid over the window is projected
+    with the lens distortion, so the box holds the curved image of the window.
+    """
+    if side not in ("left", "right"):
+        raise ValueError(f"side must be 'left' or 'right', got {side!r}")
+    sign = 1.0 if side == "right" else -1.0
+    reach = (
+        HALF_BACK_TO_BACK_MM[0] + PROFILE_X_MM[0] - LATERAL_SHIFT_MM,
+        HALF_BACK_TO_BACK_MM[1] + PROFILE_X_MM[1] + LATERAL_SHIFT_MM,
+    )
+    u, z = np.meshgrid(np.linspace(*reach, 33), np.linspace(*PROFILE_Z_MM, 33))
+    normal, d = laser_plane_track(sensor)
+    x_track, z_track = sign * u.ravel(), -z.ravel()
+    y_track = (d - normal[0] * x_track - normal[2] * z_track) / normal[1]
+    pixels = project_track_points(np.column_stack([x_track, y_track, z_track]), sensor)
+    low = np.floor(pixels.min(axis=0)).astype(int) - MARGIN_PX
+    high = np.ceil(pixels.max(axis=0)).astype(int) + MARGIN_PX + 1
+    width, height = sensor.image_width_px, sensor.image_height_px
+    return PixelRegion(
+        row_start=int(np.clip(low[1], 0, height - 1)),
+        row_stop=int(np.clip(high[1], 1, height)),
+        col_start=int(np.clip(low[0], 0, width - 1)),
+        col_stop=int(np.clip(high[0], 1, width)),
+    )

@@ -1,0 +1,143 @@
+"""Field mode of the simulator: each effect does what it models, the truth never moves."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pipeline.archive.pass_archive import read_pass_archive
+from pipeline.profile.measurement import MEASURED, measure_pass
+from pipeline.profile.reference import load_reference_profile
+from pipeline.simulation.field import (
+    FIELD_MODES,
+    FieldEffects,
+    bloom,
+    cut_at_flange,
+    long_part,
+    run_lengths_px,
+    stripe_texture,
+)
+from pipeline.simulation.frame_render import draw_stripe
+from pipeline.simulation.passes import write_synthetic_passes
+from pipeline.simulation.render import StripeSamples, WheelPose, plate_section, wheel_section
+from pipeline.simulation.station import build_station
+from pipeline.simulation.wheel import wheel_profile
+
+OFF = FieldEffects(**dict.fromkeys(FieldEffects.names(), False))
+
+
+def _straight_samples(width_px: float, *, count: int = 200) -> StripeSamples:
+    """A horizontal stripe along y = 100.25 from x = 20 to 180."""
+    x = np.linspace(20.0, 180.0, count)
+    return StripeSamples(
+        pixels=np.column_stack([x, np.full(count, 100.25)]),
+        width_px=np.full(count, width_px),
+        irradiance=np.ones(count),
+        outline_index=np.arange(count),
+        run_id=np.ones(count, np.int64),
+        points_track_mm=np.zeros((count, 3)),
+    )
+
+
+@pytest.fixture(scope="module")
+def wheel_view():
+    station = build_station()
+    profile = wheel_profile(load_reference_profile("LMA"))
+    pose = WheelPose((0.0, 0.0, 410.0), (1.0, 0.0, 0.0), 1, 1353.0 / 2, 410.0)
+    sensor = station.calibration.sensor("right_outer")
+    samples = wheel_section(
+        profile,
+        pose,
+        sensor,
+        station.laser_origin("right_outer"),
+        scatter_mm=np.full(profile.x_mm.size, 0.5),
+    )
+    return station, profile, pose, sensor, samples
+
+
+def test_effects_switch_off_one_by_one_and_reject_unknown_names() -> None:
+    harsh = FIELD_MODES["harsh"]
+    assert all(dataclasses.asdict(harsh).values()) and FIELD_MODES["clean"] is None
+    assert not harsh.without("ghost").ghost and harsh.without("ghost").scene
+    with pytest.raises(ValueError, match="unknown field effect 'fog'"):
+        harsh.without("fog")
+
+
+def test_two_sided_stripe_keeps_its_peak_on_the_true_line() -> None:
+    image = np.zeros((200, 200), np.float32)
+    samples = _straight_samples(40.0)
+    draw_stripe(image, samples, np.full(200, 100.0), skew=np.full(200, 0.25))
+    column = image[:, 100].astype(float)
+    rows = np.arange(200.0)
+    assert abs(rows[np.argmax(column)] - 100.25) <= 0.5
+    # σ(1 ± α): the half-maximum reach on the two sides differs by 1.25 / 0.75.
+    above = rows[column >= 0.5 * column.max()]
+    left, right = 100.25 - above.min(), above.max() - 100.25
+    assert max(left, right) / min(left, right) == pytest.approx(1.25 / 0.75, rel=0.1)
+
+
+def test_stripe_texture_has_the_contrast_it_is_drawn_with() -> None:
+    texture = stripe_texture((400, 400), np.random.default_rng(3))
+    contrast = texture.std() / texture.mean()
+    assert texture.mean() == pytest.approx(1.0, abs=0.05)
+    assert 0.15 <= contrast <= 0.65
+
+
+def test_other_part_stripe_is_longer_than_a_piece_of_the_wheels(wheel_view) -> None:
+    station, profile, pose, sensor, samples = wheel_view
+    samples = cut_at_flange(profile, samples, np.random.default_rng(2))
+    plate = plate_section(
+        sensor,
+        station.laser_origin("right_outer"),
+        plate_x_mm=pose.back_face_axial_mm + 170.0,
+        z_range_mm=(-30.0, 250.0),
+        scatter_mm=0.5,
+    )
+    pieces = run_lengths_px(samples)
+    part = run_lengths_px(long_part(plate, samples, np.random.default_rng(1))).max()
+    assert 1.14 <= part / pieces[pieces >= 50].min() <= 1.61
+
+
+def test_flange_cut_removes_a_stretch_of_the_flank_and_splits_the_run(wheel_view) -> None:
+    _, profile, _, _, samples = wheel_view
+    cut = cut_at_flange(profile, samples, np.random.default_rng(2))
+    assert 0 < samples.pixels.shape[0] - cut.pixels.shape[0] < 0.2 * samples.pixels.shape[0]
+    assert np.unique(cut.run_id).size == np.unique(samples.run_id).size + 1
+
+
+def test_blooming_spreads_only_charge_above_full_well() -> None:
+    image = np.full((60, 60), 40.0, np.float32)
+    image[30, 30] = 2000.0
+    before = image.copy()
+    bloom(image)
+    assert image[30, 36] > before[30, 36] and image[40, 30] > before[40, 30]
+    dim = np.full((60, 60), 200.0, np.float32)
+    bloom(dim)
+    assert np.array_equal(dim, np.full((60, 60), 200.0, np.float32))
+
+
+@pytest.fixture(scope="module")
+def scene_pass(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    field = dataclasses.replace(OFF, scene=True)
+    out = tmp_path_factory.mktemp("field")
+    return write_synthetic_passes(out, seed=7, axles_per_vehicle=1, field=field)[0]
+
+
+def test_lit_scene_reads_grey_15_to_90_and_records_the_effects(scene_pass: Path) -> None:
+    truth = json.loads((scene_pass / "truth.json").read_text())
+    assert truth["field"] == dataclasses.asdict(dataclasses.replace(OFF, scene=True))
+    archive = read_pass_archive(scene_pass)
+    frame = archive.load_frame(archive.manifest.wheels[0].frames_inner[0])
+    assert 15 <= np.median(frame) <= 90
+
+
+@pytest.mark.slow
+def test_lit_scene_does_not_break_measurement(scene_pass: Path) -> None:
+    results = measure_pass(read_pass_archive(scene_pass), methods=("adaptive", "steger"))
+    assert [r.measurement.status for r in results] == [MEASURED] * 4
+    quality = results[0].measurement.quality_figures()
+    assert 0 < quality["searched_fraction"] < 1 and quality["excluded_bright_px"] > 0
