@@ -13,7 +13,6 @@ from __future__ import annotations
 import base64
 import json
 import subprocess
-import zipfile
 from collections.abc import Iterator
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
@@ -25,7 +24,7 @@ import pytest
 from sqlalchemy import create_engine, update
 
 from db.models import Pass
-from tests.e2e.conftest import ROOT, WHEELSCAN, Service
+from tests.e2e.conftest import ROOT, WHEELSCAN, Service, zip_pass
 from tests.e2e.test_retention_page import wait_for_job
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
@@ -53,14 +52,6 @@ def api(service: Service, role: str, method: str, path: str, **kwargs: Any) -> h
     return httpx.request(method, f"{service.url}{path}", headers=headers, timeout=60, **kwargs)
 
 
-def zipped(folder: Path, out: Path) -> Path:
-    with zipfile.ZipFile(out, "w", zipfile.ZIP_DEFLATED) as zf:
-        for path in sorted(folder.rglob("*")):
-            if path.is_file() and path.name != "truth.json":
-                zf.write(path, path.relative_to(folder).as_posix())
-    return out
-
-
 @pytest.fixture(scope="module")
 def depot(service: Service, tmp_path_factory: pytest.TempPathFactory) -> Depot:
     """Three measured passes of one train under a lowered LM Sd limit (restored after)."""
@@ -73,18 +64,13 @@ def depot(service: Service, tmp_path_factory: pytest.TempPathFactory) -> Depot:
         check=True,
         cwd=ROOT,
     )
-    limits = next(
-        row
-        for row in api(service, "viewer", "GET", "/api/limits").json()
-        if row["wheel_profile"] == "LM"
-    )
-    original = {k: v for k, v in limits.items() if k.endswith("_mm") or k.startswith("near")}
+    original = lm_limits(service)
     lowered = original | {"flange_thickness_max_mm": LM_SD_MAX_MM}
     assert api(service, "admin", "PUT", "/api/limits/default/LM", json=lowered).is_success
     passes = []
     try:
         for folder in sorted((out / "train").glob("pass-*")):
-            archive = zipped(folder, out / f"{folder.name}.zip")
+            archive = zip_pass(folder, out / f"{folder.name}.zip")
             response = api(
                 service, "operator", "POST", "/api/passes",
                 files={"file": (archive.name, archive.read_bytes(), "application/zip")},
@@ -101,6 +87,14 @@ def depot(service: Service, tmp_path_factory: pytest.TempPathFactory) -> Depot:
             connection.execute(update(Pass).where(Pass.id == pass_id).values(started_at=when))
     engine.dispose()
     return Depot(passes)
+
+
+def lm_limits(service: Service) -> dict[str, float]:
+    """The default fleet's LM limits as a PUT body."""
+    row = next(
+        r for r in api(service, "viewer", "GET", "/api/limits").json() if r["wheel_profile"] == "LM"
+    )
+    return {k: v for k, v in row.items() if k.endswith("_mm") or k.startswith("near")}
 
 
 def new_page(browser: Any, service: Service, role: str, viewport: dict | None = None) -> Any:
@@ -273,12 +267,7 @@ def test_vehicle_history_is_found_from_any_page(
 def test_method_disagreement_beyond_the_fleets_threshold_is_flagged(
     viewer: Any, service: Service, depot: Depot, screenshots: Path
 ) -> None:
-    limits = next(
-        row
-        for row in api(service, "viewer", "GET", "/api/limits").json()
-        if row["wheel_profile"] == "LM"
-    )
-    body = {k: v for k, v in limits.items() if k.endswith("_mm") or k.startswith("near")}
+    body = lm_limits(service)
     tight = body | {"method_disagreement_mm": 0.01}
     assert api(service, "admin", "PUT", "/api/limits/default/LM", json=tight).is_success
     try:
