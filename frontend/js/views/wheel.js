@@ -107,6 +107,8 @@ export class WheelView {
     if (changed('dispositions', `${JSON.stringify(w.dispositions)}|${state.me?.role}`)) this.renderDispositions(w, state.me?.role);
     if (changed('toolbar', JSON.stringify(show))) this.renderToolbar(show);
     if (changed('layers', w.layers)) {
+      // when this wheel's frame data reached the canvas (the browser tests time from here)
+      performance.mark('frame-data', { detail: `${w.passId}/${w.wheelId}` });
       this.frame.setData({ ...w.layers, sigmaScale: w.sigmaScale, centres: w.centres });
       this.difference = pairDifference(w.centres);
       this.drawDifferencePlot(-1);
