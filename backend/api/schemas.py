@@ -192,8 +192,12 @@ class LimitsUpdate(InputModel):
     qr_min_mm: float = Field(gt=0, lt=100)
     back_to_back_min_mm: float = Field(gt=1000, lt=2000)
     back_to_back_max_mm: float = Field(gt=1000, lt=2000)
-    near_limit_fraction: float = Field(default=0.1, ge=0, le=0.5)
-    method_disagreement_mm: float = Field(default=0.5, gt=0, le=20)
+    near_limit_fraction: float | None = Field(
+        default=None, ge=0, le=0.5, description="amber band; omitted: kept as it is"
+    )
+    method_disagreement_mm: float | None = Field(
+        default=None, gt=0, le=20, description="omitted: kept as it is [mm]"
+    )
 
 
 class PassAccepted(BaseModel):

@@ -120,7 +120,8 @@ def replace_limits(
         )
     ).one()
     before = LimitsRead.model_validate(row).model_dump(mode="json")
-    for name, value in body.model_dump().items():
+    # review thresholds left out of the body keep their values
+    for name, value in body.model_dump(exclude_none=True).items():
         setattr(row, name, value)
     row.updated_at = utc_now()
     record_audit(
@@ -129,7 +130,7 @@ def replace_limits(
         "limits.update",
         "fleet_limit",
         f"{fleet}/{wheel_profile}",
-        {"before": before, "after": body.model_dump()},
+        {"before": before, "after": body.model_dump(exclude_none=True)},
     )
     session.commit()
     return row

@@ -128,6 +128,9 @@ def test_amber_band_is_set_per_fleet_and_applies_to_wheels_measured_next(
     body["near_limit_fraction"] = 0.02
     response = client.put("/api/limits/default/EN", headers=auth("admin"), json=body)
     assert response.status_code == 200, response.text
+    del body["near_limit_fraction"]  # an edit of the limits alone keeps the amber band
+    response = client.put("/api/limits/default/EN", headers=auth("admin"), json=body)
+    assert response.json()["near_limit_fraction"] == 0.02
     again = add_wheel(client, depot["new"], "V099", 1, "left", flange_height_mm=35.8)
     item = next(i for i in worst(client, auth)["items"] if i["wheel_id"] == again)
     assert item["margin"]["level"] == "ok"  # 2.4 % of the band from the limit, amber is 2 %
@@ -164,6 +167,12 @@ def dispose(client, auth, depot, role: str, **body):
 
 def test_dispositions_are_recorded_audited_and_shown_everywhere(client, auth, depot) -> None:
     assert dispose(client, auth, depot, "viewer", kind="monitor").status_code == 403
+    unknown = client.post(
+        f"/api/passes/{depot['new']}/wheels/999999/dispositions",
+        headers=auth("viewer"),
+        json={"kind": "monitor"},
+    )
+    assert unknown.status_code == 403, "the role is checked before the wheel is looked up"
     refused = dispose(client, auth, depot, "operator", kind="false_alarm")
     assert refused.status_code == 422 and "false alarm needs its reason" in refused.json()["detail"]
     assert dispose(client, auth, depot, "operator", kind="monitor").status_code == 201

@@ -23,6 +23,7 @@ from backend.services.review import (
     dispositions_of,
     worst_wheels,
 )
+from db.types import MAX_INTEGER
 
 router = APIRouter(prefix="/api", tags=["review"], responses=ERROR_RESPONSES)
 
@@ -41,7 +42,7 @@ def get_worst_wheels(
     fleet: str | None = None,
     vehicle: str | None = None,
     parameter: Annotated[str | None, Query(description="a parameter key; default: nearest")] = None,
-    pass_id: Annotated[int | None, Query(ge=1, description="one pass only")] = None,
+    pass_id: Annotated[int | None, Query(ge=1, le=MAX_INTEGER, description="one pass only")] = None,
     latest_only: Annotated[bool, Query(description="each wheel's newest pass only")] = True,
     open_only: Annotated[bool, Query(description="only wheels without a disposition")] = False,
     offset: Offset = 0,
