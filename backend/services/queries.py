@@ -11,7 +11,12 @@ from sqlalchemy.orm import Session
 
 from backend.api.schemas import JobProgress, MethodResult, Page, PassSummary, PassWheelRead, Side
 from backend.services.margins import PARAMETERS
-from backend.services.review import PRIMARY_METHOD, method_disagreements, wheel_reviews
+from backend.services.review import (
+    PRIMARY_METHOD,
+    disagreement_thresholds,
+    method_disagreements,
+    wheel_reviews,
+)
 from db.models import Frame, Job, Measurement, MeasurementMargin, Pass, PassWheel, Site, Wheel
 
 LABELS = {p.key: p.label for p in PARAMETERS}
@@ -176,6 +181,7 @@ def pass_wheels(
     ):
         counts[(vehicle_id, axle, sensor)] = count
     reviews = wheel_reviews(session, chosen)
+    thresholds_mm = disagreement_thresholds(session, train_pass.fleet)
     result = []
     for pass_wheel in chosen:
         wheel = pass_wheel.wheel
@@ -203,7 +209,7 @@ def pass_wheels(
                 level=cast(Level, review.level),
                 margins=review.margins,
                 disposition=review.disposition,
-                method_disagreement=method_disagreements(session, train_pass.fleet, results),
+                method_disagreement=method_disagreements(results, thresholds_mm),
             )
         )
     return result

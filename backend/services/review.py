@@ -26,7 +26,7 @@ from backend.api.schemas import (
 )
 from backend.errors import InvalidInputError
 from backend.services.auth import record_audit
-from backend.services.limits import profile_family, review_thresholds
+from backend.services.limits import WHEEL_PROFILES, profile_family, review_thresholds
 from backend.services.margins import PARAMETER_KEYS
 from backend.services.results import measurement_margins, store_margins
 from db.models import (
@@ -249,15 +249,21 @@ def wheel_reviews(session: Session, pass_wheels: list[PassWheel]) -> dict[int, W
     return reviews
 
 
+def disagreement_thresholds(session: Session, fleet: str) -> dict[str, float]:
+    """The fleet's method-disagreement threshold per limit family [mm]."""
+    return {family: review_thresholds(session, fleet, family)[1] for family in WHEEL_PROFILES}
+
+
 def method_disagreements(
-    session: Session, fleet: str, results: list[MethodResult]
+    results: list[MethodResult], thresholds_mm: dict[str, float]
 ) -> list[Disagreement]:
-    """The parameters where adaptive and Steger differ by more than the fleet's threshold."""
+    """The parameters where adaptive and Steger differ by more than the threshold of the
+    wheel's limit family (`disagreement_thresholds`)."""
     by_method = {r.method: r for r in results if r.status == "measured"}
     adaptive, steger = by_method.get(PRIMARY_METHOD), by_method.get("steger")
     if adaptive is None or steger is None:
         return []
-    _, threshold_mm = review_thresholds(session, fleet, profile_family(adaptive.reference_profile))
+    threshold_mm = thresholds_mm[profile_family(adaptive.reference_profile)]
     flagged = []
     for key in PARAMETER_KEYS:
         a, s = getattr(adaptive, key), getattr(steger, key)
