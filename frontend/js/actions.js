@@ -6,7 +6,7 @@
 import { ApiError } from './api.js';
 import { METHODS } from './lib/format.js';
 import { tintMask } from './lib/layer-pixels.js';
-import { passFilterQuery } from './lib/records.js';
+import { passFilterQuery, reviewQuery } from './lib/records.js';
 
 /** Job states after which nothing more happens. */
 const JOB_ENDS = ['done', 'failed'];
@@ -169,21 +169,6 @@ async function exportReport(api, store, passId, wheelId, format) {
   } catch (err) {
     store.set({ error: `could not export the ${format.toUpperCase()} report: ${err instanceof Error ? err.message : String(err)}` });
   }
-}
-
-/**
- * The API query of the worst-wheels filter form.
- * @param {Record<string, string>} filter site, fleet, vehicle, parameter, open ('1'), history ('1'), pass
- * @returns {Record<string, string>}
- */
-export function reviewQuery(filter) {
-  /** @type {Record<string, string>} */
-  const query = {};
-  for (const key of ['site', 'fleet', 'vehicle', 'parameter']) if (filter[key]) query[key] = filter[key];
-  if (filter.open === '1') query.open_only = 'true';
-  if (filter.history === '1') query.latest_only = 'false';
-  if (filter.pass) query.pass_id = filter.pass;
-  return query;
 }
 
 /**

@@ -4,6 +4,9 @@
  * the views need them. Pure: no DOM, no network.
  */
 
+/** Rows per page of the worst-wheels view. */
+export const REVIEW_PAGE_ROWS = 50;
+
 /** Reference profile → limit family, as the service files its limits (EN or LM). */
 const PROFILE_FAMILY = { S1002: 'EN', LMA: 'LM', LM: 'LM' };
 
@@ -102,6 +105,24 @@ export function passFilterQuery(filter) {
     query.started_to = next.toISOString().replace('.000Z', 'Z');
   }
   if (filter.alarm === 'true') query.alarm = 'true';
+  return query;
+}
+
+/**
+ * The API query of the worst-wheels filter form.
+ * @param {Record<string, string>} filter site, fleet, vehicle, parameter, open ('1'), history ('1'), pass, page (1-based)
+ * @returns {Record<string, string>}
+ */
+export function reviewQuery(filter) {
+  /** @type {Record<string, string>} */
+  const query = {};
+  for (const key of ['site', 'fleet', 'vehicle', 'parameter']) if (filter[key]) query[key] = filter[key];
+  if (filter.open === '1') query.open_only = 'true';
+  if (filter.history === '1') query.latest_only = 'false';
+  if (filter.pass) query.pass_id = filter.pass;
+  const page = Number(filter.page ?? 1);
+  if (Number.isInteger(page) && page > 1) query.offset = String((page - 1) * REVIEW_PAGE_ROWS);
+  query.limit = String(REVIEW_PAGE_ROWS);
   return query;
 }
 

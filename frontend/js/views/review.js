@@ -5,6 +5,7 @@
  * alarm, amber near a limit; each with its disposition ("open" when none).
  */
 import { fmtDisposition, fmtNumber, fmtTime, PARAMETERS, parameterOf } from '../lib/format.js';
+import { REVIEW_PAGE_ROWS } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { h } from './dom.js';
 
@@ -59,6 +60,7 @@ export function renderReview(root, state, handlers) {
       h('thead', {}, h('tr', {}, COLUMNS.map(([t, cls]) => h('th', { class: cls }, t)))),
       h('tbody', {}, items.length ? items.map((/** @type {any} */ item, /** @type {number} */ i) => row(item, (review.page?.offset ?? 0) + i + 1))
         : h('tr', {}, h('td', { colspan: COLUMNS.length, class: 'empty' }, review.loading ? 'Loading…' : 'No measured wheels match.')))),
+    pager(review.page, filter, handlers.applyFilter),
   ));
 }
 
@@ -91,4 +93,22 @@ function row(item, rank) {
   h('td', { class: 'mono' }, fmtTime(item.started_at)),
   h('td', {}, item.site),
   );
+}
+
+/**
+ * Previous / next page of the ranking, when there is more than one.
+ * @param {any} page the Page the service returned, or null
+ * @param {Record<string, string>} filter
+ * @param {(filter: Record<string, string>) => void} applyFilter
+ * @returns {HTMLElement|string}
+ */
+function pager(page, filter, applyFilter) {
+  if (!page || page.total <= REVIEW_PAGE_ROWS) return '';
+  const at = Math.floor(page.offset / REVIEW_PAGE_ROWS) + 1;
+  const pages = Math.ceil(page.total / REVIEW_PAGE_ROWS);
+  const go = (/** @type {number} */ n) => applyFilter({ ...filter, page: String(n) });
+  return h('div', { class: 'pager' },
+    h('button', { disabled: at <= 1, onclick: () => go(at - 1), 'data-action': 'previous-page' }, '‹ previous'),
+    ` page ${at} of ${pages} `,
+    h('button', { disabled: at >= pages, onclick: () => go(at + 1), 'data-action': 'next-page' }, 'next ›'));
 }
