@@ -97,9 +97,10 @@ def run() -> str:
         f"passes/s, {upload_mb_s:.1f} MB/s). Machine during the run: CPU "
         f"{100 * result.busy_fraction:.0f} % busy over {os.cpu_count()} cores, 1-min load "
         f"average {result.load_before:.1f} before (other work on the machine) and "
-        f"{result.load_after:.1f} at the end. A wheel PDF is rendered by matplotlib in a "
-        "request thread: under this load the PDFs queue for the CPU (and the GIL), which "
-        "is where the long tail of the reads comes from.",
+        f"{result.load_after:.1f} at the end. A wheel PDF is drawn by reportlab in a "
+        "request thread (then served from its content cache): under this load the first "
+        "renders queue for the CPU (and the GIL), which is where the long tail of the reads "
+        "comes from.",
     ]
     return "\n".join(lines) + "\n"
 

@@ -3,7 +3,7 @@ PostgreSQL (the bar: ≤ 300 ms per answer).
 
 20 trains of 8 vehicles (4 axles) take turns at 3 sites, so each wheel has 50 passes; every
 wheel has an adaptive and a Steger result with margins computed by the service's own
-`parameter_margins` from random but plausible wear. Each query runs the same code the
+`limit_margins` from random but plausible wear. Each query runs the same code the
 route runs (`worst_wheels`), first once to warm the caches, then REPEATS times.
 
 Run alone with `python -m benchmarks.review` (prints the Markdown section).
@@ -22,7 +22,7 @@ from sqlalchemy import insert
 from sqlalchemy.orm import Session
 
 from backend.services.limits import DEFAULT_LIMITS_MM
-from backend.services.margins import parameter_margins
+from backend.services.margins import limit_margins
 from backend.services.review import WorstWheelFilter, worst_wheels
 from db.engine import make_engine, upgrade_database
 from db.models import Calibration, Measurement, MeasurementMargin, Pass, PassWheel, Site, Wheel
@@ -96,18 +96,18 @@ def _fill(session: Session, rng: np.random.Generator) -> int:
         }
         for method in ("adaptive", "steger"):
             measurement_id = len(measurements) + 1
-            found = parameter_margins(values, limits, "EN")
+            found = limit_margins(values, limits, "EN")
             nearest = min(found, key=lambda m: m.margin_fraction)
             measurements.append(
                 {"id": measurement_id, "pass_wheel_id": pw["id"], "method": method,
                  "status": "measured", "reference_profile": "S1002", "pipeline_version": "bench",
-                 "alarm_count": sum(m.level == "alarm" for m in found), **values}
+                 "alarm_count": sum(m.status == "alarm" for m in found), **values}
             )  # fmt: skip
             margins.extend(
                 {"measurement_id": measurement_id, "parameter": m.parameter,
                  "value_mm": m.value_mm, "bound": m.bound, "limit_mm": m.limit_mm,
                  "margin_mm": m.margin_mm, "band_mm": m.band_mm,
-                 "margin_fraction": m.margin_fraction, "level": m.level, "nearest": m is nearest}
+                 "margin_fraction": m.margin_fraction, "level": m.status, "nearest": m is nearest}
                 for m in found
             )  # fmt: skip
     session.execute(insert(Measurement), measurements)

@@ -27,6 +27,7 @@ BENCH_MODULES: list[str] = [
     "benchmarks.load",
     "benchmarks.fuzz",
     "benchmarks.hardening",
+    "benchmarks.reports",
     "benchmarks.review",
 ]
 

@@ -354,3 +354,35 @@ class Disposition(Base):
     actor: Mapped[str] = mapped_column(String(100))
     token_id: Mapped[int | None] = mapped_column(ForeignKey("api_token.id", ondelete="SET NULL"))
     created_at: Mapped[datetime] = mapped_column(default=utc_now)
+
+
+class HandheldReference(Base):
+    """A wheel's profile measured with a handheld gauge (MiniProf, LLJ-4A, Calipri…): the
+    points in the profile frame, Sh/Sd/qR computed from them by the wayside code, and the
+    instrument's own values where its file gave them [mm]."""
+
+    __tablename__ = "handheld_reference"
+    __table_args__ = (UniqueConstraint("wheel_id", "sha256"),)
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    wheel_id: Mapped[int] = mapped_column(ForeignKey("wheel.id", ondelete="CASCADE"), index=True)
+    filename: Mapped[str] = mapped_column(String(255))
+    sha256: Mapped[str] = mapped_column(String(64))
+    """Of the uploaded file: the same file for the same wheel is stored once."""
+    instrument: Mapped[str | None] = mapped_column(String(100))
+    measured_on: Mapped[str | None] = mapped_column(String(60))
+    """Date and time as the file's header wrote them."""
+    measured_at: Mapped[datetime]
+    """When the gauge measured (given at import; the upload time otherwise)."""
+    x_mm: Mapped[list[Any]]
+    z_mm: Mapped[list[Any]]
+    z_offset_mm: Mapped[float] = mapped_column(Float)
+    flange_height_mm: Mapped[float] = mapped_column(Float)
+    flange_thickness_mm: Mapped[float] = mapped_column(Float)
+    flange_thickness_en_mm: Mapped[float] = mapped_column(Float)
+    qr_mm: Mapped[float] = mapped_column(Float)
+    parameter_quality: Mapped[str] = mapped_column(String(15))
+    instrument_flange_height_mm: Mapped[float | None] = mapped_column(Float)
+    instrument_flange_thickness_mm: Mapped[float | None] = mapped_column(Float)
+    instrument_qr_mm: Mapped[float | None] = mapped_column(Float)
+    created_at: Mapped[datetime] = mapped_column(default=utc_now)

@@ -84,3 +84,11 @@ class PixelRegion:
             raise ValueError(
                 f"region must be a non-empty part of a {rows}×{cols} frame, got {self}"
             )
+
+
+def freeze_geometry(instance: object, *fields: str) -> None:
+    """In a frozen dataclass's __post_init__: make `fields` read-only float64 copies."""
+    for field in fields:
+        array = np.array(getattr(instance, field), dtype=GEOMETRY_FLOAT)
+        array.flags.writeable = False
+        object.__setattr__(instance, field, array)

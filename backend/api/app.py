@@ -11,6 +11,7 @@ from contextlib import asynccontextmanager
 from fastapi import FastAPI
 from fastapi.staticfiles import StaticFiles
 
+from backend import __version__
 from backend.api.outages import install_outage_handlers
 from backend.api.routes import ROUTERS
 from backend.api.security import (
@@ -94,7 +95,7 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     app = FastAPI(
         title="wheelscan",
         summary="Wayside railway wheel profile measurement: passes, wheels, jobs and reports.",
-        version="0.1.0",
+        version=__version__,
         lifespan=lifespan,
     )
     app.state.settings = settings

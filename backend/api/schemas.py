@@ -491,7 +491,7 @@ class Disagreement(BaseModel):
 DispositionKind = Literal["re_profile", "monitor", "false_alarm", "measurement_doubtful", "comment"]
 
 
-class DispositionCreate(BaseModel):
+class DispositionCreate(InputModel):
     kind: DispositionKind
     comment: str | None = Field(default=None, max_length=1000)
 
@@ -557,3 +557,66 @@ class VehiclePass(BaseModel):
 class VehicleHistory(BaseModel):
     vehicle_id: str
     passes: list[VehiclePass] = Field(description="newest first")
+
+
+class ReferenceRead(ORMModel):
+    """A handheld-gauge profile of a wheel with its parameters [mm]."""
+
+    id: int
+    wheel_id: int
+    filename: str
+    instrument: str | None
+    measured_on: str | None = Field(description="date and time as the file's header gave them")
+    measured_at: datetime
+    parameter_quality: Literal["fit", "interpolated"] = Field(
+        description="fit: the wayside least-squares fits; interpolated: between sparse samples"
+    )
+    flange_height_mm: float
+    flange_thickness_mm: float
+    flange_thickness_en_mm: float
+    qr_mm: float
+    instrument_flange_height_mm: float | None = Field(description="Sh as the file's header gave it")
+    instrument_flange_thickness_mm: float | None = Field(
+        description="Sd as the file's header gave it (at the instrument's height; MiniProf: 10 mm)"
+    )
+    instrument_qr_mm: float | None = Field(description="qR as the file's header gave it")
+    z_offset_mm: float = Field(description="subtracted from the file's z so that z(70 mm) = 0")
+    x_mm: list[float]
+    z_mm: list[float]
+    created_at: datetime
+
+
+class ParameterDifference(BaseModel):
+    method: str
+    parameter: str
+    wayside_mm: float | None
+    handheld_mm: float
+    difference_mm: float | None = Field(description="wayside − handheld")
+
+
+class ReferenceComparison(BaseModel):
+    """One wheel of a pass against its handheld reference nearest in time."""
+
+    pass_id: int
+    wheel_id: int
+    reference: ReferenceRead | None
+    differences: list[ParameterDifference]
+
+
+class AgreementRow(BaseModel):
+    wheel_id: int | None = Field(description="the wheel, over its passes; null: all wheels")
+    method: str
+    parameter: str
+    n: int
+    mean_difference_mm: float | None
+    mae_mm: float | None
+    std_mm: float | None
+    max_error_mm: float | None
+
+
+class AgreementRead(BaseModel):
+    """Wayside against handheld over wheels (the paper's Table 2 form) [mm]."""
+
+    pairs: int = Field(description="wheel × pass results paired with a handheld reference")
+    rows: list[AgreementRow] = Field(description="over all wheels (the paper's Table 2 form)")
+    per_wheel: list[AgreementRow] = Field(description="per wheel (Tables 3–4 form)")

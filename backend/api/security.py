@@ -164,6 +164,7 @@ BODY_TYPES: tuple[tuple[str, re.Pattern[str], str], ...] = (
     ("PUT", re.compile(r"^/api/passes/[^/]+/frames/"), "image/png"),
     ("PUT", re.compile(r"^/api/blobs/"), "application/octet-stream"),
     ("POST", re.compile(r"^/api/passes/?$"), "multipart/form-data"),
+    ("POST", re.compile(r"^/api/wheels/[^/]+/references/?$"), "multipart/form-data"),
 )
 """Bodies that are not JSON: (method, path, the one media type accepted)."""
 JSON_TYPE = "application/json"

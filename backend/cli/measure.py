@@ -1,5 +1,5 @@
 """Measurement verbs: `synth-pass` (simulated passes with truth), `measure`, `calibrate`,
-`synth-calibration` and `rr` (repeatability report)."""
+`synth-calibration` and `rr` (repeatability report, against truth or handheld references)."""
 
 from __future__ import annotations
 
@@ -11,6 +11,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from backend.cli.profiles import add_agreement_arguments, run_agreement
+from backend.config import add_settings_arguments
 from pipeline.archive.pass_archive import read_pass_archive
 from pipeline.calibration.image_sets import calibrate_station, read_calibration_set
 from pipeline.calibration.model import SENSOR_NAMES, read_calibration, write_calibration
@@ -152,6 +154,12 @@ def _finite(row: dict[str, object]) -> dict[str, object]:
 
 
 def _rr(args: argparse.Namespace) -> int:
+    if args.against == "references":
+        if args.passes:
+            raise ValueError("--against references reads stored passes: give --pass-id, not PASS")
+        return run_agreement(args)
+    if not args.passes:
+        raise ValueError("rr needs PASS folders (with truth.json), or --against references")
     methods = args.method
     archives = [read_pass_archive(p) for p in args.passes]
     truths = [read_truth(p) for p in args.passes]
@@ -257,9 +265,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     synth_cal.set_defaults(func=_synth_calibration)
 
     rr = subparsers.add_parser(
-        "rr", help="repeatability report over repeated simulated passes (needs truth.json)"
+        "rr",
+        help="repeatability over repeated simulated passes (truth.json), or stored results "
+        "against handheld references",
     )
-    rr.add_argument("passes", nargs="+", type=Path, metavar="PASS")
+    rr.add_argument("passes", nargs="*", type=Path, metavar="PASS")
+    rr.add_argument(
+        "--against",
+        choices=("truth", "references"),
+        default="truth",
+        help="truth: PASS folders' truth.json; references: stored handheld references",
+    )
     rr.add_argument(
         "--method",
         type=_methods,
@@ -268,4 +284,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "±asymmetry, ±scatter (e.g. adaptive,adaptive+asymmetry,steger+curvature+asymmetry)",
     )
     rr.add_argument("--json", required=True, metavar="OUT", help="output JSON file, - for stdout")
+    add_agreement_arguments(rr)
+    add_settings_arguments(rr)
     rr.set_defaults(func=_rr)

@@ -23,7 +23,7 @@ from backend.services.margins import (
     NEAR_LIMIT_FRACTION,
     PARAMETERS,
     Margin,
-    parameter_margins,
+    limit_margins,
 )
 from db.models import ApiToken, FleetLimit
 from db.types import utc_now
@@ -166,7 +166,7 @@ def alarms_of(margins: list[Margin]) -> list[dict[str, Any]]:
     return [
         Alarm(f"{PARAMETER_LIMITS[m.parameter]}_mm", m.value_mm, m.bound, m.limit_mm).as_dict()
         for m in margins
-        if m.level == ALARM
+        if m.status == ALARM
     ]
 
 
@@ -175,4 +175,4 @@ def evaluate_alarms(
 ) -> list[dict[str, Any]]:
     """Compare a wheel's parameters with limits; returns the alarms as plain dicts.
     Missing parameters (None) raise no alarm."""
-    return alarms_of(parameter_margins(parameters_mm, limits_mm, family))
+    return alarms_of(limit_margins(parameters_mm, limits_mm, family))

@@ -78,7 +78,8 @@ class Margin:
     limit_mm: float
     margin_mm: float
     band_mm: float
-    level: str
+    status: str
+    """"alarm", "near" (within the amber band) or "ok"."""
 
     @property
     def margin_fraction(self) -> float:
@@ -126,7 +127,7 @@ def _margin(
     return Margin(parameter.key, float(value), bound, float(limit), float(margin), band, level)
 
 
-def parameter_margins(
+def limit_margins(
     values_mm: dict[str, float | None],
     limits_mm: dict[str, float],
     family: str,

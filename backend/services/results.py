@@ -11,7 +11,7 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from backend.services.limits import alarms_of, limits_for, profile_family, review_thresholds
-from backend.services.margins import PARAMETER_KEYS, Margin, parameter_margins
+from backend.services.margins import PARAMETER_KEYS, Margin, limit_margins
 from db.models import Measurement, MeasurementMargin
 from pipeline.profile.flange import FlangeParameters
 from pipeline.profile.fusion import FusedProfile
@@ -149,7 +149,7 @@ def measurement_margins(row: Measurement, fleet: str, session: Session) -> list[
     values = {key: getattr(row, key) for key in PARAMETER_NAMES}
     near_limit_fraction, _ = review_thresholds(session, fleet, family)
     limits = limits_for(session, fleet, family)
-    return parameter_margins(values, limits, family, near_limit_fraction)
+    return limit_margins(values, limits, family, near_limit_fraction)
 
 
 def store_margins(row: Measurement, margins: list[Margin]) -> None:
@@ -161,7 +161,7 @@ def store_margins(row: Measurement, margins: list[Margin]) -> None:
     for m in margins:
         stored = kept.get(m.parameter) or MeasurementMargin(parameter=m.parameter)
         stored.value_mm, stored.bound, stored.limit_mm = m.value_mm, m.bound, m.limit_mm
-        stored.margin_mm, stored.band_mm, stored.level = m.margin_mm, m.band_mm, m.level
+        stored.margin_mm, stored.band_mm, stored.level = m.margin_mm, m.band_mm, m.status
         stored.margin_fraction, stored.nearest = m.margin_fraction, m is nearest
         rows.append(stored)
     row.margins = rows

@@ -19,6 +19,19 @@ const MASK_TINT = /** @type {[number, number, number, number]} */ ([236, 72, 153
  */
 
 /**
+ * Hand a downloaded file to the browser to save.
+ * @param {{blob: Blob, filename: string}} file
+ */
+function saveFile({ blob, filename }) {
+  const url = URL.createObjectURL(blob);
+  const link = Object.assign(document.createElement('a'), { href: url, download: filename });
+  document.body.append(link);
+  link.click();
+  link.remove();
+  window.setTimeout(() => URL.revokeObjectURL(url), 10000);
+}
+
+/**
  * Bind the actions to an API client and the store.
  * @param {import('./api.js').Api} api
  * @param {import('./state.js').Store<any>} store
@@ -104,14 +117,21 @@ export function createActions(api, store) {
         const { url } = await api.viewer(passId, wheelId);
         store.set({ wheel: { ...store.get().wheel, viewerUrl: url } });
       }),
-    exportReport: async (/** @type {string} */ passId, /** @type {string|null} */ wheelId, /** @type {string} */ format) => {
-      store.set({ exporting: format });
-      try {
-        await exportReport(api, store, passId, wheelId, format);
-      } finally {
-        store.set({ exporting: null });
-      }
-    },
+    exportReport: (/** @type {string} */ passId, /** @type {string|null} */ wheelId, /** @type {string} */ format) =>
+      guard(`could not export the ${format.toUpperCase()} report`, async () =>
+        saveFile(await api.report(passId, wheelId, format))),
+    importReference: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {File} */ file) =>
+      guard(`could not import ${file.name} as the handheld reference`, async () => {
+        const reference = await api.importReference(wheelId, file);
+        const comparison = await api.referenceComparison(passId, wheelId);
+        const w = store.get().wheel;
+        if (!w || w.passId !== passId || w.wheelId !== wheelId) return;
+        const shown = comparison.reference ?? reference;
+        store.set({ wheel: { ...w, comparison, profiles: { ...w.profiles, handheld: { x_mm: shown.x_mm, z_mm: shown.z_mm } } } });
+      }),
+    exportProfile: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {string} */ method, /** @type {string} */ format) =>
+      guard(`could not export the ${method} profile as ${format.toUpperCase()}`, async () =>
+        saveFile(await api.profileFile(passId, wheelId, method, format))),
     upload: (/** @type {File} */ file) => {
       if (!/\.zip$/i.test(file.name)) {
         store.set({ upload: null, error: `${file.name} is not a pass archive: drop the .zip of a wheelscan-pass/1 archive` });
@@ -146,28 +166,6 @@ export function createActions(api, store) {
         throw err;
       }
     });
-  }
-}
-
-/**
- * Fetch a report and hand it to the browser as a download.
- * @param {import('./api.js').Api} api
- * @param {import('./state.js').Store<any>} store
- * @param {string} passId
- * @param {string|null} wheelId
- * @param {string} format "pdf", "csv" or "json"
- */
-async function exportReport(api, store, passId, wheelId, format) {
-  try {
-    const { blob, filename } = await api.report(passId, wheelId, format);
-    const url = URL.createObjectURL(blob);
-    const link = Object.assign(document.createElement('a'), { href: url, download: filename });
-    document.body.append(link);
-    link.click();
-    link.remove();
-    window.setTimeout(() => URL.revokeObjectURL(url), 10000);
-  } catch (err) {
-    store.set({ error: `could not export the ${format.toUpperCase()} report: ${err instanceof Error ? err.message : String(err)}` });
   }
 }
 
@@ -213,12 +211,13 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
   }
   if (!frame) throw new ApiError(`no frames are stored for wheel ${wheelId} of pass ${passId}`, 404, 'no_frames');
   const { sensor: s, index: i } = frame;
-  const [fresh, dispositions, limits, profiles, trend, image, adaptive, steger] = await Promise.all([
+  const [fresh, dispositions, limits, profiles, trend, comparison, image, adaptive, steger] = await Promise.all([
     recordLoad,
     api.dispositions(passId, wheelId).catch(() => []),
     store.get().limits ?? api.getLimits(),
     Promise.all(METHODS.map((m) => api.profile(passId, wheelId, m).catch((err) => ({ error: err.message })))),
     api.trend(wheelId).catch((err) => ({ error: err.message })),
+    api.referenceComparison(passId, wheelId).catch((err) => ({ error: err.message })),
     record.frames_removed_at ? null : api.frameImage(passId, wheelId, s, i),
     ...METHODS.map((m) => api.centres(passId, wheelId, s, i, m).catch((err) => ({ error: err.message }))),
   ]);
@@ -233,7 +232,12 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
       layers: { image: image ?? await blankFrame(adaptive, steger), mask: null, sigma: null },
       sigmaScale: null,
       centres: { adaptive, steger },
-      profiles: { adaptive: profiles[0], steger: profiles[1] },
+      profiles: {
+        adaptive: profiles[0], steger: profiles[1],
+        ...('reference' in comparison && comparison.reference
+          ? { handheld: { x_mm: comparison.reference.x_mm, z_mm: comparison.reference.z_mm } } : {}),
+      },
+      comparison,
       trend,
       loadMs: performance.now() - started,
     },

@@ -2,6 +2,28 @@
 // The JSON the API sends and accepts, for JSDoc in the front end
 // (e.g. /** @type {import('./api-types').PassSummary} */).
 
+/** Wayside against handheld over wheels (the paper's Table 2 form) [mm]. */
+export interface AgreementRead {
+  /** wheel × pass results paired with a handheld reference */
+  pairs: number;
+  /** over all wheels (the paper's Table 2 form) */
+  rows: AgreementRow[];
+  /** per wheel (Tables 3–4 form) */
+  per_wheel: AgreementRow[];
+}
+
+export interface AgreementRow {
+  /** the wheel, over its passes; null: all wheels */
+  wheel_id: number | null;
+  method: string;
+  parameter: string;
+  n: number;
+  mean_difference_mm: number | null;
+  mae_mm: number | null;
+  std_mm: number | null;
+  max_error_mm: number | null;
+}
+
 export interface AuditRead {
   id: number;
   at: string;
@@ -12,12 +34,14 @@ export interface AuditRead {
   detail: Record<string, unknown>;
 }
 
-export interface Body_upload_pass_api_passes_post {
+export interface Body_post_reference_api_wheels__wheel_id__references_post {
   file: string;
+  /** when the gauge measured (ISO 8601 with zone) */
+  measured_at?: string | null;
 }
 
 export interface CalibrationCreate {
-  /** a wheelscan-calibration/1 object */
+  /** a wheelscan-calibration/1 object; every sensor's intrinsics, laser plane (|d| ≥ 1 mm) and rigid camera_to_track transform are checked (422 names the fault) */
   document: Record<string, unknown>;
   note?: string | null;
 }
@@ -104,6 +128,7 @@ export interface LimitsRead extends LimitsUpdate {
   updated_at: string;
 }
 
+/** New limits; each *_min_mm must lie below its *_max_mm (422 otherwise). */
 export interface LimitsUpdate {
   flange_height_min_mm: number;
   flange_height_max_mm: number;
@@ -155,6 +180,15 @@ export interface Page_PassSummary_ {
   limit: number;
 }
 
+export interface ParameterDifference {
+  method: string;
+  parameter: string;
+  wayside_mm: number | null;
+  handheld_mm: number;
+  /** wayside − handheld */
+  difference_mm: number | null;
+}
+
 export interface PassAccepted {
   pass_id: number;
   job_id: number;
@@ -203,6 +237,42 @@ export interface ProfileRead {
   parameters: Record<string, number | null>;
 }
 
+/** One wheel of a pass against its handheld reference nearest in time. */
+export interface ReferenceComparison {
+  pass_id: number;
+  wheel_id: number;
+  reference: ReferenceRead | null;
+  differences: ParameterDifference[];
+}
+
+/** A handheld-gauge profile of a wheel with its parameters [mm]. */
+export interface ReferenceRead {
+  id: number;
+  wheel_id: number;
+  filename: string;
+  instrument: string | null;
+  /** date and time as the file's header gave them */
+  measured_on: string | null;
+  measured_at: string;
+  /** fit: the wayside least-squares fits; interpolated: between sparse samples */
+  parameter_quality: "fit" | "interpolated";
+  flange_height_mm: number;
+  flange_thickness_mm: number;
+  flange_thickness_en_mm: number;
+  qr_mm: number;
+  /** Sh as the file's header gave it */
+  instrument_flange_height_mm: number | null;
+  /** Sd as the file's header gave it (at the instrument's height; MiniProf: 10 mm) */
+  instrument_flange_thickness_mm: number | null;
+  /** qR as the file's header gave it */
+  instrument_qr_mm: number | null;
+  /** subtracted from the file's z so that z(70 mm) = 0 */
+  z_offset_mm: number;
+  x_mm: number[];
+  z_mm: number[];
+  created_at: string;
+}
+
 export interface SiteCreate {
   name: string;
 }
@@ -214,6 +284,7 @@ export interface SiteRead {
   current_calibration_version?: number | null;
 }
 
+/** A pass to stream into; without `calibration`, the site's registered one is used (422 when the site has none). */
 export interface StreamOpen {
   site: string;
   started_at: string;
@@ -226,6 +297,7 @@ export interface StreamOpen {
 export interface TokenCreate {
   role: "viewer" | "operator" | "admin";
   name: string;
+  /** must lie in the future (422 otherwise); none: never expires */
   expires_at?: string | null;
 }
 
@@ -307,6 +379,10 @@ export interface ApiResponses {
   "GET /api/passes/{pass_id}/wheels/{wheel_id}/centres/{position}": CentresRead;
   "GET /api/passes/{pass_id}/wheels/{wheel_id}/profile": ProfileRead;
   "GET /api/wheels/{wheel_id}/trend": WheelTrend;
+  "POST /api/wheels/{wheel_id}/references": ReferenceRead;
+  "GET /api/wheels/{wheel_id}/references": ReferenceRead[];
+  "GET /api/passes/{pass_id}/wheels/{wheel_id}/reference-comparison": ReferenceComparison;
+  "GET /api/references/agreement": AgreementRead;
   "GET /api/passes/{pass_id}/wheels/{wheel_id}/viewer": ViewerRead;
 }
 

@@ -45,6 +45,9 @@ const layerPath = (p, w, layer, sensor, index, suffix, method) =>
  * @property {(passId: number|string, wheelId: number|string, method: string) => Promise<import('./api-types').ProfileRead>} profile
  * @property {(wheelId: number|string) => Promise<import('./api-types').WheelTrend>} trend
  * @property {(passId: number|string, wheelId: number|string|null, format: string) => Promise<{blob: Blob, filename: string}>} report
+ * @property {(passId: number|string, wheelId: number|string, method: string, format: string) => Promise<{blob: Blob, filename: string}>} profileFile
+ * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').ReferenceComparison>} referenceComparison
+ * @property {(wheelId: number|string, file: File) => Promise<import('./api-types').ReferenceRead>} importReference
  * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').ViewerRead>} viewer
  * @property {(passId: number|string, wheelId: number|string) => Promise<any>} getWheel
  * @property {(query: Record<string, string>) => Promise<any>} worstWheels
@@ -88,6 +91,12 @@ export function createApi(getToken, base = '') {
       throw new ApiError(`the service sent an image the browser cannot decode (${path})`, 200, 'decode');
     }
   };
+  /** A file attachment: its bytes and the name the service gave it. @param {string} path @param {string} fallback */
+  const download = async (path, fallback) => {
+    const response = await request(path);
+    const match = /filename="?([^";]+)"?/.exec(response.headers.get('Content-Disposition') ?? '');
+    return { blob: await response.blob(), filename: match ? match[1] : fallback };
+  };
   /** @param {string} path @param {AbortSignal} [signal] */
   const bitmap = async (path, signal) => decode(await request(path, { signal }), path);
   return {
@@ -113,13 +122,16 @@ export function createApi(getToken, base = '') {
     centres: (p, w, sensor, index, method) => json(layerPath(p, w, 'centres', sensor, index, '', method)),
     profile: (p, w, method) => json(`${wheelPath(p, w)}/profile?method=${encodeURIComponent(method)}`),
     trend: (wheelId) => json(`/api/wheels/${wheelId}/trend`),
-    report: async (p, w, format) => {
-      const path = `${w === null ? `/api/passes/${p}` : wheelPath(p, w)}/report.${format}`;
-      const response = await request(path);
-      const disposition = response.headers.get('Content-Disposition') ?? '';
-      const match = /filename="?([^";]+)"?/.exec(disposition);
-      const filename = match ? match[1] : `wheelscan-pass-${p}${w === null ? '' : `-wheel-${w}`}.${format}`;
-      return { blob: await response.blob(), filename };
+    report: (p, w, format) => download(`${w === null ? `/api/passes/${p}` : wheelPath(p, w)}/report.${format}`,
+      `wheelscan-pass-${p}${w === null ? '' : `-wheel-${w}`}.${format}`),
+    profileFile: (p, w, method, format) =>
+      download(`${wheelPath(p, w)}/profile.${format}?method=${encodeURIComponent(method)}`,
+        `wheelscan-pass-${p}-wheel-${w}-${method}.${format}`),
+    referenceComparison: (p, w) => json(`${wheelPath(p, w)}/reference-comparison`),
+    importReference: async (wheelId, file) => {
+      const body = new FormData();
+      body.append('file', file, file.name);
+      return (await request(`/api/wheels/${wheelId}/references`, { method: 'POST', body })).json();
     },
     viewer: (p, w) => json(`${wheelPath(p, w)}/viewer`),
     getWheel: (p, w) => json(wheelPath(p, w)),

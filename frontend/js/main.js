@@ -32,7 +32,7 @@ const store = createStore({
   me: null, signingIn: false, route: parseHash(''), error: null, helpOpen: false,
   passes: { items: [], filter: {}, loading: false }, selectedRow: 0, liveJobs: {}, socketOpen: false,
   pass: null, wheel: null, upload: null, limits: null, layers: DEFAULT_LAYERS,
-  review: null, vehicle: null, exporting: null,
+  review: null, vehicle: null,
 });
 const api = createApi(() => store.get().token);
 const actions = createActions(api, store);
@@ -199,7 +199,15 @@ function render() {
   } else if (route.name === 'wheel') {
     wheelView ??= new WheelView(els.view, {
       setQuery,
-      exportReport: (format) => actions.exportReport(route.params.passId, route.params.wheelId, format),
+      exportReport: (format) => actions.exportReport(store.get().route.params.passId, store.get().route.params.wheelId, format),
+      importReference: (file) => {
+        const { params } = store.get().route;
+        return actions.importReference(params.passId, params.wheelId, file);
+      },
+      exportProfile: (format) => {
+        const { params, query } = store.get().route;
+        return actions.exportProfile(params.passId, params.wheelId, query.method === 'steger' ? 'steger' : 'adaptive', format);
+      },
       openViewer: () => actions.openViewer(store.get().route.params.passId, store.get().route.params.wheelId),
       closeViewer: () => actions.patchWheel({ viewerUrl: null }),
       addDisposition: (body) => actions.addDisposition(store.get().route.params.passId, store.get().route.params.wheelId, body),

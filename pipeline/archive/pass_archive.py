@@ -37,6 +37,9 @@ from pipeline.errors import ArchiveError, CalibrationError
 MANIFEST_NAME = "manifest.json"
 CALIBRATION_NAME = "calibration.json"
 _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+MAX_PNG_CHUNKS = 2**16
+"""Chunks of a frame at most: encoders write IDAT in 8–64 KiB chunks (a 64 MiB frame has at
+most 8192), while 12-byte empty chunks would make a 32 MiB body 2.8 million of them."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -194,7 +197,9 @@ def png_header(data: bytes, name: str) -> tuple[int, int, int]:
 
 def _check_chunks(data: bytes, name: str) -> None:
     offset = len(_PNG_SIGNATURE)
-    while offset + 12 <= len(data):
+    for _ in range(MAX_PNG_CHUNKS):
+        if offset + 12 > len(data):
+            raise ArchiveError(f"frame {name!r} is truncated: it ends before its IEND chunk")
         length, kind = struct.unpack_from(">I4s", data, offset)
         offset += 12 + length  # length, type, data, CRC
         if kind == b"IEND":
@@ -204,7 +209,7 @@ def _check_chunks(data: bytes, name: str) -> None:
                     "send the PNG without trailing data"
                 )
             return
-    raise ArchiveError(f"frame {name!r} is truncated: it ends before its IEND chunk")
+    raise ArchiveError(f"frame {name!r} has more than {MAX_PNG_CHUNKS} PNG chunks")
 
 
 def decode_frame(data: bytes, name: str) -> np.ndarray:

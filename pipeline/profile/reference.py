@@ -12,7 +12,7 @@ from importlib import resources
 
 import numpy as np
 
-from pipeline.imaging import GEOMETRY_FLOAT
+from pipeline.imaging import GEOMETRY_FLOAT, freeze_geometry
 
 REFERENCE_PROFILES = ("LMA", "S1002")
 
@@ -34,10 +34,7 @@ class ReferenceProfile:
     z_mm: np.ndarray
 
     def __post_init__(self) -> None:
-        for field in ("x_mm", "z_mm"):
-            array = np.array(getattr(self, field), dtype=GEOMETRY_FLOAT)
-            array.flags.writeable = False
-            object.__setattr__(self, field, array)
+        freeze_geometry(self, "x_mm", "z_mm")
 
 
 def load_reference_profile(name: str) -> ReferenceProfile:

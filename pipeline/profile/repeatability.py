@@ -210,3 +210,60 @@ def repeatability_markdown(
         rows = [s for s in per_wheel if s.parameter == parameter]
         parts += [_row(s) for s in sorted(rows, key=lambda s: (s.wheel, s.method))]
     return "\n".join(parts) + "\n"
+
+
+@dataclass(frozen=True, slots=True)
+class AgreementStats:
+    """Agreement of one method's parameter with a reference instrument over wheels [mm].
+
+    Attributes
+    ----------
+    method, parameter : str
+    n : int
+        Wheels with both values.
+    mean_difference_mm : float
+        Mean of (value − reference): the bias.
+    mae_mm : float
+        Mean |value − reference|.
+    std_mm : float
+        Standard deviation of the differences (n − 1); NaN for n < 2.
+    max_error_mm : float
+        Largest |value − reference|.
+    """
+
+    method: str
+    parameter: str
+    n: int
+    mean_difference_mm: float
+    mae_mm: float
+    std_mm: float
+    max_error_mm: float
+
+
+def summarise_agreement(observations: Sequence[Observation]) -> tuple[AgreementStats, ...]:
+    """Per method and parameter, the differences of measured values from their references
+    (`truth_mm`, e.g. a handheld gauge's), in the form of the paper's Table 2.
+
+    Observations without a value are left out; groups keep their first-seen order.
+    """
+    groups: dict[tuple[str, str], list[float]] = {}
+    for obs in observations:
+        differences = groups.setdefault((obs.method, obs.parameter), [])
+        if obs.value_mm is not None:
+            differences.append(obs.value_mm - obs.truth_mm)
+    rows = []
+    for (method, parameter), values in groups.items():
+        d = np.asarray(values, float)
+        nan = float("nan")
+        rows.append(
+            AgreementStats(
+                method=method,
+                parameter=parameter,
+                n=int(d.size),
+                mean_difference_mm=float(d.mean()) if d.size else nan,
+                mae_mm=float(np.abs(d).mean()) if d.size else nan,
+                std_mm=float(d.std(ddof=1)) if d.size > 1 else nan,
+                max_error_mm=float(np.abs(d).max()) if d.size else nan,
+            )
+        )
+    return tuple(rows)

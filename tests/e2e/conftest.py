@@ -5,7 +5,6 @@ driven by Playwright."""
 from __future__ import annotations
 
 import os
-import shutil
 import socket
 import subprocess
 import sys
@@ -189,7 +188,9 @@ def browser() -> Iterator[object]:
 
 @pytest.fixture(scope="session")
 def screenshots() -> Path:
-    """Where each view's screenshot is saved (git-ignored), emptied once per session."""
-    shutil.rmtree(SCREENSHOTS, ignore_errors=True)
-    SCREENSHOTS.mkdir(parents=True)
+    """Where each view's screenshot is saved (git-ignored), emptied once per session; the
+    report pages in its reports/ folder are kept (the report benchmark writes them)."""
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    for old in SCREENSHOTS.glob("*.png"):
+        old.unlink()
     return SCREENSHOTS

@@ -473,7 +473,7 @@ def test_defect_10_filters_match_parts_clear_and_wheel_changes_skip_the_wheel_li
     assert listed == [], f"the next wheel re-fetched the pass's wheel list: {listed}"
 
 
-def test_defect_11_a_report_being_made_shows_progress_and_disables_the_buttons(
+def test_defect_11_a_report_being_made_shows_progress_and_disables_its_button(
     viewer: Any, service: Service, depot: Depot, screenshots: Path
 ) -> None:
     page = viewer
@@ -481,15 +481,15 @@ def test_defect_11_a_report_being_made_shows_progress_and_disables_the_buttons(
     page.locator("a.wheel-card").first.wait_for()
     during = page.evaluate(
         """() => {
-          document.querySelector('button[data-export=pdf]').click();
-          const csv = document.querySelector('button[data-export=csv]');
-          const shown = Boolean(document.querySelector('.exports .exporting'));
-          return { shown, disabled: csv.disabled };
+          const pdf = document.querySelector('button[data-export=pdf]');
+          pdf.click();
+          const status = document.querySelector('.exports .export-progress');
+          return { shown: !status.hidden, disabled: pdf.disabled };
         }"""
     )
     assert during == {"shown": True, "disabled": True}, during
     page.screenshot(path=str(screenshots / "31-pdf-progress.png"))
-    page.locator(".exports .exporting").wait_for(state="detached", timeout=120_000)
+    page.locator(".exports .export-progress").wait_for(state="hidden", timeout=120_000)
     assert page.locator("button[data-export=pdf]").is_enabled()
 
 

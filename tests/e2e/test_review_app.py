@@ -17,7 +17,9 @@ from typing import Any
 import httpx
 import pytest
 
+from pipeline.profile.exchange import parse_profile_file
 from tests.e2e.conftest import Service
+from tests.pipeline.test_profile_exchange import contour_samples, gauge_file
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
@@ -299,6 +301,72 @@ def test_exports_download_a_pdf_and_a_csv(
         else:
             header = content.decode().splitlines()[0]
             assert "flange_height_mm" in header, header
+
+
+def test_wheel_page_exports_profiles_and_compares_a_handheld_reference(
+    viewer_page: Any, service: Service, measured_pass: int, screenshots: Path
+) -> None:
+    page = viewer_page
+    wheel_id = measured_wheels(service, measured_pass)[1]
+    wheel = next(w for w in wheels_of(service, measured_pass) if w["wheel_id"] == wheel_id)
+    name = wheel["results"][0]["reference_profile"]
+    x, z = contour_samples(name, 0.5)
+    imported = httpx.post(
+        f"{service.url}/api/wheels/{wheel_id}/references",
+        headers={"Authorization": f"Bearer {service.token('operator')}"},
+        files={
+            "file": ("gauge.whl", gauge_file(x, z, reverse=True, z_offset_mm=0.2), "text/plain")
+        },
+        timeout=30,
+    )
+    assert imported.status_code == 201, imported.text
+    reference = imported.json()
+    open_wheel(page, service, measured_pass, wheel_id)
+    table = page.locator(f"table[data-comparison='{reference['id']}']")
+    table.wait_for()
+    adaptive = next(r for r in wheel["results"] if r["method"] == "adaptive")
+    cells = table.locator("tr[data-parameter='flange_height_mm'] td")
+    assert cells.nth(0).inner_text() == f"{reference['flange_height_mm']:.2f}"
+    expected = adaptive["flange_height_mm"] - reference["flange_height_mm"]
+    assert float(cells.nth(1).inner_text().replace("−", "-")) == pytest.approx(expected, abs=0.006)
+    assert "interpolated" in page.locator(".comparison .note").inner_text()
+    page.locator(".side-panel").screenshot(path=str(screenshots / "12-wheel-handheld.png"))
+    with page.expect_download() as info:
+        page.locator(".titlebar button[data-export-profile='whl']").click()
+    path = screenshots / "12-profile.whl"
+    info.value.save_as(path)
+    exported = parse_profile_file(path.read_text(), suffix=".whl")
+    assert exported.value("Method") == "adaptive" and exported.x_mm.size > 100
+    # hold the PDF back half a second: the button shows its progress meanwhile
+    page.route("**/report.pdf", lambda route: (page.wait_for_timeout(500), route.continue_()))
+    with page.expect_download():
+        page.locator(".titlebar button[data-export='pdf']").click()
+        progress = page.locator(".exports.report .export-progress")
+        progress.wait_for(state="visible")
+        assert "preparing PDF" in progress.inner_text()
+        page.locator(".titlebar").screenshot(path=str(screenshots / "13-pdf-progress.png"))
+    progress.wait_for(state="hidden")
+
+
+def test_an_operator_imports_a_gauge_file_on_the_wheel_page(
+    browser: Any, service: Service, measured_pass: int, screenshots: Path, tmp_path: Path
+) -> None:
+    wheel_id = measured_wheels(service, measured_pass)[0]
+    wheel = next(w for w in wheels_of(service, measured_pass) if w["wheel_id"] == wheel_id)
+    x, z = contour_samples(wheel["results"][0]["reference_profile"], 0.5)
+    gauge = tmp_path / "gauge.prr"
+    gauge.write_text(gauge_file(x, z, tape_circle=True, header="ProgramName=MiniProf\n"))
+    context = browser.new_context(viewport=VIEWPORT)
+    page = context.new_page()
+    page.goto(f"{service.url}/#token={service.token('operator')}")
+    page.locator("header .role").wait_for()
+    open_wheel(page, service, measured_pass, wheel_id)
+    page.locator("input[data-action='import-reference']").set_input_files(str(gauge))
+    table = page.locator(".comparison table[data-comparison]")
+    table.wait_for()
+    assert "MiniProf · gauge.prr" in page.locator(".comparison .note").inner_text()
+    page.locator(".comparison").screenshot(path=str(screenshots / "14-reference-imported.png"))
+    context.close()
 
 
 def test_3d_view_embeds_the_viser_scene(

@@ -337,3 +337,11 @@ def test_validating_a_zip_of_4000_frames_reads_its_directory_once(tmp_path: Path
     archive.close()
     assert sum(len(w.frames_inner) + len(w.frames_outer) for w in archive.manifest.wheels) == 4000
     assert elapsed_s <= 2.0, f"{elapsed_s:.1f} s of CPU to validate 4,000 members"
+
+
+def test_a_png_of_a_hundred_thousand_empty_chunks_is_refused(pass_folder: Path) -> None:
+    data = encode_frame(np.zeros((30, 40), np.uint8))
+    iend = data.rindex(b"IEND") - 4
+    empty = struct.pack(">I4sI", 0, b"tEXt", 0)
+    with pytest.raises(ArchiveError, match="more than 65536 PNG chunks"):
+        png_header(data[:iend] + empty * 100_000 + data[iend:], "f")

@@ -5,6 +5,7 @@ from __future__ import annotations
 from fastapi import APIRouter
 from sqlalchemy import text
 
+from backend import __version__
 from backend.api.deps import SessionDep
 from backend.api.schemas import Health
 from pipeline import PIPELINE_VERSION
@@ -20,5 +21,5 @@ def get_health(session: SessionDep) -> Health:
         status="ok",
         database=session.get_bind().dialect.name,
         pipeline_version=PIPELINE_VERSION,
-        version="0.1.0",
+        version=__version__,
     )

@@ -7,7 +7,7 @@ import { visibleImageRect } from '../lib/viewport.js';
 
 /** Point colours: adaptive orange, Steger cyan (distinct for common colour blindness);
  * Steger's dots are drawn smaller on top of the adaptive ones. */
-export const METHOD_COLOURS = { adaptive: '#ff7a1a', steger: '#22c3ee' };
+export const METHOD_COLOURS = { adaptive: '#ff7a1a', steger: '#22c3ee', handheld: '#a3e635' };
 /** Candidates a method rejected (where the extraction stores them): rose, never a centre colour. */
 export const REJECTED_COLOUR = '#f43f5e';
 

@@ -13,7 +13,7 @@ import { alarmClass, h } from './dom.js';
  * Render the pass page.
  * @param {HTMLElement} root
  * @param {any} state
- * @param {{setMode: (mode: string) => void, exportReport: (format: string) => void}} handlers
+ * @param {{setMode: (mode: string) => void, exportReport: (format: string) => Promise<void>|void}} handlers
  */
 export function renderPass(root, state, handlers) {
   const pass = state.pass;
@@ -40,7 +40,7 @@ export function renderPass(root, state, handlers) {
         h('a', { class: 'button', href: buildHash(['review'], { pass: p.id }) }, 'Worst wheels of this pass'),
         h('span', { class: 'spacer' }),
         modeSwitch(mode, handlers.setMode),
-        exportButtons(handlers.exportReport, state.exporting),
+        exportButtons(handlers.exportReport),
       ),
       (p.alarm_values ?? []).length
         ? h('p', { class: 'alarm-values' }, h('strong', {}, 'In alarm: '), p.alarm_values.join(' · ')) : null,
@@ -61,16 +61,41 @@ function modeSwitch(mode, setMode) {
 }
 
 /**
- * Export buttons (PDF, CSV, JSON) calling back with the format; while one is being made
- * they are disabled and say so (a pass PDF takes seconds).
- * @param {(format: string) => void} exportReport
- * @param {string|null} [exporting] the format being made, if any
+ * Export buttons calling back with the format; while a file is prepared (a pass PDF takes
+ * a second or two) its button is disabled and a progress bar with the elapsed time shows.
+ * @param {(format: string) => Promise<void>|void} exportFile
+ * @param {'report'|'profile'} [kind] report (PDF, CSV, JSON) or profile (CSV, DXF, .whl) files
  * @returns {HTMLElement}
  */
-export function exportButtons(exportReport, exporting = null) {
-  return h('div', { class: 'exports', 'aria-busy': exporting ? 'true' : null }, 'Export ',
-    ['pdf', 'csv', 'json'].map((f) => h('button', { 'data-export': f, disabled: Boolean(exporting), onclick: () => exportReport(f) }, f.toUpperCase())),
-    exporting ? h('span', { class: 'exporting', role: 'status' }, h('span', { class: 'spinner' }), ` preparing the ${exporting.toUpperCase()}…`) : null);
+export function exportButtons(exportFile, kind = 'report') {
+  const formats = kind === 'report' ? ['pdf', 'csv', 'json'] : ['csv', 'dxf', 'whl'];
+  const text = h('span', {});
+  const status = h('span', { class: 'export-progress', hidden: true, role: 'status' },
+    h('progress', { 'aria-label': 'preparing the file' }), text);
+  const run = async (/** @type {HTMLButtonElement} */ button, /** @type {string} */ format) => {
+    const started = performance.now();
+    const tick = () => {
+      text.textContent = ` preparing ${format.toUpperCase()}… ${((performance.now() - started) / 1000).toFixed(1)} s`;
+    };
+    button.disabled = true;
+    status.hidden = false;
+    tick();
+    const timer = window.setInterval(tick, 100);
+    try {
+      await exportFile(format);
+    } finally {
+      window.clearInterval(timer);
+      button.disabled = false;
+      status.hidden = true;
+    }
+  };
+  return h('div', { class: `exports ${kind}` }, kind === 'report' ? 'Export ' : 'Profile ',
+    formats.map((f) => h('button', {
+      dataset: kind === 'report' ? { export: f } : { exportProfile: f },
+      title: kind === 'profile' ? `the selected method's profile as ${f === 'whl' ? 'MiniProf-style .whl' : f.toUpperCase()}` : null,
+      onclick: (/** @type {MouseEvent} */ e) => run(/** @type {HTMLButtonElement} */ (e.currentTarget), f),
+    }, f === 'whl' ? '.whl' : f.toUpperCase())),
+    status);
 }
 
 /**

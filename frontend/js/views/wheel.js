@@ -1,8 +1,9 @@
 // @ts-check
 /**
  * Wheel review: the camera frame with adaptive/Steger centres, stripe mask and σ map; the
- * parameter table with limits; the profile vs reference with its constructions; adaptive −
- * Steger along the stripe; the trend across passes; exports and the 3D view.
+ * parameter table with limits; the profile vs reference with its constructions; the handheld
+ * gauge's reference against both methods; adaptive − Steger along the stripe; the trend
+ * across passes; report and profile exports and the 3D view.
  */
 import { differenceAlongStripe } from '../lib/method-difference.js';
 import { nearestOnScreen } from '../lib/plot-scale.js';
@@ -23,7 +24,7 @@ export const LAYERS = [
 export class WheelView {
   /**
    * @param {HTMLElement} root
-   * @param {{setQuery: (q: Record<string, string>) => void, exportReport: (format: string) => void, openViewer: () => void, closeViewer: () => void, addDisposition: (body: {kind: string, comment?: string}) => void}} handlers
+   * @param {{setQuery: (q: Record<string, string>) => void, exportReport: (format: string) => Promise<void>|void, exportProfile: (format: string) => Promise<void>|void, importReference: (file: File) => Promise<void>|void, openViewer: () => void, closeViewer: () => void, addDisposition: (body: {kind: string, comment?: string}) => void}} handlers
    */
   constructor(root, handlers) {
     this.handlers = handlers;
@@ -35,6 +36,7 @@ export class WheelView {
     this.table = h('div', { class: 'param-table' });
     this.profileCanvas = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'plot profile-plot', 'aria-label': 'profile plot' }));
     this.profileNote = h('p', { class: 'note' });
+    this.comparisonRoot = h('div', { class: 'comparison' });
     this.diffCanvas = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'plot diff-plot', 'aria-label': 'difference plot' }));
     this.diffNote = h('p', { class: 'note mono' });
     this.trendRoot = h('div', { class: 'trend' });
@@ -46,6 +48,7 @@ export class WheelView {
           h('h2', {}, 'Parameters'), this.table,
           h('h2', {}, 'Disposition'), this.dispositionRoot,
           h('h2', {}, 'Profile vs reference'), this.profileCanvas, this.profileNote,
+          h('h2', {}, 'Handheld gauge'), this.comparisonRoot,
           h('h2', {}, 'Adaptive − Steger along the stripe'), this.diffCanvas, this.diffNote,
           h('h2', {}, 'Trend across passes'), this.trendRoot,
           h('h2', {}, '3D'), this.viewerRoot));
@@ -103,7 +106,7 @@ export class WheelView {
       this.shown[key] = value;
       return true;
     };
-    if (changed('titleDeps', `${w.loadMs}|${method}|${w.loading}|${state.pass?.wheels?.length}|${state.exporting}`)) this.renderTitle(state, w, method);
+    if (changed('titleDeps', `${w.loadMs}|${method}|${w.loading}|${state.pass?.wheels?.length}`)) this.renderTitle(state, w, method);
     if (changed('dispositions', `${JSON.stringify(w.dispositions)}|${state.me?.role}`)) this.renderDispositions(w, state.me?.role);
     if (changed('toolbar', JSON.stringify(show))) this.renderToolbar(show);
     if (changed('layers', w.layers)) {
@@ -119,9 +122,13 @@ export class WheelView {
     this.layerNote.textContent = layerNote(show, w);
     if (changed('table', `${method}|${w.record?.wheel_id}|${w.loadMs}`)) this.renderTable(w.record, state.limits, method);
     if (changed('profile', `${method}|${w.loadMs}`)) {
-      this.profileOrder = method === 'steger' ? ['steger', 'adaptive'] : ['adaptive', 'steger'];
+      this.profileOrder = [...(method === 'steger' ? ['steger', 'adaptive'] : ['adaptive', 'steger']),
+        ...(w.profiles.handheld ? ['handheld'] : [])];
       this.profiles = w.profiles;
       this.drawProfilePlot(null);
+    }
+    if (changed('comparison', `${w.loadMs}|${w.comparison?.reference?.id}|${state.me?.role}`)) {
+      renderComparison(this.comparisonRoot, w.comparison, state.me?.role !== 'viewer' ? this.handlers.importReference : null);
     }
     if (changed('trend', w.trend)) {
       this.trendPlot = w.trend?.error ? null : renderTrend(this.trendRoot, w.trend, this.trendPlot);
@@ -220,7 +227,8 @@ export class WheelView {
           onclick: () => this.handlers.setQuery({ method: m }) }, m === 'adaptive' ? 'Adaptive' : 'Steger'))),
       h('span', { class: 'spacer' }),
       link(siblings[at - 1], '[ prev', 'prev'), link(siblings[at + 1], 'next ]', 'next'),
-      exportButtons(this.handlers.exportReport, state.exporting),
+      exportButtons(this.handlers.exportReport),
+      exportButtons(this.handlers.exportProfile, 'profile'),
       h('span', { class: 'meta', 'data-load-ms': String(Math.round(w.loadMs ?? 0)) },
         w.loading ? 'loading…' : `loaded in ${Math.round(w.loadMs ?? 0)} ms`),
     );
@@ -316,6 +324,46 @@ export class WheelView {
         url ? 'Back to the frame' : 'Open 3D view'),
       h('span', { class: 'note' }, ' the wheel, the four sensors\' points, cameras and laser planes'));
   }
+}
+
+/**
+ * The wheel against its handheld reference: each parameter as the gauge's file gives it
+ * (recomputed by the wayside code) and each method's difference from it.
+ * @param {HTMLElement} root
+ * @param {any} comparison a ReferenceComparison, or {error}
+ * @param {((file: File) => Promise<void>|void)|null} importReference for operators and admins
+ */
+function renderComparison(root, comparison, importReference) {
+  const reference = comparison?.reference;
+  const picker = importReference ? h('label', { class: 'button import-reference' }, 'Import gauge file (.whl, .prr, .csv)',
+    h('input', { type: 'file', accept: '.whl,.prr,.csv', hidden: true, 'data-action': 'import-reference',
+      onchange: (/** @type {Event} */ e) => {
+        const input = /** @type {HTMLInputElement} */ (e.target);
+        if (input.files?.[0]) importReference(input.files[0]);
+        input.value = '';
+      } })) : '';
+  if (!reference) {
+    root.replaceChildren(h('p', { class: 'empty' }, comparison?.error
+      ? `handheld reference unavailable: ${comparison.error}`
+      : 'No handheld reference for this wheel.'), picker);
+    return;
+  }
+  const difference = (/** @type {string} */ method, /** @type {string} */ key) =>
+    comparison.differences.find((/** @type {any} */ d) => d.method === method && d.parameter === key)?.difference_mm;
+  const rows = PARAMETERS.filter((p) => p.key !== 'back_to_back_mm');
+  root.replaceChildren(
+    h('table', { class: 'grid compact', 'data-comparison': String(reference.id) },
+      h('thead', {}, h('tr', {}, ['', 'Handheld', 'Adaptive − handheld', 'Steger − handheld'].map((t) => h('th', {}, t)))),
+      h('tbody', {}, rows.map((p) => h('tr', { dataset: { parameter: p.key } },
+        h('th', { title: p.title }, p.label),
+        h('td', { class: 'num' }, fmtNumber(reference[p.key])),
+        h('td', { class: 'num' }, fmtSigned(difference('adaptive', p.key))),
+        h('td', { class: 'num' }, fmtSigned(difference('steger', p.key))))))),
+    h('p', { class: 'note' }, `${reference.instrument ?? 'gauge'} · ${reference.filename} · measured ${reference.measured_on ?? fmtTime(reference.measured_at)}`,
+      reference.parameter_quality === 'interpolated' ? ' · sparse flank: parameters interpolated between its samples' : '',
+      ' · green curve in the profile plot, mm'),
+    picker,
+  );
 }
 
 /**

@@ -1,0 +1,401 @@
+"""The PDF a depot files for a pass (or one wheel of it), laid out with reportlab.
+
+Order: header (site, pass, time UTC, direction, speed, vehicles, calibration, software and
+pipeline versions); the wheels in alarm or near a limit, with the limit set that applies,
+the margin and the disposition; the full table; one compact section per wheel (profile
+against reference with its constructions in words, both methods, the limits that apply);
+a reviewer block. Every page carries "page x of y". Terms and units are the web app's:
+Sh, Sd (at 12 mm), Sd EN (at 10 mm), qR, B2B, in mm.
+"""
+
+from __future__ import annotations
+
+import io
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from reportlab.graphics.shapes import Drawing
+from reportlab.lib import colors
+from reportlab.lib.pagesizes import A4
+from reportlab.lib.styles import ParagraphStyle, getSampleStyleSheet
+from reportlab.lib.units import mm
+from reportlab.pdfgen.canvas import Canvas
+from reportlab.platypus import (
+    KeepTogether,
+    Paragraph,
+    SimpleDocTemplate,
+    Spacer,
+    Table,
+    TableStyle,
+)
+
+from backend.api.schemas import MethodResult, PassSummary, PassWheelRead
+from backend.services.margins import Margin
+
+PARAMETERS = (
+    ("flange_height_mm", "Sh"),
+    ("flange_thickness_mm", "Sd"),
+    ("flange_thickness_en_mm", "Sd EN"),
+    ("qr_mm", "qR"),
+    ("back_to_back_mm", "B2B"),
+)
+TERMS = (
+    "Sh flange height above the tread reference point; Sd flange thickness at z = 12 mm "
+    "(LM limits), Sd EN at z = 10 mm (EN limits), both from the back face; qR from the flank "
+    "at Sh − 2 mm to the flank at z = 10 mm; B2B back-to-back distance of the axle. All in mm."
+)
+LIMIT_STEMS = {
+    "flange_height_mm": "flange_height",
+    "qr_mm": "qr",
+    "back_to_back_mm": "back_to_back",
+}
+RED_HEX, AMBER_HEX = "#b71c1c", "#e65100"
+RED, AMBER = colors.HexColor(RED_HEX), colors.HexColor(AMBER_HEX)
+HEAD = colors.Color(0.9, 0.9, 0.9)
+MARGIN_PT = 14 * mm
+WIDTH_PT = A4[0] - 2 * MARGIN_PT
+
+
+@dataclass(frozen=True, slots=True)
+class WheelSection:
+    """What the report shows of one wheel: its record, its limit set and the plot."""
+
+    wheel: PassWheelRead
+    family: str | None
+    """EN or LM; None where no method measured a profile (no limit set can be told)."""
+    limits_mm: dict[str, float]
+    margins: dict[str, list[Margin]]
+    """Per method, the margins of its checked parameters."""
+    drawing: Drawing | None
+
+
+@dataclass(frozen=True, slots=True)
+class ReportHeader:
+    """The identifying lines of a report."""
+
+    title: str
+    wheel_report: bool
+    """One wheel's report (its one section), not the pass's."""
+    generated_at: str
+    software_version: str
+    pipeline_versions: str
+
+
+def report_styles() -> dict[str, ParagraphStyle]:
+    base = getSampleStyleSheet()
+    body = ParagraphStyle("body", parent=base["BodyText"], fontSize=8, leading=10)
+    return {
+        "title": ParagraphStyle("title", parent=base["Title"], fontSize=15, spaceAfter=2 * mm),
+        "h2": ParagraphStyle("h2", parent=base["Heading2"], fontSize=11, spaceBefore=3 * mm),
+        "h3": ParagraphStyle("h3", parent=base["Heading4"], fontSize=9, spaceAfter=1 * mm),
+        "body": body,
+        "small": ParagraphStyle("small", parent=body, fontSize=6.5, leading=8),
+    }
+
+
+def grid_table(data: list[list[Any]], widths_mm: Sequence[float], extra: list[Any]) -> Table:
+    table = Table(data, colWidths=[w * mm for w in widths_mm], repeatRows=1)
+    table.setStyle(
+        TableStyle(
+            [
+                ("FONT", (0, 0), (-1, -1), "Helvetica", 7),
+                ("FONT", (0, 0), (-1, 0), "Helvetica-Bold", 7),
+                ("GRID", (0, 0), (-1, -1), 0.25, colors.grey),
+                ("BACKGROUND", (0, 0), (-1, 0), HEAD),
+                ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
+                ("TOPPADDING", (0, 0), (-1, -1), 1.5),
+                ("BOTTOMPADDING", (0, 0), (-1, -1), 1.5),
+                *extra,
+            ]
+        )
+    )
+    return table
+
+
+def _number(value: float | None) -> str:
+    return "–" if value is None else f"{value:.2f}"
+
+
+def limit_text(limits_mm: dict[str, float], stem: str) -> str:
+    """'min–max', '≥ min' or '≤ max' of one limit stem [mm]."""
+    low, high = limits_mm.get(f"{stem}_min_mm"), limits_mm.get(f"{stem}_max_mm")
+    if low is not None and high is not None:
+        return f"{low:g}–{high:g}"
+    return f"≥ {low:g}" if low is not None else f"≤ {high:g}" if high is not None else "–"
+
+
+def _stem(key: str, family: str) -> str | None:
+    if key == "flange_thickness_mm":
+        return "flange_thickness" if family == "LM" else None
+    if key == "flange_thickness_en_mm":
+        return "flange_thickness" if family == "EN" else None
+    return LIMIT_STEMS[key]
+
+
+def _header_block(
+    summary: PassSummary, header: ReportHeader, wheel: PassWheelRead | None, s: dict
+) -> list[Any]:
+    """The identification table; the wheel report names its wheel instead of the pass's
+    counts."""
+    if wheel is None:
+        counted = ("Wheels", f"{summary.wheels_measured} measured of {summary.wheels_total}, "
+                   f"{summary.wheels_not_measured} not measured")  # fmt: skip
+    else:
+        state = wheel.state.replace("_", " ")
+        counted = ("Wheel", f"vehicle {wheel.vehicle_id}, axle {wheel.axle}, {wheel.side} "
+                   f"(id {wheel.wheel_id}): {state}")  # fmt: skip
+    rows = [
+        ("Site", summary.site, "Pass", f"#{summary.id} ({summary.source}, fleet {summary.fleet})"),
+        ("Time (UTC)", f"{summary.started_at:%Y-%m-%d %H:%M:%S}", "Direction",
+         summary.direction or "–"),
+        ("Speed", "–" if summary.speed_kmh is None else f"{summary.speed_kmh:.1f} km/h",
+         "Vehicles", ", ".join(summary.vehicles) or "–"),
+        ("Calibration", f"version {summary.calibration_version}", "Software",
+         f"wheelscan {header.software_version}, pipeline {header.pipeline_versions}"),
+        (*counted, "Report generated", header.generated_at),
+    ]  # fmt: skip
+    data = [[Paragraph(f"<b>{k1}</b>", s["small"]), Paragraph(v1, s["body"]),
+             Paragraph(f"<b>{k2}</b>", s["small"]), Paragraph(v2, s["body"])]
+            for k1, v1, k2, v2 in rows]  # fmt: skip
+    table = Table(data, colWidths=[24 * mm, 63 * mm, 27 * mm, 68 * mm])
+    table.setStyle(
+        TableStyle(
+            [
+                ("GRID", (0, 0), (-1, -1), 0.25, colors.grey),
+                ("BACKGROUND", (0, 0), (0, -1), HEAD),
+                ("BACKGROUND", (2, 0), (2, -1), HEAD),
+                ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
+            ]
+        )
+    )
+    return [Paragraph(header.title, s["title"]), table, Spacer(1, 2 * mm)]
+
+
+def _result(wheel: PassWheelRead, method: str) -> MethodResult | None:
+    return next((r for r in wheel.results if r.method == method), None)
+
+
+def _attention(sections: list[WheelSection], dispositions: dict[int, str], s: dict) -> list:
+    """Wheels in alarm, then near a limit (adaptive margins; Steger's value beside)."""
+    names = dict(PARAMETERS)
+    rows = []
+    for section in sections:
+        # the adaptive result, which the alarms follow; Steger's where adaptive measured none
+        method = "adaptive" if section.margins.get("adaptive") else "steger"
+        other = _result(section.wheel, "steger" if method == "adaptive" else "adaptive")
+        for margin in section.margins.get(method, []):
+            if margin.status == "ok":
+                continue
+            other_mm = None if other is None else getattr(other, margin.parameter)
+            rows.append((margin, section, method, other_mm))
+    rows.sort(key=lambda r: (r[0].status != "alarm", r[0].margin_mm))
+    story: list[Any] = [Paragraph("Wheels in alarm and near a limit", s["h2"])]
+    if not rows:
+        story.append(Paragraph("No wheel is in alarm or near a limit.", s["body"]))
+        return story
+    head = ["Vehicle", "Axle", "Side", "Parameter", "Adaptive", "Steger", "Limit (set)",
+            "Margin", "Status", "Disposition"]  # fmt: skip
+    data: list[list[Any]] = [head]
+    extra = []
+    for margin, section, method, other_mm in rows:
+        w = section.wheel
+        alarm = margin.status == "alarm"
+        word = ("below" if margin.bound == "min" else "above") if alarm else margin.bound
+        disposition = Paragraph(dispositions.get(w.wheel_id, "awaiting review"), s["small"])
+        values = [f"{margin.value_mm:.2f}", _number(other_mm)]
+        status = ("ALARM" if alarm else "near limit") + (
+            "" if method == "adaptive" else " (Steger)"
+        )
+        hex_colour = RED_HEX if alarm else AMBER_HEX
+        status_cell = Paragraph(f'<font color="{hex_colour}">{status}</font>', s["small"])
+        data.append([
+            w.vehicle_id, w.axle, w.side, names[margin.parameter],
+            *(values if method == "adaptive" else values[::-1]),
+            f"{word} {margin.limit_mm:g} ({section.family})", f"{margin.margin_mm:+.2f}",
+            status_cell, disposition,
+        ])  # fmt: skip
+        colour = RED if margin.status == "alarm" else AMBER
+        extra.append(("TEXTCOLOR", (4, len(data) - 1), (8, len(data) - 1), colour))
+    story.append(grid_table(data, [20, 10, 11, 16, 16, 16, 31, 15, 18, 29], extra))
+    story.append(
+        Paragraph(
+            "Margin: distance inside the limit (negative outside) of the adaptive result, the "
+            "method the alarms follow, or of Steger's where adaptive measured nothing. Near a "
+            "limit: inside by less than the inner 10 % of its limit band.",
+            s["small"],
+        )
+    )
+    return story
+
+
+def _cells(result: MethodResult | None) -> list[str]:
+    if result is None:
+        return ["–"] * len(PARAMETERS)
+    return [_number(getattr(result, key)) for key, _ in PARAMETERS]
+
+
+def _status(result: MethodResult | None, wheel: PassWheelRead) -> str:
+    if result is None:
+        return wheel.state.replace("_", " ") + (f": {wheel.reason}" if wheel.reason else "")
+    if result.status != "measured":
+        return f"not measured: {result.reason or wheel.reason or '–'}"
+    return f"{len(result.alarms)} alarm(s)" if result.alarms else "within limits"
+
+
+def _colours(row: int, margins: list[Margin], first_column: int) -> list[Any]:
+    """Red (alarm) and orange (near) cells of one table row; parameters from first_column."""
+    columns = {key: i for i, (key, _) in enumerate(PARAMETERS)}
+    out: list[tuple[Any, ...]] = []
+    for margin in margins:
+        if margin.status == "ok":
+            continue
+        column = first_column + columns[margin.parameter]
+        colour = RED if margin.status == "alarm" else AMBER
+        out.append(("TEXTCOLOR", (column, row), (column, row), colour))
+        out.append(("FONT", (column, row), (column, row), "Helvetica-Bold", 7))
+    return out
+
+
+def _full_table(sections: list[WheelSection], all_limits: dict[str, dict], s: dict) -> list:
+    head = ["Vehicle", "Axle", "Side", "Limits", "Method", *(label for _, label in PARAMETERS),
+            "Result"]  # fmt: skip
+    data: list[list[Any]] = [head]
+    extra: list[Any] = []
+    for section in sections:
+        w = section.wheel
+        for method in ("adaptive", "steger"):
+            result = _result(w, method)
+            margins = section.margins.get(method, [])
+            data.append([w.vehicle_id, w.axle, w.side, section.family or "–", method.capitalize(),
+                         *_cells(result),
+                         Paragraph(_status(result, w), s["small"])])  # fmt: skip
+            extra += _colours(len(data) - 1, margins, 5)
+    used = sorted({section.family for section in sections if section.family})
+    for family in used:
+        limits = all_limits[family]
+        row = [f"Limits {family}", "", "", family, ""]
+        row += [limit_text(limits, stem) if (stem := _stem(k, family)) else "not checked"
+                for k, _ in PARAMETERS]  # fmt: skip
+        row.append("")
+        extra.append(("BACKGROUND", (0, len(data)), (-1, len(data)), colors.Color(0.94, 0.95, 1)))
+        extra.append(("SPAN", (0, len(data)), (2, len(data))))
+        data.append(row)
+    return [
+        Paragraph("All wheels", s["h2"]),
+        grid_table(data, [22, 10, 11, 12, 17, 15, 16, 16, 14, 19, 30], extra),
+        Paragraph(
+            TERMS + " Red: outside its limit; orange: within the inner 10 % of its band.",
+            s["small"],
+        ),
+    ]
+
+
+def _wheel_table(section: WheelSection, s: dict) -> Table:
+    w, family = section.wheel, section.family
+    adaptive, steger = _result(w, "adaptive"), _result(w, "steger")
+    head = ["", *(label for _, label in PARAMETERS), "Result"]
+    data: list[list[Any]] = [head]
+    extra: list[Any] = []
+    for name, result in (("Adaptive", adaptive), ("Steger", steger)):
+        data.append([name, *_cells(result), Paragraph(_status(result, w), s["small"])])
+        extra += _colours(len(data) - 1, section.margins.get(name.lower(), []), 1)
+    differences = []
+    for key, _ in PARAMETERS:
+        a = None if adaptive is None else getattr(adaptive, key)
+        b = None if steger is None else getattr(steger, key)
+        differences.append("–" if a is None or b is None else f"{a - b:+.2f}")
+    data.append(["Adaptive − Steger", *differences, ""])
+    if family is not None:
+        limits = [limit_text(section.limits_mm, st) if (st := _stem(k, family)) else "not checked"
+                  for k, _ in PARAMETERS]  # fmt: skip
+        data.append([f"Limits {family} (apply)", *limits, ""])
+    return grid_table(data, [30, 19, 19, 19, 19, 21, 55], extra)
+
+
+def _wheel_block(section: WheelSection, s: dict) -> KeepTogether:
+    w = section.wheel
+    title = f"Vehicle {w.vehicle_id} · axle {w.axle} · {w.side} wheel — " + (
+        f"limits {section.family}" if section.family else "no profile, no limit set"
+    )
+    parts: list[Any] = [Paragraph(title, s["h3"])]
+    if section.drawing is not None:
+        parts.append(section.drawing)
+    else:
+        parts.append(
+            Paragraph(f"No profile to draw ({w.reason or 'no stored points'}).", s["body"])
+        )
+    parts += [Spacer(1, 1 * mm), _wheel_table(section, s), Spacer(1, 4 * mm)]
+    return KeepTogether(parts)
+
+
+def _signature(s: dict) -> list[Any]:
+    data = [
+        ["Reviewed by (name)", "", "Date", ""],
+        ["Signature", "", "Disposition of the alarms", ""],
+    ]
+    table = Table(data, colWidths=[34 * mm, 58 * mm, 38 * mm, 52 * mm], rowHeights=12 * mm)
+    table.setStyle(
+        TableStyle(
+            [
+                ("FONT", (0, 0), (-1, -1), "Helvetica", 8),
+                ("GRID", (0, 0), (-1, -1), 0.5, colors.black),
+                ("BACKGROUND", (0, 0), (0, -1), HEAD),
+                ("BACKGROUND", (2, 0), (2, -1), HEAD),
+                ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
+            ]
+        )
+    )
+    return [KeepTogether([Paragraph("Review", s["h2"]), table])]
+
+
+def numbered_canvas(footer: str) -> type[Canvas]:
+    class NumberedCanvas(Canvas):
+        """Holds every page until the end, then stamps 'page x of y' on each."""
+
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)
+            self._pages: list[dict[str, Any]] = []
+
+        def showPage(self) -> None:  # noqa: N802 (reportlab's name)
+            self._pages.append(dict(self.__dict__))
+            self._startPage()
+
+        def save(self) -> None:
+            for number, page in enumerate(self._pages, start=1):
+                self.__dict__.update(page)
+                self.setFont("Helvetica", 7)
+                self.drawString(MARGIN_PT, 8 * mm, footer)
+                self.drawRightString(
+                    A4[0] - MARGIN_PT, 8 * mm, f"page {number} of {len(self._pages)}"
+                )
+                super().showPage()
+            super().save()
+
+    return NumberedCanvas
+
+
+def render_pdf(
+    summary: PassSummary,
+    sections: list[WheelSection],
+    all_limits: dict[str, dict[str, float]],
+    dispositions: dict[int, str],
+    header: ReportHeader,
+) -> bytes:
+    """The PDF of a pass (all its wheel sections) or of one wheel (one section)."""
+    s = report_styles()
+    buffer = io.BytesIO()
+    document = SimpleDocTemplate(
+        buffer, pagesize=A4, leftMargin=MARGIN_PT, rightMargin=MARGIN_PT, topMargin=12 * mm,
+        bottomMargin=14 * mm, title=header.title, author="wheelscan",
+    )  # fmt: skip
+    story = _header_block(summary, header, sections[0].wheel if header.wheel_report else None, s)
+    story += _attention(sections, dispositions, s)
+    if len(sections) > 1:
+        story += _full_table(sections, all_limits, s)
+    story.append(Paragraph("Wheels", s["h2"]))
+    story += [_wheel_block(section, s) for section in sections]
+    story += _signature(s)
+    footer = f"{header.title} · site {summary.site} · pass #{summary.id} · {header.generated_at}"
+    document.build(story, canvasmaker=numbered_canvas(footer))
+    return buffer.getvalue()
