@@ -2,7 +2,8 @@
 dispositions, trends with limits, vehicle history, method disagreement, and the defects
 the walk-through found (each test would have caught one).
 
-Three passes of one simulated train (1 vehicle, 2 axles, LMA wheels) are uploaded through
+Three passes of one simulated train (1 vehicle, 2 axles, LMA wheels, the clean stripe on
+black: every wheel measured) are uploaded through
 the API with the LM flange-thickness maximum lowered to 31.3 mm for them (the truth puts
 axle 1's wheels at 31.7–31.8 mm: in alarm; axle 2 left at 30.7 mm: within the amber band),
 then dated 60, 30 and 0 days before 2026-11-22. Screenshots land in tests/e2e/screenshots/.
@@ -58,7 +59,7 @@ def depot(service: Service, tmp_path_factory: pytest.TempPathFactory) -> Depot:
     out = tmp_path_factory.mktemp("depot")
     subprocess.run(
         [*WHEELSCAN, "synth-pass", str(out / "train"), "--vehicles", "1", "--axles", "2"]
-        + ["--seed", "11", "--repeat", "3"],
+        + ["--seed", "11", "--repeat", "3", "--field", "clean"],
         capture_output=True,
         timeout=600,
         check=True,
@@ -345,6 +346,7 @@ def test_defect_5_the_difference_plot_shows_every_offset_and_leads_to_the_frame(
     data = plot.evaluate("(c) => ({ ...c.dataset })")
     assert float(data["deltaTopPx"]) >= float(data["maxAbsPx"]) > 0, data
     assert "shaded: ±RMS" in page.locator(".diff-plot + .note").inner_text()
+    plot.scroll_into_view_if_needed()  # below the fold when the side panel is long
     box = plot.bounding_box()
     before = page.locator(".frame-canvas").get_attribute("data-viewport")
     y = box["y"] + float(data["zeroY"])
@@ -438,7 +440,7 @@ def test_defect_9_help_lists_every_key_closes_outside_and_leaves_exports_free(
     help_box.wait_for(state="visible")
     text = help_box.inner_text()
     assert "camera frame" in text and "double-click" in text and "drag" in text
-    exports = page.locator(".titlebar .exports").bounding_box()
+    exports = page.locator(".titlebar .exports.report").bounding_box()
     box = help_box.bounding_box()
     overlap_x = min(box["x"] + box["width"], exports["x"] + exports["width"]) - max(
         box["x"], exports["x"]
