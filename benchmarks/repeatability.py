@@ -27,6 +27,10 @@ SEED = 2026
 BARS = {"mae_mm": 0.05, "std_mm": 0.03, "max_error_mm": 0.10}
 """Issue 4: adaptive Sh and Sd over 9 repeats."""
 BACK_TO_BACK_BAR_MM = 0.2
+CONICITY_BAR = 0.02
+"""Adaptive λₑ(3 mm) within 0.02 of the truth on every axle (max error)."""
+TREAD_STD_BARS = {"tread_hollow_mm": 0.05, "flange_angle_deg": 0.2}
+"""Largest per-wheel Std over 9 passes of the tread hollow [mm] and flange angle [°]."""
 
 
 def counts(observations) -> tuple[int, int]:
@@ -54,6 +58,18 @@ def verdicts(pooled: tuple[ParameterStats, ...]) -> list[str]:
                 f"- back-to-back max error {s.max_error_mm:.3f} ≤ {BACK_TO_BACK_BAR_MM} mm "
                 f"{'✓' if ok else '✗'}"
             )
+        if s.parameter == "conicity_3mm":
+            ok = s.max_error_mm <= CONICITY_BAR and s.missing == 0
+            lines.append(
+                f"- equivalent conicity (3 mm) max error {s.max_error_mm:.4f} ≤ {CONICITY_BAR} "
+                f"on every axle, {s.missing} not measured {'✓' if ok else '✗'}"
+            )
+        if s.parameter in TREAD_STD_BARS:
+            bar = TREAD_STD_BARS[s.parameter]
+            lines.append(
+                f"- {s.parameter} largest per-wheel Std {s.std_mm:.3f} ≤ {bar} "
+                f"{'✓' if s.std_mm <= bar else '✗'}"
+            )
     return lines
 
 
@@ -79,7 +95,7 @@ def run() -> str:
         f"{measured_s:.0f} s ({measured_s / max(REPEATS * wheels * 2, 1):.2f} s per wheel and "
         f"method). Values not measured: {missing}. Errors are against the true geometry [mm].",
         "",
-        "Bars (issue 4):",
+        "Bars (issues 4 and 19; flange_angle_deg in degrees, conicity_3mm without unit):",
         *verdicts(pooled),
         "",
         repeatability_markdown(per_wheel, pooled),

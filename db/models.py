@@ -62,6 +62,9 @@ class Site(Base):
 
     id: Mapped[int] = mapped_column(primary_key=True)
     name: Mapped[str] = mapped_column(String(100), unique=True)
+    rail_profile: Mapped[str] = mapped_column(String(10), default="60E1", server_default="60E1")
+    rail_inclination: Mapped[str] = mapped_column(String(5), default="1:40", server_default="1:40")
+    gauge_mm: Mapped[float] = mapped_column(Float, default=1435.0, server_default="1435.0")
     created_at: Mapped[datetime] = mapped_column(default=utc_now)
 
     calibrations: Mapped[list[Calibration]] = relationship(
@@ -191,6 +194,12 @@ class Measurement(Base):
     qr_mm: Mapped[float | None] = mapped_column(Float)
     back_to_back_mm: Mapped[float | None] = mapped_column(Float)
     back_face_track_x_mm: Mapped[float | None] = mapped_column(Float)
+    tread_hollow_mm: Mapped[float | None] = mapped_column(Float)
+    flange_angle_deg: Mapped[float | None] = mapped_column(Float)
+    rim_width_mm: Mapped[float | None] = mapped_column(Float)
+    tread_reason: Mapped[str | None] = mapped_column(Text)
+    equivalent_conicity: Mapped[float | None] = mapped_column(Float)
+    conicity: Mapped[dict[str, Any] | None]
     reference_profile: Mapped[str | None] = mapped_column(String(20))
     sigma_mean_px: Mapped[float | None] = mapped_column(Float)
     sigma_min_px: Mapped[float | None] = mapped_column(Float)
@@ -328,6 +337,7 @@ class FleetLimit(Base):
     qr_min_mm: Mapped[float] = mapped_column(Float)
     back_to_back_min_mm: Mapped[float] = mapped_column(Float)
     back_to_back_max_mm: Mapped[float] = mapped_column(Float)
+    conicity_max: Mapped[float] = mapped_column(Float, default=0.4, server_default="0.4")
     updated_at: Mapped[datetime] = mapped_column(default=utc_now)
     near_limit_fraction: Mapped[float] = mapped_column(Float, default=0.1)
     """Amber band: this fraction of each limit band inside its limits."""

@@ -149,6 +149,17 @@ class SiteRead(ORMModel):
     name: str
     created_at: datetime
     current_calibration_version: int | None = None
+    rail_profile: str = Field(default="60E1", description="rails the conicity is computed on")
+    rail_inclination: str = Field(default="1:40", description="rail inclination to the centre")
+    gauge_mm: float = Field(default=1435.0, description="track gauge, 14 mm below the rail top")
+
+
+class SiteRails(InputModel):
+    """The rails a site's wheelsets run on, for the equivalent conicity of its axles."""
+
+    rail_profile: Literal["60E1", "54E1"]
+    rail_inclination: Literal["1:40", "1:20"]
+    gauge_mm: float = Field(ge=1400, le=1470)
 
 
 class CalibrationCreate(InputModel):
@@ -177,6 +188,7 @@ class LimitsRead(ORMModel):
     qr_min_mm: float
     back_to_back_min_mm: float
     back_to_back_max_mm: float
+    conicity_max: float = Field(description="equivalent conicity (3 mm) alarm threshold")
     updated_at: datetime
     near_limit_fraction: float = Field(description="amber band: fraction of each limit band")
     method_disagreement_mm: float = Field(description="flag adaptive − Steger beyond this [mm]")
@@ -198,6 +210,7 @@ class LimitsUpdate(InputModel):
     method_disagreement_mm: float | None = Field(
         default=None, gt=0, le=20, description="omitted: kept as it is [mm]"
     )
+    conicity_max: float = Field(default=0.4, gt=0, lt=2)
 
 
 class PassAccepted(BaseModel):
@@ -337,6 +350,17 @@ class MethodResult(BaseModel):
     flange_thickness_en_mm: float | None
     qr_mm: float | None
     back_to_back_mm: float | None
+    tread_hollow_mm: float | None = Field(
+        default=None, description="depth below the straight edge at x = 60 and 120 mm"
+    )
+    flange_angle_deg: float | None = Field(default=None, description="steepest flank angle")
+    rim_width_mm: float | None = Field(default=None, description="back face to field face")
+    tread_reason: str | None = Field(
+        default=None, description="why a tread hollow, flange angle or rim width is missing"
+    )
+    equivalent_conicity: float | None = Field(
+        default=None, description="the axle's EN 15302 equivalent conicity at 3 mm amplitude"
+    )
     reference_profile: str | None
     sigma_mean_px: float | None
     sigma_min_px: float | None
@@ -412,6 +436,11 @@ class ProfileRead(BaseModel):
     reference_z_mm: list[float]
     construction: dict[str, Any]
     parameters: dict[str, float | None]
+    conicity: dict[str, Any] | None = Field(
+        default=None,
+        description="the axle's Δr(y) (y_mm, delta_r_mm), conicity curve (amplitudes_mm, "
+        "conicity), rails, or the reason it was not computed",
+    )
 
 
 class TrendPoint(BaseModel):
@@ -425,6 +454,10 @@ class TrendPoint(BaseModel):
     flange_thickness_en_mm: float | None
     qr_mm: float | None
     back_to_back_mm: float | None
+    tread_hollow_mm: float | None = None
+    flange_angle_deg: float | None = None
+    rim_width_mm: float | None = None
+    equivalent_conicity: float | None = None
     alarm_count: int
 
 

@@ -17,6 +17,7 @@ VERB_MODULES: list[str] = [
     "backend.cli.extract",
     "backend.cli.agent",
     "backend.cli.measure",
+    "backend.cli.conicity",
     "backend.cli.profiles",
     "backend.cli.worker",
     "backend.cli.serve",

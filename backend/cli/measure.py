@@ -28,6 +28,7 @@ from pipeline.simulation.passes import AXLES_PER_VEHICLE, read_truth, write_synt
 from pipeline.version import PIPELINE_VERSION
 
 PARAMETER_KEYS = ("flange_height_mm", "flange_thickness_mm", "flange_thickness_10_mm", "qr_mm")
+TREAD_KEYS = ("tread_hollow_mm", "flange_angle_deg", "rim_width_mm")
 
 
 def _positive_int(text: str) -> int:
@@ -71,6 +72,14 @@ def wheel_row(result: PassWheelResult) -> dict[str, object]:
         row[key] = None if parameters is None else round(getattr(parameters, key), 4)
     b2b = result.back_to_back_mm
     row["back_to_back_mm"] = None if b2b is None else round(b2b, 4)
+    tread = m.tread
+    for key in TREAD_KEYS:
+        value = None if tread is None else getattr(tread, key)
+        row[key] = None if value is None else round(value, 4)
+    row["tread_reason"] = m.tread_reason if tread is None else tread.reason
+    conicity = None if result.conicity is None else result.conicity.conicity_3mm
+    row["equivalent_conicity"] = None if conicity is None else round(conicity, 6)
+    row["conicity_reason"] = result.conicity_reason
     quality = m.quality_figures()
     residual = quality["overlap_residual_mm"]
     row["quality"] = {

@@ -20,7 +20,12 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from backend.services.images import prerender_layers
 from backend.services.pass_wheels import refresh_job, rows_changed, wheel_frames
-from backend.services.results import apply_alarms, measurement_row
+from backend.services.results import (
+    apply_alarms,
+    apply_axle_conicity,
+    measurement_row,
+    site_rails,
+)
 from backend.storage.artefacts import save_artefacts
 from backend.storage.remote import make_worker_store
 from backend.storage.store import BlobStore
@@ -160,8 +165,9 @@ def store_wheel_results(session: Session, store: BlobStore, pass_wheel_id: int) 
 
 
 def update_back_to_back(session: Session, pass_wheel_id: int) -> None:
-    """Once both wheels of an axle are finished, store the axle's back-to-back distance on
-    both wheels' measurements (per method) and re-evaluate their alarms. Idempotent."""
+    """Once both wheels of an axle are finished, store the axle's back-to-back distance and
+    equivalent conicity on both wheels' measurements (per method) and re-evaluate their
+    alarms. Idempotent."""
     pass_wheel = session.get_one(PassWheel, pass_wheel_id)
     wheel = pass_wheel.wheel
     pair = session.execute(
@@ -180,9 +186,11 @@ def update_back_to_back(session: Session, pass_wheel_id: int) -> None:
     left = {m.method: m for m in sides["left"].measurements}
     right = {m.method: m for m in sides["right"].measurements}
     fleet = pass_wheel.train_pass.fleet
+    rails = site_rails(pass_wheel.train_pass.site)
     for method in set(left) & set(right):
         x_left, x_right = left[method].back_face_track_x_mm, right[method].back_face_track_x_mm
         b2b = None if x_left is None or x_right is None else x_right - x_left
+        apply_axle_conicity(left[method], right[method], b2b, rails)
         for row in (left[method], right[method]):
             row.back_to_back_mm = b2b
             apply_alarms(row, fleet, session)

@@ -3,7 +3,9 @@
 EN defaults (docs/numbers.md, "Alarms"): flange height Sh 27.5–36 mm, flange thickness Sd
 22–33 mm measured at the EN height of 10 mm, qR ≥ 6.5 mm, back-to-back 1357–1363 mm. LM
 defaults follow the operator's rules for LM-profile wheelsets (Sd measured at 12 mm;
-wheelset inner distance 1353 ± 3 mm); both are editable per fleet through the API.
+wheelset inner distance 1353 ± 3 mm); both are editable per fleet through the API. The equivalent
+conicity of an axle (EN 15302, at 3 mm amplitude) alarms above `conicity_max`, 0.4 by
+default: a hunting risk on most vehicles; operators set their own value per fleet.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ DEFAULT_LIMITS_MM: dict[str, dict[str, float]] = {
         "qr_min_mm": 6.5,
         "back_to_back_min_mm": 1357.0,
         "back_to_back_max_mm": 1363.0,
+        "conicity_max": 0.4,
     },
     "LM": {
         "flange_height_min_mm": 25.0,
@@ -48,13 +51,14 @@ DEFAULT_LIMITS_MM: dict[str, dict[str, float]] = {
         "qr_min_mm": 6.5,
         "back_to_back_min_mm": 1350.0,
         "back_to_back_max_mm": 1356.0,
+        "conicity_max": 0.4,
     },
 }
 
 REFERENCE_PROFILE_FAMILY = {"S1002": "EN", "LMA": "LM", "LM": "LM"}
 
 LIMIT_FIELDS = tuple(DEFAULT_LIMITS_MM["EN"])
-PARAMETER_LIMITS = {p.key: p.limit for p in PARAMETERS}
+ALARM_NAMES = {p.key: p.alarm_name for p in PARAMETERS}
 
 
 @dataclass(frozen=True, slots=True)
@@ -68,12 +72,15 @@ class Alarm:
 
     def as_dict(self) -> dict[str, Any]:
         word = "below" if self.bound == "min" else "above"
+        unit = " mm" if self.parameter.endswith("_mm") else ""
+        digits = 2 if unit else 3
         return {
             "parameter": self.parameter,
             "value_mm": self.value_mm,
             "bound": self.bound,
             "limit_mm": self.limit_mm,
-            "message": f"{self.parameter} {self.value_mm:.2f} mm is {word} {self.limit_mm:g} mm",
+            "message": f"{self.parameter} {self.value_mm:.{digits}f}{unit} is {word} "
+            f"{self.limit_mm:g}{unit}",
         }
 
 
@@ -164,7 +171,7 @@ def alarms_of(margins: list[Margin]) -> list[dict[str, Any]]:
     limits the one at 12 mm; either is reported as the `flange_thickness_mm` alarm.
     """
     return [
-        Alarm(f"{PARAMETER_LIMITS[m.parameter]}_mm", m.value_mm, m.bound, m.limit_mm).as_dict()
+        Alarm(ALARM_NAMES[m.parameter], m.value_mm, m.bound, m.limit_mm).as_dict()
         for m in margins
         if m.status == ALARM
     ]

@@ -37,8 +37,9 @@ class Parameter:
     """One checked wheel parameter.
 
     key is the measurement's column, limit the stem of its limit columns
-    (`{limit}_min_mm`, `{limit}_max_mm`); families are the limit families that check this
-    key (EN checks Sd at 10 mm, LM at 12 mm).
+    (`{limit}_min_mm`, `{limit}_max_mm`, or `{limit}_min`/`_max` for a unitless one);
+    families are the limit families that check this key (EN checks Sd at 10 mm, LM at
+    12 mm); alarm names the alarm it raises (both Sd heights raise `flange_thickness_mm`).
     """
 
     key: str
@@ -47,6 +48,15 @@ class Parameter:
     unit: str
     limit: str
     families: tuple[str, ...] = ("EN", "LM")
+    alarm: str = ""
+
+    @property
+    def alarm_name(self) -> str:
+        return self.alarm or self.key
+
+    def bound_field(self, bound: str) -> str:
+        """The limits' field of the `bound` ("min" or "max") of this parameter."""
+        return f"{self.limit}_{bound}" + ("_mm" if self.unit == "mm" else "")
 
 
 PARAMETERS = (
@@ -61,9 +71,11 @@ PARAMETERS = (
         "mm",
         "flange_thickness",
         ("EN",),
+        alarm="flange_thickness_mm",
     ),
     Parameter("qr_mm", "qR", "Flange slope qR", "mm", "qr"),
     Parameter("back_to_back_mm", "B2B", "Back-to-back distance", "mm", "back_to_back"),
+    Parameter("equivalent_conicity", "λe", "Equivalent conicity (axle)", "", "conicity"),
 )
 PARAMETER_KEYS = tuple(p.key for p in PARAMETERS)
 
@@ -138,9 +150,10 @@ def limit_margins(
     Parameters
     ----------
     values_mm : dict
-        Measured values by parameter key [mm]; None (not measured) gives no margin.
+        Measured values by parameter key [mm, or none for the conicity]; None (not
+        measured) gives no margin.
     limits_mm : dict
-        The fleet's limits for `family` (`{stem}_min_mm`, `{stem}_max_mm`) [mm].
+        The fleet's limits for `family` (`Parameter.bound_field`) [mm].
     family : str
         "EN" or "LM": which parameters are checked (Sd at 10 or at 12 mm).
     near_limit_fraction : float
@@ -155,8 +168,8 @@ def limit_margins(
         value = values_mm.get(parameter.key)
         if value is None or family not in parameter.families:
             continue
-        low = limits_mm.get(f"{parameter.limit}_min_mm")
-        high = limits_mm.get(f"{parameter.limit}_max_mm")
+        low = limits_mm.get(parameter.bound_field("min"))
+        high = limits_mm.get(parameter.bound_field("max"))
         margin = _margin(parameter, value, low, high, family, near_limit_fraction)
         if margin is not None:
             margins.append(margin)

@@ -11,21 +11,34 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from backend.services.limits import alarms_of, limits_for, profile_family, review_thresholds
-from backend.services.margins import PARAMETER_KEYS, Margin, limit_margins
-from db.models import Measurement, MeasurementMargin
+from backend.services.margins import Margin, limit_margins
+from db.models import Measurement, MeasurementMargin, Site
+from pipeline.errors import PipelineError
 from pipeline.profile.flange import FlangeParameters
 from pipeline.profile.fusion import FusedProfile
 from pipeline.profile.measurement import MEASURED, WheelMeasurement
+from pipeline.profile.rails import TrackRails, track_rails
 from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile
 from pipeline.profile.reference import ReferenceProfile as _Reference
+from pipeline.profile.wheelset import AxleConicity, measured_axle_conicity
 
 REFERENCE_POINT_X_MM = 70.0
 """Tread reference point (z = 0) of the profile frame [mm]."""
 STORED_DECIMALS = 4
 """Profile coordinates are stored to 0.1 µm: far below the measurement's resolution."""
-PARAMETER_NAMES = PARAMETER_KEYS
-"""The wheel parameters of a measurement [mm] (the keys of `margins.PARAMETERS`, the one
-list of them): its columns and the API's fields.
+PARAMETER_NAMES = (
+    "flange_height_mm",
+    "flange_thickness_mm",
+    "flange_thickness_en_mm",
+    "qr_mm",
+    "back_to_back_mm",
+    "tread_hollow_mm",
+    "flange_angle_deg",
+    "rim_width_mm",
+    "equivalent_conicity",
+)
+"""The wheel parameters of a measurement: its columns and the API's fields, in mm but for
+`flange_angle_deg` (°) and the axle's `equivalent_conicity` (no unit, EN 15302 at 3 mm).
 `flange_thickness_en_mm` is the pipeline's `flange_thickness_10_mm` (Sd at the EN height,
 z = 10 mm above the tread reference point); `flange_thickness_mm` is Sd at z = 12 mm."""
 
@@ -121,7 +134,7 @@ def _profile_document(result: WheelMeasurement) -> dict[str, Any]:
 
 def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> Measurement:
     """A Measurement row (not yet attached to a pass wheel) from one method's result."""
-    parameters, profile = result.parameters, result.profile
+    parameters, profile, tread = result.parameters, result.profile, result.tread
     quality = result.quality_figures()
     row = Measurement(
         method=result.method,
@@ -132,6 +145,10 @@ def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> M
         flange_thickness_en_mm=None if parameters is None else parameters.flange_thickness_10_mm,
         qr_mm=None if parameters is None else parameters.qr_mm,
         back_face_track_x_mm=result.back_face_track_x_mm,
+        tread_hollow_mm=None if tread is None else tread.tread_hollow_mm,
+        flange_angle_deg=None if tread is None else tread.flange_angle_deg,
+        rim_width_mm=None if tread is None else tread.rim_width_mm,
+        tread_reason=result.tread_reason if tread is None else tread.reason,
         reference_profile=None if profile is None else closest_reference(profile.x_mm),
         point_count=result.points_inner + result.points_outer,
         quality=quality,
@@ -174,3 +191,49 @@ def apply_alarms(row: Measurement, fleet: str, session: Session) -> None:
     row.alarms = alarms_of(margins)
     row.alarm_count = len(row.alarms)
     store_margins(row, margins)
+
+
+def site_rails(site: Site) -> TrackRails:
+    """The rails a site's wheelsets run on (rail profile, inclination, gauge)."""
+    return track_rails(site.rail_profile, inclination=site.rail_inclination, gauge_mm=site.gauge_mm)
+
+
+def conicity_document(axle: AxleConicity) -> dict[str, Any]:
+    """An axle's Δr(y) and conicity curve as stored with (and served for) its wheels."""
+    curve = [None if v is None else round(v, 6) for v in axle.curve_conicity]
+    return {
+        "rail": axle.rail,
+        "inclination": axle.inclination,
+        "gauge_mm": axle.gauge_mm,
+        "conicity_3mm": None if axle.conicity_3mm is None else round(axle.conicity_3mm, 6),
+        "amplitudes_mm": list(axle.curve_amplitudes_mm),
+        "conicity": curve,
+        "y_mm": np.round(axle.delta_r.y_mm, STORED_DECIMALS).tolist(),
+        "delta_r_mm": np.round(axle.delta_r.delta_r_mm, STORED_DECIMALS).tolist(),
+        "reason": None,
+    }
+
+
+def apply_axle_conicity(
+    left: Measurement, right: Measurement, back_to_back_mm: float | None, rails: TrackRails
+) -> None:
+    """Compute an axle's equivalent conicity from its two stored profiles and store it, with
+    its Δr(y), on both measurements (or why it could not be computed)."""
+    document: dict[str, Any]
+    try:
+        if back_to_back_mm is None or not (left.profile and right.profile):
+            raise PipelineError("both wheels' profiles and the back-to-back distance are needed")
+        axle = measured_axle_conicity(
+            np.asarray(left.profile.get("x_mm", []), float),
+            np.asarray(left.profile.get("z_mm", []), float),
+            np.asarray(right.profile.get("x_mm", []), float),
+            np.asarray(right.profile.get("z_mm", []), float),
+            back_to_back_mm,
+            rails,
+        )
+        document = conicity_document(axle)
+    except (PipelineError, ValueError) as exc:
+        document = {"rail": rails.rail, "reason": str(exc)}
+    for row in (left, right):
+        row.conicity = document
+        row.equivalent_conicity = document.get("conicity_3mm")

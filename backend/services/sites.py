@@ -113,6 +113,9 @@ def site_read(session: Session, site: Site) -> SiteRead:
         name=site.name,
         created_at=site.created_at,
         current_calibration_version=current.version if current else None,
+        rail_profile=site.rail_profile,
+        rail_inclination=site.rail_inclination,
+        gauge_mm=site.gauge_mm,
     )
 
 
@@ -169,3 +172,22 @@ def calibration_or_404(session: Session, calibration_id: int) -> Calibration:
     if row is None:
         raise NotFoundError(f"calibration {calibration_id} not found")
     return row
+
+
+def set_site_rails(
+    session: Session,
+    admin: ApiToken,
+    site: Site,
+    rail_profile: str,
+    inclination: str,
+    gauge_mm: float,
+) -> SiteRead:
+    """Set the rails of `site` (audited, committed): axles measured from now on get their
+    conicity on these rails; results stored before keep theirs."""
+    before = {"rail_profile": site.rail_profile, "rail_inclination": site.rail_inclination,
+              "gauge_mm": site.gauge_mm}  # fmt: skip
+    site.rail_profile, site.rail_inclination, site.gauge_mm = rail_profile, inclination, gauge_mm
+    after = {"rail_profile": rail_profile, "rail_inclination": inclination, "gauge_mm": gauge_mm}
+    record_audit(session, admin, "site.rails", "site", site.id, {"before": before, "after": after})
+    session.commit()
+    return site_read(session, site)

@@ -76,7 +76,7 @@ def stored_artefacts(
 
 def wheel_profile(pass_wheel: PassWheel, method: str) -> ProfileRead:
     """The fused profile of `method` and its reference profile [mm], with the Sh/Sd/qR
-    construction points and the parameters."""
+    construction points, the parameters and the axle's Δr(y) and conicity curve."""
     measurement = measurement_or_404(pass_wheel, method)
     profile = measurement.profile or {}
     reference = measurement.reference_profile
@@ -91,4 +91,5 @@ def wheel_profile(pass_wheel: PassWheel, method: str) -> ProfileRead:
         reference_z_mm=ref.z_mm.tolist() if ref else [],
         construction=profile.get("construction", {}),
         parameters={name: getattr(result, name) for name in PARAMETER_NAMES},
+        conicity=measurement.conicity,
     )

@@ -122,9 +122,18 @@ export interface JobRead {
   finished_at: string | null;
 }
 
-export interface LimitsRead extends LimitsUpdate {
+export interface LimitsRead {
   fleet: string;
   wheel_profile: "EN" | "LM";
+  flange_height_min_mm: number;
+  flange_height_max_mm: number;
+  flange_thickness_min_mm: number;
+  flange_thickness_max_mm: number;
+  qr_min_mm: number;
+  back_to_back_min_mm: number;
+  back_to_back_max_mm: number;
+  /** equivalent conicity (3 mm) alarm threshold */
+  conicity_max: number;
   updated_at: string;
 }
 
@@ -137,6 +146,7 @@ export interface LimitsUpdate {
   qr_min_mm: number;
   back_to_back_min_mm: number;
   back_to_back_max_mm: number;
+  conicity_max?: number;
 }
 
 /** Who the presented token is. */
@@ -155,6 +165,16 @@ export interface MethodResult {
   flange_thickness_en_mm: number | null;
   qr_mm: number | null;
   back_to_back_mm: number | null;
+  /** depth below the straight edge at x = 60 and 120 mm */
+  tread_hollow_mm?: number | null;
+  /** steepest flank angle */
+  flange_angle_deg?: number | null;
+  /** back face to field face */
+  rim_width_mm?: number | null;
+  /** why a tread hollow, flange angle or rim width is missing */
+  tread_reason?: string | null;
+  /** the axle's EN 15302 equivalent conicity at 3 mm amplitude */
+  equivalent_conicity?: number | null;
   reference_profile: string | null;
   sigma_mean_px: number | null;
   sigma_min_px: number | null;
@@ -235,6 +255,8 @@ export interface ProfileRead {
   reference_z_mm: number[];
   construction: Record<string, unknown>;
   parameters: Record<string, number | null>;
+  /** the axle's Δr(y) (y_mm, delta_r_mm), conicity curve (amplitudes_mm, conicity), rails, or the reason it was not computed */
+  conicity?: Record<string, unknown> | null;
 }
 
 /** One wheel of a pass against its handheld reference nearest in time. */
@@ -277,11 +299,24 @@ export interface SiteCreate {
   name: string;
 }
 
+/** The rails a site's wheelsets run on, for the equivalent conicity of its axles. */
+export interface SiteRails {
+  rail_profile: "60E1" | "54E1";
+  rail_inclination: "1:40" | "1:20";
+  gauge_mm: number;
+}
+
 export interface SiteRead {
   id: number;
   name: string;
   created_at: string;
   current_calibration_version?: number | null;
+  /** rails the conicity is computed on */
+  rail_profile?: string;
+  /** rail inclination to the centre */
+  rail_inclination?: string;
+  /** track gauge, 14 mm below the rail top */
+  gauge_mm?: number;
 }
 
 /** A pass to stream into; without `calibration`, the site's registered one is used (422 when the site has none). */
@@ -324,6 +359,10 @@ export interface TrendPoint {
   flange_thickness_en_mm: number | null;
   qr_mm: number | null;
   back_to_back_mm: number | null;
+  tread_hollow_mm?: number | null;
+  flange_angle_deg?: number | null;
+  rim_width_mm?: number | null;
+  equivalent_conicity?: number | null;
   alarm_count: number;
 }
 
@@ -360,6 +399,7 @@ export interface ApiResponses {
   "GET /api/audit": AuditRead[];
   "GET /api/sites": SiteRead[];
   "POST /api/sites": SiteRead;
+  "PUT /api/sites/{site_name}/rails": SiteRead;
   "GET /api/sites/{site_name}/calibrations": CalibrationRead[];
   "POST /api/sites/{site_name}/calibrations": CalibrationRead;
   "GET /api/calibrations/{calibration_id}": CalibrationRead;

@@ -117,8 +117,12 @@ def curve_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParamet
     return FlangeParameters(height, flank_12, flank_10, flank_10 - flank_top)
 
 
-def _robust_polyfit(t: np.ndarray, v: np.ndarray, degree: int, what: str) -> np.ndarray:
-    """Least-squares polynomial v(t), refitted without outliers until the inliers settle."""
+def robust_polyfit(t: np.ndarray, v: np.ndarray, degree: int, what: str) -> np.ndarray:
+    """Least-squares polynomial v(t), refitted without outliers until the inliers settle.
+
+    Raises FlangeNotFoundError naming `what` when fewer than `MIN_FIT_POINTS` points (or
+    consistent points) remain.
+    """
     if t.size < MIN_FIT_POINTS:
         raise FlangeNotFoundError(f"too few profile points on the {what}")
     inlier = np.ones(t.size, bool)
@@ -169,7 +173,7 @@ def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
     x_top = float(np.median(x[order]))
     for _ in range(3):
         near = np.abs(x - x_top) <= TOP_HALF_WINDOW_MM
-        c2, c1, _ = _robust_polyfit(x[near] - x_top, z[near], 2, "flange top")
+        c2, c1, _ = robust_polyfit(x[near] - x_top, z[near], 2, "flange top")
         if c2 >= 0:
             raise FlangeNotFoundError("the flange top is not a crest (fit curvature ≥ 0)")
         x_top += float(np.clip(-c1 / (2 * c2), -TOP_HALF_WINDOW_MM, TOP_HALF_WINDOW_MM))
@@ -182,7 +186,7 @@ def _fit_flank(x: np.ndarray, z: np.ndarray, x_top: float, height_mm: float) -> 
     dz = z[near] - height_mm
     degree = 2 if dz.size and np.ptp(dz) > FLANK_HALF_WINDOW_MM else 1
     what = f"flank near z = {height_mm:.2f} mm"
-    return float(np.polyval(_robust_polyfit(dz, x[near], degree, what), 0.0))
+    return float(np.polyval(robust_polyfit(dz, x[near], degree, what), 0.0))
 
 
 def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameters:

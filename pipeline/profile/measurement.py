@@ -2,9 +2,10 @@
 
 `measure_wheel` takes one wheel's frames (in memory) and the calibration, and runs
 centres → undistorted rays → light-plane intersection → track frame → fused profile →
-datum → flange parameters. `measure_pass` does that for every wheel of a validated pass
-archive and adds the back-to-back distance of each axle. A wheel whose frames yield no
-usable stripe is returned as "not measured" with the reason; it never fails the pass.
+datum → flange and tread parameters. `measure_pass` does that for every wheel of a
+validated pass archive and adds each axle's back-to-back distance and equivalent conicity.
+A wheel whose frames yield no usable stripe is returned as "not measured" with the reason;
+it never fails the pass.
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ from pipeline.extraction.centres import Centres, extract_centres
 from pipeline.imaging import validate_image
 from pipeline.profile.flange import FlangeParameters, fit_flange_parameters
 from pipeline.profile.fusion import FusedProfile, fuse_profile
+from pipeline.profile.rails import TrackRails, track_rails
+from pipeline.profile.tread import TreadParameters, tread_parameters
+from pipeline.profile.wheelset import AxleConicity, WheelCurve, axle_conicity, running_surface
 from pipeline.profile.window import in_wheel_window, locate_back_face
 from pipeline.version import PIPELINE_VERSION
 
@@ -97,6 +101,12 @@ class WheelMeasurement:
         Every frame's centres and track points, inner frames first.
     points_inner, points_outer : int
         Centre points per sensor used in the measurement.
+    tread : TreadParameters or None
+        Tread hollow, flange angle and rim width (None when not measured, or when the
+        profile lacks the tread or flank points: `tread_reason` says which).
+    tread_reason : str or None
+    surface : WheelCurve or None
+        The running surface z(x) the tread hollow and the axle's conicity are read from.
     pipeline_version : str
     """
 
@@ -109,6 +119,9 @@ class WheelMeasurement:
     frames: tuple[FrameCentres, ...]
     points_inner: int
     points_outer: int
+    tread: TreadParameters | None = None
+    tread_reason: str | None = None
+    surface: WheelCurve | None = None
     pipeline_version: str = PIPELINE_VERSION
 
     @property
@@ -320,9 +333,40 @@ def measure_wheel(
         parameters = fit_flange_parameters(profile.x_mm, profile.z_mm)
     except PipelineError as exc:
         return not_measured(str(exc))
+    tread, tread_reason, surface = None, None, None
+    try:
+        surface = running_surface(profile.x_mm, profile.z_mm)
+        tread = tread_parameters(profile.x_mm, profile.z_mm, surface, parameters.flange_height_mm)
+    except PipelineError as exc:
+        tread_reason = str(exc)
     return WheelMeasurement(
-        side, method, MEASURED, None, parameters, profile, tuple(inner + outer), *counts
+        side,
+        method,
+        MEASURED,
+        None,
+        parameters,
+        profile,
+        tuple(inner + outer),
+        *counts,
+        tread=tread,
+        tread_reason=tread_reason,
+        surface=surface,
     )
+
+
+def axle_conicity_of(
+    left: WheelMeasurement, right: WheelMeasurement, back_to_back_mm: float | None, rails
+) -> tuple[AxleConicity | None, str | None]:
+    """The axle's Δr(y) and equivalent conicity from its two measured wheels, or None and
+    why not (a wheel not measured, no back-to-back, no tread where the rails touch)."""
+    if left.profile is None or right.profile is None or back_to_back_mm is None:
+        return None, "both wheels of the axle and their back-to-back distance are needed"
+    if left.surface is None or right.surface is None:
+        return None, "a wheel's profile has no running surface (see its tread reason)"
+    try:
+        return axle_conicity(left.surface, right.surface, back_to_back_mm, rails), None
+    except PipelineError as exc:
+        return None, str(exc)
 
 
 def axle_back_to_back(left: WheelMeasurement, right: WheelMeasurement) -> float | None:
@@ -337,11 +381,14 @@ def axle_back_to_back(left: WheelMeasurement, right: WheelMeasurement) -> float 
 
 @dataclass(frozen=True, slots=True, eq=False)
 class PassWheelResult:
-    """One wheel of a pass measured with one method, with its axle's back-to-back."""
+    """One wheel of a pass measured with one method, with its axle's back-to-back and
+    equivalent conicity (the same objects on both wheels of the axle)."""
 
     wheel: WheelEntry
     measurement: WheelMeasurement
     back_to_back_mm: float | None
+    conicity: AxleConicity | None = None
+    conicity_reason: str | None = None
 
 
 def measure_pass(
@@ -349,6 +396,7 @@ def measure_pass(
     *,
     methods: Sequence[str] = ("adaptive",),
     calibration: StationCalibration | None = None,
+    rails: TrackRails | None = None,
     progress: Callable[[int, int], None] | None = None,
 ) -> tuple[PassWheelResult, ...]:
     """Measure every wheel of a validated pass with each method.
@@ -361,6 +409,8 @@ def measure_pass(
         Extraction method labels (`method_options`).
     calibration : StationCalibration, optional
         Overrides the archive's calibration.
+    rails : TrackRails, optional
+        The site's rails for the conicity (default 60E1 at 1:40, gauge 1435 mm).
     progress : callable(done, total), optional
         Called after each wheel and method.
 
@@ -385,12 +435,18 @@ def measure_pass(
             )
             if progress is not None:
                 progress(len(measured), total)
+    rails = rails or track_rails()
+    axles: dict[tuple[str, int, str], tuple] = {}
     results = []
     for wheel in archive.manifest.wheels:
         for method in methods:
-            left = measured.get((wheel.vehicle_id, wheel.axle, "left", method))
-            right = measured.get((wheel.vehicle_id, wheel.axle, "right", method))
-            b2b = axle_back_to_back(left, right) if left and right else None
+            axle = (wheel.vehicle_id, wheel.axle, method)
+            if axle not in axles:
+                left = measured.get((wheel.vehicle_id, wheel.axle, "left", method))
+                right = measured.get((wheel.vehicle_id, wheel.axle, "right", method))
+                b2b = axle_back_to_back(left, right) if left and right else None
+                pair = axle_conicity_of(left, right, b2b, rails) if left and right else (None, None)
+                axles[axle] = (b2b, *pair)
             key = (wheel.vehicle_id, wheel.axle, wheel.side, method)
-            results.append(PassWheelResult(wheel, measured[key], b2b))
+            results.append(PassWheelResult(wheel, measured[key], *axles[axle]))
     return tuple(results)

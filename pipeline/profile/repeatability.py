@@ -19,7 +19,28 @@ RR_PARAMETERS = (
     "flange_thickness_10_mm",
     "qr_mm",
     "back_to_back_mm",
+    "tread_hollow_mm",
+    "flange_angle_deg",
+    "rim_width_mm",
+    "conicity_3mm",
 )
+AXLE_PARAMETERS = ("back_to_back_mm", "conicity_3mm")
+"""Parameters of an axle, not a wheel: observed once per axle (on its left wheel).
+Values and statistics keep the `_mm` field names for every parameter; flange_angle_deg is
+in degrees and conicity_3mm has no unit."""
+
+
+def _value(result, parameter: str) -> float | None:
+    """One parameter of one PassWheelResult (None when not measured)."""
+    if parameter == "back_to_back_mm":
+        return result.back_to_back_mm
+    if parameter == "conicity_3mm":
+        return None if result.conicity is None else result.conicity.conicity_3mm
+    if parameter in ("tread_hollow_mm", "flange_angle_deg", "rim_width_mm"):
+        tread = result.measurement.tread
+        return None if tread is None else getattr(tread, parameter)
+    params = result.measurement.parameters
+    return None if params is None else getattr(params, parameter)
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,20 +190,22 @@ def pass_observations(results, truth_rows: Sequence[dict]) -> list[Observation]:
         key = (wheel.vehicle_id, wheel.axle, wheel.side)
         if key not in truth:
             raise ValueError(f"truth has no wheel {key[0]} axle {key[1]} {key[2]}")
-        label = f"{key[0]}/{key[1]}/{key[2]}"
-        params = result.measurement.parameters
         for parameter in RR_PARAMETERS:
-            if parameter == "back_to_back_mm":
+            if truth[key].get(parameter) is None:
+                continue  # a truth file from before the parameter existed, or no truth
+            label = f"{key[0]}/{key[1]}"
+            if parameter in AXLE_PARAMETERS:
                 if wheel.side != "left":
                     continue
-                value = result.back_to_back_mm
-                label_used = f"{key[0]}/{key[1]}"
             else:
-                value = None if params is None else getattr(params, parameter)
-                label_used = label
+                label += f"/{key[2]}"
             observations.append(
                 Observation(
-                    label_used, result.measurement.method, parameter, value, truth[key][parameter]
+                    label,
+                    result.measurement.method,
+                    parameter,
+                    _value(result, parameter),
+                    truth[key][parameter],
                 )
             )
     return observations

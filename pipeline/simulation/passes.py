@@ -23,6 +23,8 @@ from pipeline.calibration.geometry import camera_centre_track
 from pipeline.calibration.model import SENSOR_NAMES
 from pipeline.profile.flange import FlangeParameters
 from pipeline.profile.reference import load_reference_profile
+from pipeline.profile.tread import outline_tread_values
+from pipeline.profile.wheelset import outline_conicity
 from pipeline.simulation.field import (
     FieldEffects,
     add_spots_on_stripe,
@@ -223,7 +225,26 @@ def _truth_row(wheel: SimWheel) -> dict:
         "flange_thickness_10_mm": truth.flange_thickness_10_mm,
         "qr_mm": truth.qr_mm,
         "back_to_back_mm": wheel.back_to_back_mm,
+        **outline_tread_values(wheel.profile.x_mm, wheel.profile.z_mm, truth.flange_height_mm),
     }
+
+
+def _truth_rows(train: Train) -> list[dict]:
+    """Per-wheel truth, each row with its axle's true equivalent conicity at 3 mm."""
+    rows = [_truth_row(w) for w in train.wheels]
+    for left, right, row_left, row_right in zip(
+        train.wheels[::2], train.wheels[1::2], rows[::2], rows[1::2], strict=True
+    ):
+        conicity = outline_conicity(
+            left.profile.x_mm,
+            left.profile.z_mm,
+            right.profile.x_mm,
+            right.profile.z_mm,
+            left.back_to_back_mm,
+            left.radius_mm,
+        )
+        row_left["conicity_3mm"] = row_right["conicity_3mm"] = conicity
+    return rows
 
 
 def simulate_pass(
@@ -297,7 +318,7 @@ def simulate_pass(
     )
     truth = {
         "field": None if field is None else asdict(field),
-        "wheels": [_truth_row(w) for w in train.wheels],
+        "wheels": _truth_rows(train),
     }
     return SimulatedPass(manifest, frames, truth)
 

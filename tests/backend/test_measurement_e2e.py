@@ -6,6 +6,8 @@ simulated once per test session and measured by the CLI once for the comparison.
 
 from __future__ import annotations
 
+import csv
+import io
 import json
 import subprocess
 import sys
@@ -22,6 +24,7 @@ from pipeline.simulation.passes import write_synthetic_passes
 from tests.backend.conftest import empty_service, make_tokens
 
 PARAMETERS = ("flange_height_mm", "flange_thickness_mm", "qr_mm", "back_to_back_mm")
+TREAD = ("tread_hollow_mm", "flange_angle_deg", "rim_width_mm")
 CLI_NAMES = {"flange_thickness_en_mm": "flange_thickness_10_mm"}
 
 
@@ -104,9 +107,15 @@ def test_an_uploaded_pass_is_measured_as_the_cli_measures_it(client, auth, measu
         for name in (*PARAMETERS, "flange_thickness_en_mm"):
             # The CLI rounds to 4 decimals; the service stores the full value.
             assert mine[name] == pytest.approx(row[CLI_NAMES.get(name, name)], abs=6e-5), name
+        for name in TREAD:
+            assert mine[name] == pytest.approx(row[name], abs=6e-5), name
+        # The service computes the axle's conicity from the stored profiles (0.1 µm).
+        assert mine["equivalent_conicity"] == pytest.approx(row["equivalent_conicity"], abs=1e-3)
     for truth in simulated["truth"]["wheels"]:
         mine = ours[(truth["vehicle_id"], truth["axle"], truth["side"], "adaptive")]
         assert mine["reference_profile"] == truth["profile"]
+        assert mine["equivalent_conicity"] == pytest.approx(truth["conicity_3mm"], abs=0.02)
+        assert mine["rim_width_mm"] == pytest.approx(truth["rim_width_mm"], abs=0.1)
 
 
 def test_the_wheel_views_serve_frames_masks_sigma_centres_and_profile(client, auth, measured):
@@ -150,8 +159,13 @@ def test_the_wheel_views_serve_frames_masks_sigma_centres_and_profile(client, au
         round(profile["parameters"]["flange_thickness_mm"], 3),
         12.0,
     ]
+    conicity = profile["conicity"]
+    assert conicity["rail"] == "60E1" and conicity["inclination"] == "1:40"
+    assert len(conicity["y_mm"]) == len(conicity["delta_r_mm"]) == 401
+    assert conicity["conicity_3mm"] == profile["parameters"]["equivalent_conicity"]
     trend = client.get(f"/api/wheels/{wheel['wheel_id']}/trend", headers=viewer).json()
     assert [p["method"] for p in trend["points"]] == ["adaptive", "steger"]
+    assert trend["points"][0]["equivalent_conicity"] == conicity["conicity_3mm"]
 
 
 def test_reports_come_as_csv_json_and_pdf(client, auth, measured):
@@ -162,6 +176,11 @@ def test_reports_come_as_csv_json_and_pdf(client, auth, measured):
     assert len(csv_text.splitlines()) == 1 + 4
     report = client.get(f"/api/passes/{pass_id}/report.json", headers=viewer).json()
     assert report["pass"]["id"] == pass_id and set(report["limits"]) == {"EN", "LM"}
+    rows = list(csv.DictReader(io.StringIO(csv_text)))
+    first = report["wheels"][0]["results"][0]
+    for name in (*TREAD, "equivalent_conicity"):
+        assert float(rows[0][name]) == pytest.approx(first[name]), name
+    assert report["limits"]["EN"]["conicity_max"] == 0.4
     pdf = client.get(f"/api/passes/{pass_id}/report.pdf", headers=viewer)
     assert pdf.content.startswith(b"%PDF") and "attachment" in pdf.headers["content-disposition"]
     wheel_id = report["wheels"][0]["wheel_id"]

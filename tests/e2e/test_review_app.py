@@ -272,7 +272,7 @@ def test_switching_methods_redraws_the_profile_and_parameter_table(
     assert page.locator("th.selected", has_text="Adaptive").count() == 1
     page.locator("button[data-method='steger']").click()
     page.locator("th.selected", has_text="Steger").wait_for()
-    assert page.locator(".param-table tr[data-parameter]").count() == 5
+    assert page.locator(".param-table tr[data-parameter]").count() == 9
     assert page.locator(".diff-plot + .note").inner_text().split(" ")[0].isdigit()
     box = page.locator(".profile-plot").bounding_box()
     note = page.locator(".profile-plot + .note")
@@ -282,6 +282,37 @@ def test_switching_methods_redraws_the_profile_and_parameter_table(
             break
     assert note.inner_text().startswith("steger: x "), note.inner_text()
     page.locator(".side-panel").screenshot(path=str(screenshots / "10-wheel-side-steger.png"))
+
+
+def test_wheel_page_shows_tread_values_their_definitions_and_the_axle_delta_r(
+    viewer_page: Any, service: Service, measured_pass: int, screenshots: Path
+) -> None:
+    page = viewer_page
+    wheel_id = measured_wheel(service, measured_pass)
+    open_wheel(page, service, measured_pass, wheel_id)
+    row = page.locator(".param-table tr[data-parameter='equivalent_conicity']")
+    adaptive = row.locator("td").first.inner_text()
+    served = next(
+        r["equivalent_conicity"]
+        for w in wheels_of(service, measured_pass)
+        if w["wheel_id"] == wheel_id
+        for r in w["results"]
+        if r["method"] == "adaptive"
+    )
+    assert adaptive == f"{served:.3f}"
+    assert row.locator("td").nth(3).inner_text() == "≤ 0.4"
+    definition = page.locator(".param-table p.definition")
+    assert not definition.is_visible()
+    row.locator("button.definition-link").click()
+    assert "EN 15302" in definition.inner_text() and definition.is_visible()
+    hollow = page.locator(".param-table tr[data-parameter='tread_hollow_mm'] td").first
+    assert float(hollow.inner_text()) >= 0
+    assert "Wheel diameter is not measured" in page.locator(".diameter-note").inner_text()
+    plot = page.locator(".delta-r")
+    plot.locator("canvas").first.wait_for()
+    assert f"adaptive: λe(3 mm) {served:.3f}" in plot.locator(".note").inner_text()
+    assert "rails 60E1 at 1:40, gauge 1435 mm" in plot.locator(".note").inner_text()
+    page.locator(".side-panel").screenshot(path=str(screenshots / "12-wheel-tread-conicity.png"))
 
 
 def test_exports_download_a_pdf_and_a_csv(

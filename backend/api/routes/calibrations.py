@@ -5,13 +5,20 @@ from __future__ import annotations
 from fastapi import APIRouter, status
 
 from backend.api.deps import AdminDep, RowId, SessionDep, SiteDep, ViewerDep
-from backend.api.schemas import CalibrationCreate, CalibrationRead, SiteCreate, SiteRead
+from backend.api.schemas import (
+    CalibrationCreate,
+    CalibrationRead,
+    SiteCreate,
+    SiteRails,
+    SiteRead,
+)
 from backend.errors import ERROR_RESPONSES
 from backend.services.sites import (
     all_sites,
     calibration_or_404,
     create_site,
     register_calibration,
+    set_site_rails,
     site_calibrations,
 )
 
@@ -28,6 +35,16 @@ def list_sites(session: SessionDep, _viewer: ViewerDep) -> list[SiteRead]:
 def post_site(body: SiteCreate, session: SessionDep, admin: AdminDep) -> SiteRead:
     """Register a site (a name that manifests and streams refer to)."""
     return create_site(session, admin, body.name)
+
+
+@router.put("/sites/{site_name}/rails")
+def put_site_rails(
+    body: SiteRails, site: SiteDep, session: SessionDep, admin: AdminDep
+) -> SiteRead:
+    """Set the rails (60E1 or 54E1, 1:40 or 1:20, gauge) the site's axle conicity uses."""
+    return set_site_rails(
+        session, admin, site, body.rail_profile, body.rail_inclination, body.gauge_mm
+    )
 
 
 @router.get("/sites/{site_name}/calibrations")

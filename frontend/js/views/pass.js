@@ -172,8 +172,8 @@ function wheelCard(wheel, side, mode, passId) {
     : h('table', {}, PARAMETERS.filter((p) => p.card && p.families.includes(family)).map((p) => h('tr', { dataset: { parameter: p.key } },
       h('th', { title: p.title }, p.label),
       h('td', { class: `num ${mode === 'difference' ? '' : valueLevel(wheel, shown, p.key, family, mode)}` }, mode === 'difference'
-        ? fmtSigned(diff(adaptive?.[p.key], steger?.[p.key]))
-        : fmtNumber(shown?.[p.key])),
+        ? fmtSigned(diff(adaptive?.[p.key], steger?.[p.key]), p.digits)
+        : fmtNumber(shown?.[p.key], p.digits)),
       h('td', { class: 'unit' }, p.unit)))),
   disagreement ? h('div', { class: 'flag disagreement', title: 'adaptive − Steger beyond the fleet\'s threshold: check the frame' }, `methods differ: ${disagreement}`) : null,
   h('div', { class: `disposition ${wheel.disposition ? 'set' : 'open'}` }, fmtDisposition(wheel.disposition)),

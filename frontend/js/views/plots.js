@@ -5,6 +5,7 @@
  */
 import uPlot from '../../vendor/uPlot-1.6.32.esm.js';
 import { drawDifference } from '../draw/difference.js';
+import { METHOD_COLOURS } from '../draw/frame.js';
 import { drawProfile } from '../draw/profile.js';
 import { fmtNumber, fmtSigned, METHODS, PARAMETERS } from '../lib/format.js';
 import { trendColumns } from '../lib/records.js';
@@ -64,6 +65,55 @@ export function renderDifference(canvas, diff, marker) {
     note: `${diff.alongPx.length} pairs · mean ${fmtNumber(diff.meanPx, 3)} px · RMS ${fmtNumber(diff.rmsPx, 3)} px (shaded: ±RMS) · max |Δ| ${fmtNumber(diff.maxAbsPx, 3)} px · ${diff.unmatched} adaptive without a Steger partner within 2 px · hover to read, click to show that point on the frame`,
     scale,
   };
+}
+
+/**
+ * Build (or rebuild) the plot of the axle's rolling-radius difference Δr(y) per method, from
+ * the `conicity` the profile carries (y ascending, as the API emits it).
+ * @param {HTMLElement} root
+ * @param {Record<string, any>} profiles method → ProfileRead
+ * @param {string[]} methods methods in drawing order (the selected first)
+ * @param {uPlot|null} previous the plot to replace
+ * @returns {uPlot|null}
+ */
+export function renderDeltaR(root, profiles, methods, previous) {
+  previous?.destroy();
+  root.replaceChildren();
+  const usable = methods.filter((m) => Array.isArray(profiles[m]?.conicity?.y_mm));
+  const notes = methods.map((m) => {
+    const c = profiles[m]?.conicity;
+    if (!c) return `${m}: not computed yet (both wheels of the axle are needed)`;
+    if (c.reason) return `${m}: not computed: ${c.reason}`;
+    return `${m}: λe(3 mm) ${fmtNumber(c.conicity_3mm, 3)}`;
+  });
+  if (usable.length === 0) {
+    root.append(h('p', { class: 'empty' }, notes.join(' · ')));
+    return null;
+  }
+  const first = profiles[usable[0]].conicity;
+  const series = [{ label: 'y mm' }];
+  const data = [first.y_mm];
+  for (const method of [...usable].reverse()) {
+    const c = profiles[method].conicity;
+    if (c.y_mm.length !== first.y_mm.length) continue;
+    series.push({ label: `Δr ${method}`, stroke: METHOD_COLOURS[/** @type {'adaptive'|'steger'} */ (method)], width: 1.5,
+      value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v, 3) });
+    data.push(c.delta_r_mm);
+  }
+  // the tread's part of Δr sets the scale; flange contact (beyond ±6 mm) leaves the plot
+  const tread = first.delta_r_mm.filter((/** @type {number} */ _d, /** @type {number} */ i) => Math.abs(first.y_mm[i]) <= 6);
+  const reach = Math.max(0.5, 1.3 * Math.max(...tread.map(Math.abs)));
+  const width = Math.max(280, root.clientWidth);
+  const plot = new uPlot({
+    width, height: 170, series,
+    scales: { x: { time: false }, y: { range: [-reach, reach] } },
+    axes: [{ stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: 'lateral shift y (mm)' },
+      { stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: 'Δr (mm)', size: 48 }],
+    legend: { live: true },
+  }, /** @type {any} */ (data), root);
+  root.append(h('p', { class: 'note' },
+    `${notes.join(' · ')} · rails ${first.rail} at ${first.inclination}, gauge ${fmtNumber(first.gauge_mm, 0)} mm`));
+  return plot;
 }
 
 /** Height of one parameter's trend plot [CSS px]. */

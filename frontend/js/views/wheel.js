@@ -7,13 +7,13 @@
  */
 import { differenceAlongStripe } from '../lib/method-difference.js';
 import { nearestOnScreen } from '../lib/plot-scale.js';
-import { DISPOSITIONS, fmtDisposition, fmtNumber, fmtSensor, fmtSigned, fmtTime, METHODS, PARAMETERS, parameterOf } from '../lib/format.js';
+import { DIAMETER_NOTE, DISPOSITIONS, fmtDisposition, fmtNumber, fmtSensor, fmtSigned, fmtTime, METHODS, PARAMETERS, parameterOf } from '../lib/format.js';
 import { framesRemovedNote, hasAlarmOn, limitStem, limitsFor, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { alarmClass, h } from './dom.js';
 import { FrameView } from './frame-view.js';
 import { exportButtons } from './pass.js';
-import { renderDifference, renderProfile, renderTrend } from './plots.js';
+import { renderDeltaR, renderDifference, renderProfile, renderTrend } from './plots.js';
 
 /** Layer toggles: key, label, keyboard shortcut. */
 export const LAYERS = [
@@ -39,6 +39,7 @@ export class WheelView {
     this.comparisonRoot = h('div', { class: 'comparison' });
     this.diffCanvas = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'plot diff-plot', 'aria-label': 'difference plot' }));
     this.diffNote = h('p', { class: 'note mono' });
+    this.deltaRRoot = h('div', { class: 'trend delta-r' });
     this.trendRoot = h('div', { class: 'trend' });
     this.dispositionRoot = h('div', { class: 'dispositions' });
     this.viewerRoot = h('div', { class: 'viewer' });
@@ -48,6 +49,7 @@ export class WheelView {
           h('h2', {}, 'Parameters'), this.table,
           h('h2', {}, 'Disposition'), this.dispositionRoot,
           h('h2', {}, 'Profile vs reference'), this.profileCanvas, this.profileNote,
+          h('h2', {}, 'Axle rolling-radius difference Δr(y)'), this.deltaRRoot,
           h('h2', {}, 'Handheld gauge'), this.comparisonRoot,
           h('h2', {}, 'Adaptive − Steger along the stripe'), this.diffCanvas, this.diffNote,
           h('h2', {}, 'Trend across passes'), this.trendRoot,
@@ -76,6 +78,8 @@ export class WheelView {
     this.shown = {};
     /** @type {any} */
     this.trendPlot = null;
+    /** @type {any} */
+    this.deltaRPlot = null;
   }
 
   /**
@@ -126,6 +130,7 @@ export class WheelView {
         ...(w.profiles.handheld ? ['handheld'] : [])];
       this.profiles = w.profiles;
       this.drawProfilePlot(null);
+      this.deltaRPlot = renderDeltaR(this.deltaRRoot, w.profiles, this.profileOrder, this.deltaRPlot);
     }
     if (changed('comparison', `${w.loadMs}|${w.comparison?.reference?.id}|${state.me?.role}`)) {
       renderComparison(this.comparisonRoot, w.comparison, state.me?.role !== 'viewer' ? this.handlers.importReference : null);
@@ -255,17 +260,26 @@ export class WheelView {
     const a = resultOf(record, 'adaptive') ?? {};
     const s = resultOf(record, 'steger') ?? {};
     const limitRow = limitsFor(limits, (method === 'steger' ? s : a).reference_profile);
+    // a parameter's definition, one click on its name away
+    const definition = h('p', { class: 'note definition', id: 'parameter-definition', hidden: true });
     this.table.replaceChildren(
       record.reason ? h('p', { class: 'notice' }, `Not measured: ${record.reason}`) : '',
       h('table', { class: 'grid compact' },
         h('thead', {}, h('tr', {}, ['', 'Adaptive', 'Steger', 'Δ', `Limits ${limitRow?.wheel_profile ?? ''} (mm)`].map((t, i) =>
           h('th', { class: i === 1 && method === 'adaptive' || i === 2 && method === 'steger' ? 'selected' : null }, t)))),
         h('tbody', {}, PARAMETERS.map((p) => h('tr', { dataset: { parameter: p.key } },
-          h('th', { title: p.title }, p.label),
-          h('td', { class: `num ${hasAlarmOn(a, p.key, limitRow?.wheel_profile) ? 'alarm' : ''}` }, fmtNumber(a[p.key])),
-          h('td', { class: `num ${hasAlarmOn(s, p.key, limitRow?.wheel_profile) ? 'alarm' : ''}` }, fmtNumber(s[p.key])),
-          h('td', { class: 'num' }, fmtSigned(a[p.key] != null && s[p.key] != null ? a[p.key] - s[p.key] : null)),
-          h('td', { class: 'num' }, limitText(limitRow, p.key)))))),
+          h('th', { title: p.title }, h('button', { class: 'definition-link', 'aria-controls': 'parameter-definition',
+            onclick: () => { definition.hidden = definition.dataset.key === p.key && !definition.hidden;
+              definition.dataset.key = p.key; definition.textContent = `${p.title}: ${p.definition}`; } },
+          p.label, p.unit && p.unit !== 'mm' ? ` (${p.unit})` : '')),
+          h('td', { class: `num ${hasAlarmOn(a, p.key, limitRow?.wheel_profile) ? 'alarm' : ''}` }, fmtNumber(a[p.key], p.digits)),
+          h('td', { class: `num ${hasAlarmOn(s, p.key, limitRow?.wheel_profile) ? 'alarm' : ''}` }, fmtNumber(s[p.key], p.digits)),
+          h('td', { class: 'num' }, fmtSigned(a[p.key] != null && s[p.key] != null ? a[p.key] - s[p.key] : null, p.digits)),
+          h('td', { class: 'num' }, limitText(limitRow, p.key, p.limitMax)))))),
+      definition,
+      a.tread_reason || s.tread_reason
+        ? h('p', { class: 'note tread-reason' }, `Not measured: ${a.tread_reason ?? s.tread_reason}`) : '',
+      h('p', { class: 'note diameter-note' }, DIAMETER_NOTE),
       h('table', { class: 'grid compact quality' },
         h('thead', {}, h('tr', {}, ['Quality', 'points in / out', 'overlap RMS', 'rejected', 'σ mean (range) px']
           .map((t) => h('th', {}, t)))),
@@ -388,13 +402,14 @@ function layerNote(show, w) {
  * Limits of one parameter as "min – max", "≥ min" or "≤ max" from a LimitsRead row.
  * @param {any} limits
  * @param {string} key parameter key such as "flange_height_mm"
+ * @param {string} [maxKey] the limit field bounding it from above, when not `<stem>_max_mm`
  * @returns {string}
  */
-function limitText(limits, key) {
+function limitText(limits, key, maxKey) {
   const stem = limitStem(key, limits?.wheel_profile);
   if (stem === null) return '–';
   const min = limits?.[`${stem}_min_mm`];
-  const max = limits?.[`${stem}_max_mm`];
+  const max = limits?.[maxKey ?? `${stem}_max_mm`];
   if (min != null && max != null) return `${fmtNumber(min, 1)} – ${fmtNumber(max, 1)}`;
   if (min != null) return `≥ ${fmtNumber(min, 1)}`;
   if (max != null) return `≤ ${fmtNumber(max, 1)}`;

@@ -1,0 +1,110 @@
+"""Reference rails from their arcs and tangents, and the wheelset contact search on them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.profile.rails import GAUGE_DEPTH_MM, load_rail_profile, track_rails
+from pipeline.profile.reference import load_reference_profile
+from pipeline.profile.wheelset import WheelCurve, axle_conicity, rolling_radius_difference
+from pipeline.simulation.wheel import wheel_profile
+
+
+def radius_along(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    du, dv = np.gradient(u), np.gradient(v)
+    curvature = np.abs(du * np.gradient(dv) - dv * np.gradient(du)) / (du**2 + dv**2) ** 1.5
+    return 1 / np.maximum(curvature, 1e-12)
+
+
+def test_60e1_head_matches_its_drawing():
+    rail = load_rail_profile("60E1")
+    half = rail.u_mm >= 0
+    u, v = rail.u_mm[half], rail.v_mm[half]
+    radius = radius_along(u, v)
+    # The R80 → R13 joint: the drawing dimensions it 52.053 mm across (found here to the
+    # profile's 0.05 mm point spacing).
+    joint = u[np.flatnonzero((radius[:-1] > 40) & (radius[1:] < 40))[0]]
+    assert joint == pytest.approx(52.053 / 2, abs=0.06)
+    # Head width 72 mm where R13 meets the 1:20 side, 14.30 mm below the crown.
+    assert np.interp(-14.30, v[::-1], u[::-1]) == pytest.approx(36.0, abs=0.01)
+    assert np.all(np.isclose(radius[(u > 1) & (u < 10)], 300, rtol=0.02))
+
+
+def test_54e1_head_is_70_mm_wide_with_1_in_20_sides():
+    rail = load_rail_profile("54E1")
+    half = rail.u_mm >= 0
+    u, v = rail.u_mm[half], rail.v_mm[half]
+    slope = np.diff(u) / np.diff(v)
+    side = np.flatnonzero(np.isclose(slope, -0.05, atol=1e-6))
+    assert np.all(np.diff(side) == 1)  # one straight side, below the R13
+    assert u[side[0]] == pytest.approx(35.0, abs=0.01)
+
+
+@pytest.mark.parametrize("inclination", ["1:40", "1:20"])
+def test_rails_sit_at_the_gauge_with_their_inclination(inclination):
+    rails = track_rails("60E1", inclination=inclination, gauge_mm=1435.0)
+    upper = rails.right_z_mm >= -GAUGE_DEPTH_MM
+    assert rails.right_x_mm[upper].min() == pytest.approx(717.5, abs=1e-9)
+    assert rails.left_x_mm[rails.left_z_mm >= -GAUGE_DEPTH_MM].max() == pytest.approx(-717.5)
+    assert rails.right_z_mm.max() == 0.0
+    # The head leans towards the track centre (its gauge side lower), so the highest point
+    # moves off the head's middle towards the field side: to where the crown's slope equals
+    # the tilt (on the R300 at 1:40: 300/40 = 7.5 mm; on the R80 at 1:20).
+    crown_x = rails.right_x_mm[np.argmax(rails.right_z_mm)]
+    tilt = {"1:40": 1 / 40, "1:20": 1 / 20}[inclination]
+    crown_end = np.arcsin(10.228 / 300)
+    along = 300 * tilt if tilt < crown_end else 220 * np.sin(crown_end) + 80 * np.sin(tilt)
+    assert crown_x == pytest.approx(717.5 + 36.0 + along, abs=1.5)  # ± the gauge point's move
+
+
+def test_bad_rail_arguments_are_rejected():
+    with pytest.raises(ValueError, match="rail must be one of 60E1, 54E1"):
+        load_rail_profile("49E1")
+    with pytest.raises(ValueError, match="inclination must be one of"):
+        track_rails(inclination="1:30")
+    with pytest.raises(ValueError, match="gauge_mm must be in"):
+        track_rails(gauge_mm=1000.0)
+
+
+def cone(conicity: float) -> WheelCurve:
+    x = np.linspace(20.0, 130.0, 1101)
+    return WheelCurve(x, conicity * (70.0 - x))
+
+
+@pytest.mark.parametrize(("conicity", "rail_radius_mm"), [(0.025, 300), (0.05, 300), (0.1, 80)])
+def test_cone_wheelset_follows_klingel_with_the_roll_of_the_wheelset(conicity, rail_radius_mm):
+    # Coned wheels γ on crowned rails: the roll φ = Δr/2e turns the contact on both rails,
+    # so Δr = 2γy / (1 − γ(R_rail + r₀)/e) and Klingel's λ = γ/(1 − γ(R_rail + r₀)/e).
+    # R_rail is the rail's radius where its slope (tilted 1:40) meets the cone's: the R300
+    # crown up to a slope of 0.034 + 0.025, the R80 beyond.
+    rails = track_rails()
+    b2b, radius = 1360.0, 420.0
+    result = axle_conicity(cone(conicity), cone(conicity), b2b, rails, radius_mm=radius)
+    e = b2b / 2 + 77.0  # the contact: x ≈ 77 mm from each back face (rail crown)
+    expected = conicity / (1 - conicity * (rail_radius_mm + radius) / e)
+    assert result.conicity_3mm == pytest.approx(expected, rel=2e-3)
+    assert all(v == pytest.approx(result.conicity_3mm, rel=2e-5) for v in result.curve_conicity)
+
+
+def test_swapped_wheels_mirror_the_rolling_radius_difference():
+    rails = track_rails()
+    thin = wheel_profile(load_reference_profile("S1002"))
+    top = int(np.argmax(thin.z_mm))
+    end = top + int(np.flatnonzero(np.diff(thin.x_mm[top:]) <= 0)[0]) + 1
+    new = WheelCurve(thin.x_mm[top:end], thin.z_mm[top:end])
+    worn = WheelCurve(new.x_mm, new.z_mm - 0.6 * np.exp(-(((new.x_mm - 75) / 12) ** 2)))
+    forward = rolling_radius_difference(new, worn, 1360.0, rails)
+    backward = rolling_radius_difference(worn, new, 1360.0, rails)
+    assert np.allclose(forward.delta_r_mm, -backward.delta_r_mm[::-1], atol=1e-6)
+    same = rolling_radius_difference(new, new, 1360.0, rails)
+    assert same.delta_r_mm[same.y_mm.size // 2] == pytest.approx(0.0, abs=1e-9)
+    assert np.all(np.diff(same.delta_r_mm) >= -1e-9)
+
+
+def test_wheels_that_miss_their_rails_are_an_error():
+    from pipeline.profile.wheelset import ContactError
+
+    short = WheelCurve(np.array([20.0, 40.0]), np.array([1.0, 0.0]))
+    with pytest.raises(ContactError, match="does not reach over its rail"):
+        rolling_radius_difference(short, short, 1360.0, track_rails())

@@ -1,0 +1,126 @@
+"""Tread hollow, flange angle and rim width against profiles whose values are known."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pipeline.profile.reference import load_reference_profile
+from pipeline.profile.tread import (
+    TreadNotFoundError,
+    flange_angle,
+    outline_tread_values,
+    rim_width,
+    tread_hollow,
+    tread_parameters,
+)
+from pipeline.profile.wheelset import WheelCurve, outline_running_surface, running_surface
+from pipeline.simulation.wheel import Wear, wheel_profile
+
+
+def straight_flank_profile(angle_deg: float, step_mm: float = 0.05):
+    """Flange top at (20, 28), a straight flank at `angle_deg` down to z = 0, a flat tread to
+    x = 135 and a vertical field face down to z = −40 (points along the outline)."""
+    slope = 1 / np.tan(np.radians(angle_deg))  # dx per mm of drop
+    crest_x = np.arange(10.0, 20.0, step_mm)
+    crest = np.column_stack([crest_x, 28 - 0.02 * (crest_x - 20) ** 2])
+    z = np.arange(28.0, 0.0, -step_mm * np.sin(np.radians(angle_deg)))
+    flank = np.column_stack([20 + slope * (28 - z), z])
+    tread_x = np.arange(flank[-1, 0] + step_mm, 135.0, step_mm)
+    tread = np.column_stack([tread_x, np.zeros_like(tread_x)])
+    face_z = np.arange(-step_mm, -40.0, -step_mm)
+    face = np.column_stack([np.full_like(face_z, 135.0), face_z])
+    points = np.concatenate([crest, flank, tread, face])
+    return points[:, 0], points[:, 1]
+
+
+@pytest.mark.parametrize("angle_deg", [65.0, 70.0, 78.5])
+def test_straight_flank_gives_its_angle(angle_deg):
+    x, z = straight_flank_profile(angle_deg)
+    assert flange_angle(x, z, 28.0) == pytest.approx(angle_deg, abs=1e-6)
+
+
+def test_flank_with_a_gap_is_not_measured():
+    x, z = straight_flank_profile(70.0)
+    keep = (z < 14.0) | (z > 16.5) | (x < 20)
+    with pytest.raises(TreadNotFoundError, match="no points from z = 1[34].* to 16.5 mm"):
+        flange_angle(x[keep], z[keep], 28.0)
+
+
+def test_flat_tread_has_no_hollow_and_a_dip_its_depth():
+    x = np.arange(20.0, 130.0, 0.1)
+    assert tread_hollow(WheelCurve(x, -0.05 * (x - 70))) == pytest.approx(0.0, abs=1e-12)
+    dip = 0.8 * np.exp(-(((x - 90) / 8) ** 2))
+    assert tread_hollow(WheelCurve(x, -0.05 * (x - 70) - dip)) == pytest.approx(0.8, abs=1e-3)
+
+
+def test_hollow_needs_the_tread_from_60_to_120_mm():
+    x = np.arange(20.0, 110.0, 0.1)
+    with pytest.raises(TreadNotFoundError, match="the hollow needs 60–120 mm"):
+        tread_hollow(WheelCurve(x, np.zeros_like(x)))
+
+
+@pytest.mark.parametrize(("name", "new_hollow_mm"), [("LMA", 0.045), ("S1002", 0.117)])
+def test_reference_profiles_hollow_and_simulated_wear_deepens_it(name, new_hollow_mm):
+    reference = load_reference_profile(name)
+    values = []
+    for depth in (0.0, 0.5, 1.0):
+        wheel = wheel_profile(reference, Wear(hollow_depth_mm=depth))
+        values.append(outline_tread_values(wheel.x_mm, wheel.z_mm, wheel.truth.flange_height_mm))
+    assert values[0]["tread_hollow_mm"] == pytest.approx(new_hollow_mm, abs=1e-3)
+    hollows = [v["tread_hollow_mm"] for v in values]
+    assert hollows[0] < hollows[1] < hollows[2]
+    assert values[0]["rim_width_mm"] == pytest.approx(float(reference.x_mm[-1]))
+
+
+def test_rim_width_where_the_field_face_is_seen_else_the_reason():
+    x, z = straight_flank_profile(70.0)
+    assert rim_width(x, z) == (pytest.approx(135.0), None)
+    width, reason = rim_width(x[z > -5], z[z > -5])
+    assert width is None and "no field-side face (0 points" in reason
+
+
+def test_running_surface_of_noisy_points_follows_the_curve():
+    rng = np.random.default_rng(3)
+    x, z = straight_flank_profile(70.0, step_mm=0.02)
+    curve_true = outline_running_surface(x, z)
+    noisy = z + rng.normal(0.0, 0.015, z.size)
+    curve = running_surface(x, noisy)
+    tread = (curve.x_mm > 45) & (curve.x_mm < 125)
+    truth = np.interp(curve.x_mm[tread], curve_true.x_mm, curve_true.z_mm)
+    assert np.abs(curve.z_mm[tread] - truth).max() < 0.01
+
+
+def test_tread_parameters_report_each_missing_value_with_its_reason():
+    x, z = straight_flank_profile(70.0)
+    keep = z > -5  # no field face
+    curve = outline_running_surface(x[keep], z[keep])
+    values = tread_parameters(x[keep], z[keep], curve, 28.0)
+    assert values.tread_hollow_mm == pytest.approx(0.0, abs=1e-9)
+    assert values.flange_angle_deg == pytest.approx(70.0, abs=1e-6)
+    assert values.rim_width_mm is None and values.reason.startswith("rim width: ")
+
+
+def test_batched_local_quadratics_equal_robust_polyfit_node_by_node():
+    from pipeline.errors import PipelineError
+    from pipeline.profile.flange import robust_polyfit
+    from pipeline.profile.wheelset import local_quadratics
+
+    rng = np.random.default_rng(11)
+    x = np.sort(rng.uniform(20.0, 120.0, 3000))
+    z = 0.002 * (x - 70) ** 2 + rng.normal(0.0, 0.01, x.size)
+    z[rng.choice(x.size, 60, replace=False)] += rng.uniform(0.2, 1.0, 60)  # glints
+    x[1500:1520] = x[1500]  # a run of points at one x
+    grid = np.arange(21.0, 119.0, 0.1)
+    half = np.where(grid < 40.0, 0.5, 2.0)
+    values = local_quadratics(x, z, grid, half)
+    lo, hi = np.searchsorted(x, grid - half), np.searchsorted(x, grid + half)
+    for i in range(grid.size):
+        t = x[lo[i] : hi[i]] - grid[i]
+        expected = np.nan
+        if t.size >= 5 and np.ptp(t) >= half[i]:
+            try:
+                expected = robust_polyfit(t, z[lo[i] : hi[i]], 2, "test")[2]
+            except PipelineError:
+                pass
+        assert values[i] == pytest.approx(expected, abs=1e-9, nan_ok=True), grid[i]
