@@ -38,7 +38,7 @@ export function renderReview(root, state, handlers) {
   FILTERS.map((f) => h('label', {}, f.label, ' ', h('input', { name: f.key, size: 10, placeholder: 'any part', value: filter[f.key] ?? '' }))),
   h('label', {}, 'Parameter ', h('select', { name: 'parameter' },
     h('option', { value: '' }, 'nearest limit'),
-    PARAMETERS.map((p) => h('option', { value: p.key, selected: filter.parameter === p.key ? true : null }, `${p.label} (${p.title})`)))),
+    PARAMETERS.filter((p) => p.families.length > 0).map((p) => h('option', { value: p.key, selected: filter.parameter === p.key ? true : null }, `${p.label} (${p.title})`)))),
   h('label', {}, h('input', { type: 'checkbox', name: 'open', value: '1', checked: filter.open === '1' }), ' open only'),
   h('label', { title: 'every pass of each wheel, not only its newest' },
     h('input', { type: 'checkbox', name: 'history', value: '1', checked: filter.history === '1' }), ' all passes'),
