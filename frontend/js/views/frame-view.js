@@ -26,7 +26,7 @@ const SIGMA_ALPHA = 0.55;
  * @property {ImageBitmap} image
  * @property {ImageBitmap|null} mask
  * @property {ImageBitmap|null} sigma
- * @property {{sigma_min_px: number, sigma_max_px: number}|null} sigmaScale
+ * @property {{sigma_min_px: number, sigma_max_px: number, scales_px?: number[]}|null} sigmaScale
  * @property {Record<string, any>} centres method → columnar centres (or {error})
  */
 
