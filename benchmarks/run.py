@@ -28,6 +28,7 @@ BENCH_MODULES: list[str] = [
     "benchmarks.fuzz",
     "benchmarks.hardening",
     "benchmarks.reports",
+    "benchmarks.review",
 ]
 
 OUTPUT = Path(__file__).resolve().parent.parent / "BENCHMARKS.md"

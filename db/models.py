@@ -4,7 +4,7 @@ Entities (docs/service.md): site, calibration (versioned, never edited in place)
 pass, frame (content-addressed by sha256), wheel (identity vehicle_id + axle + side, so
 trends follow one wheel across passes), pass wheel (one wheel in one pass: its task state),
 measurement (pass wheel x method), measurement frame (per-frame artefacts), job, API token,
-audit event and fleet limits.
+audit event, fleet limits, measurement margins and dispositions.
 """
 
 from __future__ import annotations
@@ -217,6 +217,34 @@ class Measurement(Base):
         back_populates="measurement",
         order_by=lambda: (MeasurementFrame.sensor, MeasurementFrame.seq),
     )
+    margins: Mapped[list[MeasurementMargin]] = relationship(
+        back_populates="measurement", cascade="all, delete-orphan", passive_deletes=True
+    )
+
+
+class MeasurementMargin(Base):
+    """One checked parameter of a measurement and its margin to the nearest limit, kept
+    with the alarms (against the limits in force when it was measured). `nearest` marks
+    the measurement's smallest margin as a fraction of its band: the worst-wheels order.
+    No index on the margin itself: with one, planners walked every pass's margins in
+    order rather than start from the few pass wheels a filter leaves."""
+
+    __tablename__ = "measurement_margin"
+    __table_args__ = (UniqueConstraint("measurement_id", "parameter"),)
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    measurement_id: Mapped[int] = mapped_column(ForeignKey("measurement.id", ondelete="CASCADE"))
+    parameter: Mapped[str] = mapped_column(String(40))
+    value_mm: Mapped[float] = mapped_column(Float)
+    bound: Mapped[str] = mapped_column(String(3))
+    limit_mm: Mapped[float] = mapped_column(Float)
+    margin_mm: Mapped[float] = mapped_column(Float)
+    band_mm: Mapped[float] = mapped_column(Float)
+    margin_fraction: Mapped[float] = mapped_column(Float)
+    level: Mapped[str] = mapped_column(String(5))
+    nearest: Mapped[bool] = mapped_column(default=False)
+
+    measurement: Mapped[Measurement] = relationship(back_populates="margins")
 
 
 class MeasurementFrame(Base):
@@ -311,6 +339,31 @@ class FleetLimit(Base):
     back_to_back_max_mm: Mapped[float] = mapped_column(Float)
     conicity_max: Mapped[float] = mapped_column(Float, default=0.4, server_default="0.4")
     updated_at: Mapped[datetime] = mapped_column(default=utc_now)
+    near_limit_fraction: Mapped[float] = mapped_column(Float, default=0.1)
+    """Amber band: this fraction of each limit band inside its limits."""
+    method_disagreement_mm: Mapped[float] = mapped_column(Float, default=0.5)
+    """A wheel whose adaptive and Steger values differ by more is flagged [mm]."""
+
+
+DISPOSITION_KINDS = ("re_profile", "monitor", "false_alarm", "measurement_doubtful", "comment")
+"""What an operator decided about a wheel of a pass; "false_alarm" needs a reason."""
+
+
+class Disposition(Base):
+    """An operator's decision on one wheel of one pass; the newest one is in force (a
+    wheel without any is "open"). Each is also an audit event."""
+
+    __tablename__ = "disposition"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    pass_wheel_id: Mapped[int] = mapped_column(
+        ForeignKey("pass_wheel.id", ondelete="CASCADE"), index=True
+    )
+    kind: Mapped[str] = mapped_column(String(25))
+    comment: Mapped[str | None] = mapped_column(Text)
+    actor: Mapped[str] = mapped_column(String(100))
+    token_id: Mapped[int | None] = mapped_column(ForeignKey("api_token.id", ondelete="SET NULL"))
+    created_at: Mapped[datetime] = mapped_column(default=utc_now)
 
 
 class HandheldReference(Base):

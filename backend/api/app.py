@@ -31,6 +31,7 @@ from backend.jobs.runner import TaskRunner
 from backend.services.ingest import incoming_dir
 from backend.services.limits import ensure_default_limits
 from backend.services.retention import sweep_periodically
+from backend.services.review import backfill_margins
 from backend.storage.store import BlobStore, remove_abandoned_temporaries
 from db.engine import make_engine, make_session_factory, upgrade_database
 
@@ -62,6 +63,9 @@ def create_app(settings: Settings | None = None, runner: TaskRunner | None = Non
     with session_factory() as session:
         ensure_default_limits(session)
         session.commit()
+        filled = backfill_margins(session)
+    if filled:
+        logger.info("kept the limit margins of %d earlier measurement(s)", filled)
     task_runner = runner or make_task_runner(settings, session_factory)
     store = BlobStore(settings.frames_dir)
 

@@ -190,6 +190,8 @@ class LimitsRead(ORMModel):
     back_to_back_max_mm: float
     conicity_max: float = Field(description="equivalent conicity (3 mm) alarm threshold")
     updated_at: datetime
+    near_limit_fraction: float = Field(description="amber band: fraction of each limit band")
+    method_disagreement_mm: float = Field(description="flag adaptive − Steger beyond this [mm]")
 
 
 class LimitsUpdate(InputModel):
@@ -202,6 +204,12 @@ class LimitsUpdate(InputModel):
     qr_min_mm: float = Field(gt=0, lt=100)
     back_to_back_min_mm: float = Field(gt=1000, lt=2000)
     back_to_back_max_mm: float = Field(gt=1000, lt=2000)
+    near_limit_fraction: float | None = Field(
+        default=None, ge=0, le=0.5, description="amber band; omitted: kept as it is"
+    )
+    method_disagreement_mm: float | None = Field(
+        default=None, gt=0, le=20, description="omitted: kept as it is [mm]"
+    )
     conicity_max: float = Field(default=0.4, gt=0, lt=2)
 
 
@@ -315,6 +323,12 @@ class PassSummary(BaseModel):
     frames_removed_at: datetime | None = Field(
         default=None, description="when frame retention removed the raw frames (results kept)"
     )
+    near_limit_count: int = Field(
+        default=0, description="wheels near a limit (amber), none in alarm"
+    )
+    alarm_values: list[str] = Field(
+        default_factory=list, description="the values in alarm, e.g. 'V1 axle 1 left: Sh 36.4 mm'"
+    )
 
 
 ItemT = TypeVar("ItemT")
@@ -371,6 +385,12 @@ class PassWheelRead(BaseModel):
     frames_removed_at: datetime | None = Field(
         default=None, description="when frame retention removed the raw frames (results kept)"
     )
+    level: Literal["ok", "near", "alarm", "none"] = Field(
+        default="none", description="the adaptive result's worst margin level; none unmeasured"
+    )
+    margins: list[MarginRead] = Field(default_factory=list, description="adaptive, per parameter")
+    disposition: DispositionRead | None = Field(default=None, description="None: open")
+    method_disagreement: list[Disagreement] = Field(default_factory=list)
 
 
 class CentresRead(BaseModel):
@@ -388,6 +408,10 @@ class CentresRead(BaseModel):
     strength: list[float]
     nx: list[float]
     ny: list[float]
+    rejected_x: list[float] = Field(
+        default_factory=list, description="candidates the method rejected [px], where stored"
+    )
+    rejected_y: list[float] = Field(default_factory=list)
 
 
 class SigmaMapRead(BaseModel):
@@ -443,6 +467,8 @@ class WheelTrend(BaseModel):
     axle: int
     side: Side
     points: list[TrendPoint]
+    limits: WheelLimits | None = None
+    forecasts: list[TrendForecast] = Field(default_factory=list)
 
 
 class AuditRead(ORMModel):
@@ -463,6 +489,107 @@ class PassReport(BaseModel):
     pass_: PassSummary = Field(alias="pass")
     limits: dict[str, dict[str, float]]
     wheels: list[PassWheelRead]
+
+
+class ParameterRead(BaseModel):
+    """A checked wheel parameter: its key in results, label, title and unit."""
+
+    key: str
+    label: str
+    title: str
+    unit: str
+
+
+class MarginRead(ORMModel):
+    """One parameter's distance to its nearest limit: in mm and as a fraction of the band."""
+
+    parameter: str
+    value_mm: float
+    bound: Literal["min", "max"]
+    limit_mm: float
+    margin_mm: float
+    band_mm: float
+    margin_fraction: float
+    level: Literal["ok", "near", "alarm"]
+
+
+class Disagreement(BaseModel):
+    """A parameter whose adaptive and Steger values differ by more than the fleet allows."""
+
+    parameter: str
+    difference_mm: float = Field(description="adaptive − Steger")
+    threshold_mm: float
+
+
+DispositionKind = Literal["re_profile", "monitor", "false_alarm", "measurement_doubtful", "comment"]
+
+
+class DispositionCreate(InputModel):
+    kind: DispositionKind
+    comment: str | None = Field(default=None, max_length=1000)
+
+
+class DispositionRead(ORMModel):
+    id: int
+    kind: DispositionKind
+    comment: str | None
+    actor: str
+    created_at: datetime
+
+
+class WorstWheelRead(BaseModel):
+    """One wheel of one pass in the worst-wheels view, at its nearest limit (or the
+    filtered parameter's)."""
+
+    pass_id: int
+    started_at: datetime
+    site: str
+    fleet: str
+    wheel_id: int
+    vehicle_id: str
+    axle: int
+    side: Side
+    wheel_profile: str
+    margin: MarginRead
+    disposition: DispositionRead | None
+
+
+class TrendForecast(BaseModel):
+    """A robust linear wear fit of one parameter and when it reaches its nearest limit."""
+
+    parameter: str
+    per: Literal["day", "1000 km"]
+    rate_mm: float = Field(description="wear rate [mm per day or per 1000 km]")
+    rate_low_mm: float
+    rate_high_mm: float
+    points: int
+    bound: Literal["min", "max"] | None
+    limit_mm: float | None
+    near_mm: float | None = Field(description="the amber threshold on the same side [mm]")
+    reached_at: datetime | None = Field(description="when the fit reaches the limit (UTC)")
+    reached_earliest: datetime | None
+    reached_latest: datetime | None
+    note: str
+    intercept_mm: float | None = Field(default=None, description="the fit's value at fit_from")
+    fit_from: datetime | None = Field(default=None, description="origin of the fit's x (UTC)")
+
+
+class WheelLimits(BaseModel):
+    wheel_profile: str
+    limits_mm: dict[str, float]
+    near_limit_fraction: float
+
+
+class VehiclePass(BaseModel):
+    pass_id: int
+    started_at: datetime
+    site: str
+    wheels: list[PassWheelRead]
+
+
+class VehicleHistory(BaseModel):
+    vehicle_id: str
+    passes: list[VehiclePass] = Field(description="newest first")
 
 
 class ReferenceRead(ORMModel):

@@ -14,8 +14,16 @@ from backend.storage.artefacts import FrameArtefacts, load_artefacts
 from backend.storage.store import BlobStore
 from pipeline import Centres
 from pipeline.archive.pass_archive import decode_frame
+from pipeline.extraction.adaptive import stripe_scales
 
 SIGMA_COLORMAP = "viridis"
+WIDTH_RANGE_PX = (5.0, 21.0)
+"""The stripe widths the service measures with (measure_wheel's defaults) [px]."""
+SIGMA_SCALES_PX = stripe_scales(*WIDTH_RANGE_PX)
+"""σ1, σ2, σ3 [px]."""
+SIGMA_RANGE_PX = (SIGMA_SCALES_PX[0], SIGMA_SCALES_PX[2])
+"""Every σ map is coloured over [σ1, σ3], so one colour is one σ in every frame (a
+per-frame range coloured 7.5 px yellow in one frame and teal in the next)."""
 
 REJECTED_GREY = 96
 """Grey of the rejected candidate centres in the mask PNG (the stripe is 255, the rest 0):
@@ -72,14 +80,6 @@ def sigma_png(
     return encode_png(cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGRA))
 
 
-def sigma_scale(sigma_map: np.ndarray) -> tuple[float, float]:
-    """(min, max) of the chosen scales [px] (0 = none chosen is left out)."""
-    chosen = sigma_map[sigma_map > 0]
-    if chosen.size == 0:
-        return 0.0, 0.0
-    return float(chosen.min()), float(chosen.max())
-
-
 @lru_cache(maxsize=4)
 def cached_artefacts(store: BlobStore, sha256: str) -> FrameArtefacts:
     """Artefacts of a frame, kept decompressed for the next layer requests (immutable)."""
@@ -103,7 +103,7 @@ def layer_png(store: BlobStore, sha256: str, layer: str, max_width_px: int | Non
         return LayerPng(mask_png(artefacts.mask, artefacts.rejected_xy, max_width_px), 0.0, 0.0)
     if artefacts.sigma_map is None:
         raise ValueError(f"artefacts {sha256[:12]}… have no σ map (a fixed-σ method)")
-    low, high = sigma_scale(artefacts.sigma_map)
+    low, high = SIGMA_RANGE_PX
     return LayerPng(sigma_png(artefacts.sigma_map, low, high, max_width_px), low, high)
 
 
@@ -123,7 +123,7 @@ def prerender_layers(store: BlobStore, centres: Centres) -> dict[str, str | floa
         "sigma_max_px": None,
     }
     if centres.sigma_map is not None:
-        low, high = sigma_scale(centres.sigma_map)
+        low, high = SIGMA_RANGE_PX
         layers["sigma_png_sha256"] = store.put(
             sigma_png(centres.sigma_map, low, high, None), ".png"
         )

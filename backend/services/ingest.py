@@ -114,7 +114,11 @@ def validate_archive(session: Session, path: Path, settings: Settings) -> PassAr
             path, site_calibration=site_calibration, decode_frames=True, limits=limits
         )
     except ArchiveError as exc:
-        raise InvalidInputError(f"pass archive: {exc}") from None
+        # the reader's own words may already name the pass archive; say it once
+        words = str(exc)
+        raise InvalidInputError(
+            words if words.startswith("pass archive") else f"pass archive: {words}"
+        ) from None
 
 
 def store_archive(

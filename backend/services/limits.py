@@ -19,6 +19,14 @@ from sqlalchemy.orm import Session
 from backend.api.schemas import LimitsRead, LimitsUpdate
 from backend.errors import InvalidInputError
 from backend.services.auth import record_audit
+from backend.services.margins import (
+    ALARM,
+    METHOD_DISAGREEMENT_MM,
+    NEAR_LIMIT_FRACTION,
+    PARAMETERS,
+    Margin,
+    limit_margins,
+)
 from db.models import ApiToken, FleetLimit
 from db.types import utc_now
 
@@ -50,6 +58,7 @@ DEFAULT_LIMITS_MM: dict[str, dict[str, float]] = {
 REFERENCE_PROFILE_FAMILY = {"S1002": "EN", "LMA": "LM", "LM": "LM"}
 
 LIMIT_FIELDS = tuple(DEFAULT_LIMITS_MM["EN"])
+ALARM_NAMES = {p.key: p.alarm_name for p in PARAMETERS}
 
 
 @dataclass(frozen=True, slots=True)
@@ -78,11 +87,6 @@ class Alarm:
 def profile_family(reference_profile: str | None) -> str:
     """EN or LM: which limit set applies to a wheel measured against `reference_profile`."""
     return REFERENCE_PROFILE_FAMILY.get((reference_profile or "").upper(), "EN")
-
-
-def thickness_key(family: str) -> str:
-    """The flange thickness a limit set checks: Sd at 10 mm for EN, at 12 mm for LM."""
-    return "flange_thickness_en_mm" if family == "EN" else "flange_thickness_mm"
 
 
 def ensure_default_limits(session: Session, fleet: str = "default") -> None:
@@ -123,7 +127,8 @@ def replace_limits(
         )
     ).one()
     before = LimitsRead.model_validate(row).model_dump(mode="json")
-    for name, value in body.model_dump().items():
+    # review thresholds left out of the body keep their values
+    for name, value in body.model_dump(exclude_none=True).items():
         setattr(row, name, value)
     row.updated_at = utc_now()
     record_audit(
@@ -132,7 +137,7 @@ def replace_limits(
         "limits.update",
         "fleet_limit",
         f"{fleet}/{wheel_profile}",
-        {"before": before, "after": body.model_dump()},
+        {"before": before, "after": body.model_dump(exclude_none=True)},
     )
     session.commit()
     return row
@@ -148,29 +153,33 @@ def limits_for(session: Session, fleet: str, family: str) -> dict[str, float]:
     return {name: getattr(row, name) for name in LIMIT_FIELDS}
 
 
+def review_thresholds(session: Session, fleet: str, family: str) -> tuple[float, float]:
+    """The fleet's amber band (fraction of each limit band) and its method-disagreement
+    threshold [mm] for a profile family, falling back to the defaults."""
+    row = session.scalar(
+        select(FleetLimit).where(FleetLimit.fleet == fleet, FleetLimit.wheel_profile == family)
+    )
+    if row is None:
+        return NEAR_LIMIT_FRACTION, METHOD_DISAGREEMENT_MM
+    return row.near_limit_fraction, row.method_disagreement_mm
+
+
+def alarms_of(margins: list[Margin]) -> list[dict[str, Any]]:
+    """The alarms (parameters outside their band) among a wheel's margins, as plain dicts.
+
+    For EN limits the flange thickness checked is the one at the EN height (10 mm); for LM
+    limits the one at 12 mm; either is reported as the `flange_thickness_mm` alarm.
+    """
+    return [
+        Alarm(ALARM_NAMES[m.parameter], m.value_mm, m.bound, m.limit_mm).as_dict()
+        for m in margins
+        if m.status == ALARM
+    ]
+
+
 def evaluate_alarms(
     parameters_mm: dict[str, float | None], limits_mm: dict[str, float], family: str
 ) -> list[dict[str, Any]]:
     """Compare a wheel's parameters with limits; returns the alarms as plain dicts.
-
-    For EN limits the flange thickness compared is the one at the EN height (10 mm); for LM
-    limits the one at 12 mm. Missing parameters (None) raise no alarm.
-    """
-    checks = [
-        ("flange_height_mm", parameters_mm.get("flange_height_mm"), "flange_height"),
-        ("flange_thickness_mm", parameters_mm.get(thickness_key(family)), "flange_thickness"),
-        ("qr_mm", parameters_mm.get("qr_mm"), "qr"),
-        ("back_to_back_mm", parameters_mm.get("back_to_back_mm"), "back_to_back"),
-        ("equivalent_conicity", parameters_mm.get("equivalent_conicity"), "conicity"),
-    ]
-    alarms: list[Alarm] = []
-    for name, value, stem in checks:
-        if value is None:
-            continue
-        low = limits_mm.get(f"{stem}_min_mm")
-        high = limits_mm.get(f"{stem}_max_mm", limits_mm.get(f"{stem}_max"))
-        if low is not None and value < low:
-            alarms.append(Alarm(name, float(value), "min", low))
-        if high is not None and value > high:
-            alarms.append(Alarm(name, float(value), "max", high))
-    return [alarm.as_dict() for alarm in alarms]
+    Missing parameters (None) raise no alarm."""
+    return alarms_of(limit_margins(parameters_mm, limits_mm, family))

@@ -1,73 +1,176 @@
-"""How far each checked parameter of a result lies inside (or outside) the limits that apply.
+"""Wheel parameters checked against limits, and each one's margin to its nearest limit.
 
-The report lists wheels in alarm and wheels near a limit first. A parameter is near its
-limit when it is inside by less than `NEAR_LIMIT_MM`: 1 mm is about two months of flange
-wear on a busy fleet and ten times the adaptive method's MAE, so a wheel flagged near
-today is one to plan a turning for, not measurement noise. The checked parameters and the
-thickness height per limit set are those of `evaluate_alarms` (EN: Sd at 10 mm, LM: Sd at
-12 mm).
+`PARAMETERS` is the one list of checked parameters (name, label, unit, limit): alarms,
+margins, the worst-wheels view and the trends all iterate it, so a new parameter is one
+entry here (and its limit columns).
+
+A margin is the signed distance from a value to its nearest limit [mm], negative outside
+the band, and as a fraction of the band: the limits' span where there are two, or the
+distance from the one limit to the new wheel's value (the reference profile's) where
+there is one (qR ≥ 6.5 mm: S1002 new is 10.79 mm, so its band is 4.29 mm wide). A value
+within `near_limit_fraction` of the band from a limit is "near" (amber).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
-from backend.services.limits import thickness_key
+from pipeline.profile.flange import curve_flange_parameters
+from pipeline.profile.reference import load_reference_profile
 
-NEAR_LIMIT_MM = 1.0
-CHECKED = (
-    ("flange_height_mm", "flange_height"),
-    ("flange_thickness_mm", "flange_thickness"),
-    ("qr_mm", "qr"),
-    ("back_to_back_mm", "back_to_back"),
+OK, NEAR, ALARM = "ok", "near", "alarm"
+LEVELS = (OK, NEAR, ALARM)
+
+NEAR_LIMIT_FRACTION = 0.10
+"""Default amber band: the inner 10 % of each limit band (editable per fleet)."""
+METHOD_DISAGREEMENT_MM = 0.5
+"""Default flag when adaptive and Steger differ by more in any parameter [mm]: about four
+times the adaptive method's Sh/Sd MAE on simulated passes (0.10–0.12 mm), twice Steger's."""
+
+FAMILY_REFERENCE = {"EN": "S1002", "LM": "LMA"}
+"""The new-wheel profile of each limit family (nominal values of one-sided limits)."""
+
+
+@dataclass(frozen=True, slots=True)
+class Parameter:
+    """One checked wheel parameter.
+
+    key is the measurement's column, limit the stem of its limit columns
+    (`{limit}_min_mm`, `{limit}_max_mm`, or `{limit}_min`/`_max` for a unitless one);
+    families are the limit families that check this key (EN checks Sd at 10 mm, LM at
+    12 mm); alarm names the alarm it raises (both Sd heights raise `flange_thickness_mm`).
+    """
+
+    key: str
+    label: str
+    title: str
+    unit: str
+    limit: str
+    families: tuple[str, ...] = ("EN", "LM")
+    alarm: str = ""
+
+    @property
+    def alarm_name(self) -> str:
+        return self.alarm or self.key
+
+    def bound_field(self, bound: str) -> str:
+        """The limits' field of the `bound` ("min" or "max") of this parameter."""
+        return f"{self.limit}_{bound}" + ("_mm" if self.unit == "mm" else "")
+
+
+PARAMETERS = (
+    Parameter("flange_height_mm", "Sh", "Flange height", "mm", "flange_height"),
+    Parameter(
+        "flange_thickness_mm", "Sd", "Flange thickness at 12 mm", "mm", "flange_thickness", ("LM",)
+    ),
+    Parameter(
+        "flange_thickness_en_mm",
+        "Sd EN",
+        "Flange thickness at 10 mm (EN)",
+        "mm",
+        "flange_thickness",
+        ("EN",),
+        alarm="flange_thickness_mm",
+    ),
+    Parameter("qr_mm", "qR", "Flange slope qR", "mm", "qr"),
+    Parameter("back_to_back_mm", "B2B", "Back-to-back distance", "mm", "back_to_back"),
+    Parameter("equivalent_conicity", "λe", "Equivalent conicity (axle)", "", "conicity"),
 )
-"""(parameter, limit stem) pairs; the thickness reads its family's key (thickness_key)."""
+PARAMETER_KEYS = tuple(p.key for p in PARAMETERS)
 
 
 @dataclass(frozen=True, slots=True)
 class Margin:
-    """One parameter against its nearest bound [mm].
-
-    Attributes
-    ----------
-    parameter : str
-        The result field compared (for the thickness, the one the set measures).
-    value_mm : float
-    bound : str
-        "min" or "max", whichever is nearer.
-    limit_mm : float
-    margin_mm : float
-        Distance inside the limits; negative outside (an alarm).
-    status : str
-        "alarm", "near" (inside by less than NEAR_LIMIT_MM) or "ok".
-    """
+    """How far one parameter of a wheel is from its nearest limit."""
 
     parameter: str
     value_mm: float
     bound: str
     limit_mm: float
     margin_mm: float
+    band_mm: float
     status: str
+    """"alarm", "near" (within the amber band) or "ok"."""
+
+    @property
+    def margin_fraction(self) -> float:
+        """The margin as a fraction of the band (negative outside)."""
+        return self.margin_mm / self.band_mm
+
+
+@lru_cache(maxsize=4)
+def nominal_mm(family: str, key: str) -> float | None:
+    """The new wheel's value of `key` for a limit family (its reference profile) [mm]."""
+    reference = load_reference_profile(FAMILY_REFERENCE[family])
+    values = curve_flange_parameters(reference.x_mm, reference.z_mm)
+    nominal = {
+        "flange_height_mm": values.flange_height_mm,
+        "flange_thickness_mm": values.flange_thickness_mm,
+        "flange_thickness_en_mm": values.flange_thickness_10_mm,
+        "qr_mm": values.qr_mm,
+    }
+    return nominal.get(key)
+
+
+def _margin(
+    parameter: Parameter,
+    value: float,
+    low: float | None,
+    high: float | None,
+    family: str,
+    near_limit_fraction: float,
+) -> Margin | None:
+    bounds = [("min", low, value - low)] if low is not None else []
+    if high is not None:
+        bounds.append(("max", high, high - value))
+    if not bounds:
+        return None
+    nominal = nominal_mm(family, parameter.key)
+    if low is not None and high is not None:
+        band = high - low
+    elif nominal is not None:
+        band = abs(nominal - bounds[0][1])
+    else:
+        # a one-sided limit with no new-wheel value: the limit's own size stands in
+        band = abs(bounds[0][1])
+    bound, limit, margin = min(bounds, key=lambda b: b[2])
+    level = ALARM if margin < 0 else NEAR if margin < near_limit_fraction * band else OK
+    return Margin(parameter.key, float(value), bound, float(limit), float(margin), band, level)
 
 
 def limit_margins(
-    parameters_mm: dict[str, float | None], limits_mm: dict[str, float], family: str
+    values_mm: dict[str, float | None],
+    limits_mm: dict[str, float],
+    family: str,
+    near_limit_fraction: float = NEAR_LIMIT_FRACTION,
 ) -> list[Margin]:
-    """Margins of the checked parameters of one result; missing parameters are skipped."""
+    """The margin of every checked parameter of one wheel, in `PARAMETERS` order.
+
+    Parameters
+    ----------
+    values_mm : dict
+        Measured values by parameter key [mm, or none for the conicity]; None (not
+        measured) gives no margin.
+    limits_mm : dict
+        The fleet's limits for `family` (`Parameter.bound_field`) [mm].
+    family : str
+        "EN" or "LM": which parameters are checked (Sd at 10 or at 12 mm).
+    near_limit_fraction : float
+        Width of the amber band as a fraction of each limit band.
+
+    Returns
+    -------
+    list of Margin
+    """
     margins = []
-    for name, stem in CHECKED:
-        key = thickness_key(family) if stem == "flange_thickness" else name
-        value = parameters_mm.get(key)
-        if value is None:
+    for parameter in PARAMETERS:
+        value = values_mm.get(parameter.key)
+        if value is None or family not in parameter.families:
             continue
-        bounds = [
-            (bound, limits_mm[f"{stem}_{bound}_mm"], sign)
-            for bound, sign in (("min", 1.0), ("max", -1.0))
-            if f"{stem}_{bound}_mm" in limits_mm
-        ]
-        bound, limit, sign = min(bounds, key=lambda b: b[2] * (value - b[1]))
-        margin = sign * (value - limit)
-        # near on the margin as shown (0.01 mm), so "+1.00" never reads "near limit"
-        status = "alarm" if margin < 0 else "near" if round(margin, 2) < NEAR_LIMIT_MM else "ok"
-        margins.append(Margin(key, float(value), bound, limit, margin, status))
+        low = limits_mm.get(parameter.bound_field("min"))
+        high = limits_mm.get(parameter.bound_field("max"))
+        margin = _margin(parameter, value, low, high, family, near_limit_fraction)
+        if margin is not None:
+            margins.append(margin)
     return margins

@@ -4,16 +4,23 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from datetime import datetime
-from typing import cast
+from typing import Literal, cast
 
 from sqlalchemy import Select, func, select
 from sqlalchemy.orm import Session
 
 from backend.api.schemas import JobProgress, MethodResult, Page, PassSummary, PassWheelRead, Side
-from db.models import Frame, Job, Measurement, Pass, PassWheel, Site, Wheel
+from backend.services.margins import PARAMETERS
+from backend.services.review import (
+    PRIMARY_METHOD,
+    disagreement_thresholds,
+    method_disagreements,
+    wheel_reviews,
+)
+from db.models import Frame, Job, Measurement, MeasurementMargin, Pass, PassWheel, Site, Wheel
 
-PRIMARY_METHOD = "adaptive"
-"""The product's method: pass-level alarm counts come from it (Steger is the baseline)."""
+LABELS = {p.key: p.label for p in PARAMETERS}
+Level = Literal["ok", "near", "alarm", "none"]
 
 METHODS = ("adaptive", "steger")
 
@@ -47,6 +54,31 @@ def _alarm_count(session: Session, pass_id: int) -> int:
     return int(count or 0)
 
 
+def _levels(session: Session, pass_id: int) -> tuple[int, list[str]]:
+    """Wheels of a pass near a limit and in none, and the values in alarm in words."""
+    rows = session.execute(
+        select(PassWheel.id, Wheel, MeasurementMargin)
+        .join(Wheel, PassWheel.wheel_id == Wheel.id)
+        .join(Measurement, Measurement.pass_wheel_id == PassWheel.id)
+        .join(MeasurementMargin, MeasurementMargin.measurement_id == Measurement.id)
+        .where(
+            PassWheel.pass_id == pass_id,
+            Measurement.method == PRIMARY_METHOD,
+            MeasurementMargin.level != "ok",
+        )
+        .order_by(PassWheel.id, MeasurementMargin.margin_fraction)
+    ).all()
+    alarmed = {pw for pw, _, m in rows if m.level == "alarm"}
+    near = {pw for pw, _, m in rows if m.level == "near"} - alarmed
+    values = [
+        f"{w.vehicle_id} axle {w.axle} {w.side}: {LABELS.get(m.parameter, m.parameter)} "
+        f"{m.value_mm:.2f} mm"
+        for _, w, m in rows
+        if m.level == "alarm"
+    ]
+    return len(near), values
+
+
 def pass_summary(session: Session, train_pass: Pass) -> PassSummary:
     """One row of the pass list: identity, wheel counts, alarms and live job progress."""
     states = dict(
@@ -66,6 +98,7 @@ def pass_summary(session: Session, train_pass: Pass) -> PassSummary:
         )
         vehicles = list(dict.fromkeys(rows))
     job = session.scalars(select(Job).where(Job.pass_id == train_pass.id).limit(1)).first()
+    near_limit_count, alarm_values = _levels(session, train_pass.id)
     return PassSummary.model_validate(
         {
             "id": train_pass.id,
@@ -84,19 +117,23 @@ def pass_summary(session: Session, train_pass: Pass) -> PassSummary:
             "alarm_count": _alarm_count(session, train_pass.id),
             "job": job_progress(job) if job else None,
             "frames_removed_at": train_pass.frames_removed_at,
+            "near_limit_count": near_limit_count,
+            "alarm_values": alarm_values,
         }
     )
 
 
 def _filtered(query: Select, where: PassFilter) -> Select:
     if where.site is not None:
-        query = query.join(Site, Pass.site_id == Site.id).where(Site.name == where.site)
+        query = query.join(Site, Pass.site_id == Site.id).where(
+            Site.name.icontains(where.site, autoescape=True)
+        )
     if where.vehicle is not None:
         query = query.where(
             Pass.id.in_(
                 select(PassWheel.pass_id)
                 .join(Wheel, PassWheel.wheel_id == Wheel.id)
-                .where(Wheel.vehicle_id == where.vehicle)
+                .where(Wheel.vehicle_id.icontains(where.vehicle, autoescape=True))
             )
         )
     if where.started_from is not None:
@@ -130,8 +167,12 @@ def method_result(measurement: Measurement) -> MethodResult:
     return MethodResult.model_validate(measurement, from_attributes=True)
 
 
-def pass_wheels(session: Session, train_pass: Pass) -> list[PassWheelRead]:
-    """Every wheel of a pass in train order, with its results per method."""
+def pass_wheels(
+    session: Session, train_pass: Pass, only: list[PassWheel] | None = None
+) -> list[PassWheelRead]:
+    """Every wheel of a pass (or the `only` ones) in train order, with its results per
+    method, margins, disposition in force and method disagreement."""
+    chosen = train_pass.wheels if only is None else only
     counts: dict[tuple[str, int, str], int] = {}
     for vehicle_id, axle, sensor, count in session.execute(
         select(Frame.vehicle_id, Frame.axle, Frame.sensor, func.count(Frame.id))
@@ -139,11 +180,14 @@ def pass_wheels(session: Session, train_pass: Pass) -> list[PassWheelRead]:
         .group_by(Frame.vehicle_id, Frame.axle, Frame.sensor)
     ):
         counts[(vehicle_id, axle, sensor)] = count
+    reviews = wheel_reviews(session, chosen)
+    thresholds_mm = disagreement_thresholds(session, train_pass.fleet)
     result = []
-    for pass_wheel in train_pass.wheels:
+    for pass_wheel in chosen:
         wheel = pass_wheel.wheel
         results = [method_result(m) for m in pass_wheel.measurements]
         primary = [r for r in results if r.method == PRIMARY_METHOD]
+        review = reviews[pass_wheel.id]
         result.append(
             PassWheelRead(
                 wheel_id=wheel.id,
@@ -162,6 +206,10 @@ def pass_wheels(session: Session, train_pass: Pass) -> list[PassWheelRead]:
                 results=results,
                 alarm_count=len(primary[0].alarms) if primary else 0,
                 frames_removed_at=train_pass.frames_removed_at,
+                level=cast(Level, review.level),
+                margins=review.margins,
+                disposition=review.disposition,
+                method_disagreement=method_disagreements(results, thresholds_mm),
             )
         )
     return result

@@ -192,7 +192,7 @@ def _attention(sections: list[WheelSection], dispositions: dict[int, str], s: di
     rows.sort(key=lambda r: (r[0].status != "alarm", r[0].margin_mm))
     story: list[Any] = [Paragraph("Wheels in alarm and near a limit", s["h2"])]
     if not rows:
-        story.append(Paragraph("No wheel is in alarm or within 1 mm of a limit.", s["body"]))
+        story.append(Paragraph("No wheel is in alarm or near a limit.", s["body"]))
         return story
     head = ["Vehicle", "Axle", "Side", "Parameter", "Adaptive", "Steger", "Limit (set)",
             "Margin", "Status", "Disposition"]  # fmt: skip
@@ -222,7 +222,7 @@ def _attention(sections: list[WheelSection], dispositions: dict[int, str], s: di
         Paragraph(
             "Margin: distance inside the limit (negative outside) of the adaptive result, the "
             "method the alarms follow, or of Steger's where adaptive measured nothing. Near a "
-            "limit: inside by less than 1 mm.",
+            "limit: inside by less than the inner 10 % of its limit band.",
             s["small"],
         )
     )
@@ -284,7 +284,10 @@ def _full_table(sections: list[WheelSection], all_limits: dict[str, dict], s: di
     return [
         Paragraph("All wheels", s["h2"]),
         grid_table(data, [22, 10, 11, 12, 17, 15, 16, 16, 14, 19, 30], extra),
-        Paragraph(TERMS + " Red: outside its limit; orange: within 1 mm of it.", s["small"]),
+        Paragraph(
+            TERMS + " Red: outside its limit; orange: within the inner 10 % of its band.",
+            s["small"],
+        ),
     ]
 
 

@@ -10,8 +10,9 @@ from typing import Any
 import numpy as np
 from sqlalchemy.orm import Session
 
-from backend.services.limits import evaluate_alarms, limits_for, profile_family
-from db.models import Measurement, Site
+from backend.services.limits import alarms_of, limits_for, profile_family, review_thresholds
+from backend.services.margins import Margin, limit_margins
+from db.models import Measurement, MeasurementMargin, Site
 from pipeline.errors import PipelineError
 from pipeline.profile.flange import FlangeParameters
 from pipeline.profile.fusion import FusedProfile
@@ -159,12 +160,37 @@ def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> M
     return row
 
 
-def apply_alarms(row: Measurement, fleet: str, session: Session) -> None:
-    """(Re)compute the alarms of a measurement against its fleet's current limits."""
+def measurement_margins(row: Measurement, fleet: str, session: Session) -> list[Margin]:
+    """The margins of a measurement's parameters to its fleet's current limits."""
     family = profile_family(row.reference_profile)
-    parameters = {name: getattr(row, name) for name in PARAMETER_NAMES}
-    row.alarms = evaluate_alarms(parameters, limits_for(session, fleet, family), family)
+    values = {key: getattr(row, key) for key in PARAMETER_NAMES}
+    near_limit_fraction, _ = review_thresholds(session, fleet, family)
+    limits = limits_for(session, fleet, family)
+    return limit_margins(values, limits, family, near_limit_fraction)
+
+
+def store_margins(row: Measurement, margins: list[Margin]) -> None:
+    """Keep `margins` with the measurement, the smallest (fraction of its band) marked."""
+    nearest = min(margins, key=lambda m: m.margin_fraction, default=None)
+    # updated in place: replacing the rows would insert before deleting (unique per parameter)
+    kept = {m.parameter: m for m in row.margins}
+    rows = []
+    for m in margins:
+        stored = kept.get(m.parameter) or MeasurementMargin(parameter=m.parameter)
+        stored.value_mm, stored.bound, stored.limit_mm = m.value_mm, m.bound, m.limit_mm
+        stored.margin_mm, stored.band_mm, stored.level = m.margin_mm, m.band_mm, m.status
+        stored.margin_fraction, stored.nearest = m.margin_fraction, m is nearest
+        rows.append(stored)
+    row.margins = rows
+
+
+def apply_alarms(row: Measurement, fleet: str, session: Session) -> None:
+    """(Re)compute the margins and alarms of a measurement against its fleet's current
+    limits and amber band."""
+    margins = measurement_margins(row, fleet, session)
+    row.alarms = alarms_of(margins)
     row.alarm_count = len(row.alarms)
+    store_margins(row, margins)
 
 
 def site_rails(site: Site) -> TrackRails:

@@ -4,9 +4,9 @@ For one wheel of one pass it shows, in the station's track frame (metres in the 
 the wheel reconstructed as the surface of revolution of its fused profile, the centre points
 of the four sensors of its axle turned into track-frame points through the pass's
 calibration, the four cameras as frusta and their laser planes as translucent squares.
-Scene names derive from ids ("/wheels/{wheel_id}/profile"); one viser server per service
-process, started on first use at `Settings.viewer_host:viewer_port`; showing a wheel hides
-the others (one shared scene: the last wheel asked for is the one every viewer sees).
+Scene names derive from ids ("/wheels/{wheel_id}/profile"); each request for a view gets a
+viser server of its own (from `Settings.viewer_host:viewer_port` up), so one user's view
+never changes another's; idle views are closed.
 
 The wheel's diameter is not measured, so the reconstruction uses a nominal rolling radius;
 its axial position and height come from the wheel's own sensor points (its back face at
@@ -17,6 +17,8 @@ the reconstructed surface wherever the profile and the points agree.
 from __future__ import annotations
 
 import threading
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,6 +54,10 @@ MAX_OUTLINE_POINTS = 160
 LASER_PLANE_HALF_SIZE_MM = 180.0
 TREAD_WINDOW_MM = (55.0, 90.0)
 """Profile x range whose points fix the wheel's height (single-valued tread, around x = 70)."""
+VIEW_IDLE_S = 600.0
+"""A 3D view with no browser connected for this long is closed [s]."""
+MAX_VIEWS = 8
+"""Views open at once (each a viser server with its own threads and port)."""
 SENSOR_COLOURS = {
     "left_inner": (255, 122, 26),
     "left_outer": (250, 204, 21),
@@ -255,48 +261,74 @@ def _add_sensor(
     )
 
 
-class WheelViewer:
-    """The service's viser server: started on first use, one scene node per wheel shown."""
+@dataclass(slots=True, eq=False)
+class _ViewSession:
+    """One browser's 3D view: its own viser server (own port, own scene)."""
 
-    def __init__(self, settings: Settings) -> None:
+    server: viser.ViserServer
+    wheel_id: int
+    seen_at_s: float
+    """Last time (monotonic) a client was connected, or the view was opened."""
+
+
+class WheelViewer:
+    """The service's 3D views: one viser server per request, so each browser has a scene of
+    its own (one shared scene let a second user switch the wheel the first was viewing).
+
+    Servers start at `Settings.viewer_port` (viser takes the next free port when it is
+    taken). A view nobody has been connected to for `VIEW_IDLE_S` is closed when the next
+    one opens; beyond `MAX_VIEWS` the least recently seen is closed.
+    """
+
+    def __init__(self, settings: Settings, clock: Callable[[], float] = time.monotonic) -> None:
         self._host = settings.viewer_host
         self._port = settings.viewer_port
-        self._server: viser.ViserServer | None = None
-        self._roots: dict[int, viser.FrameHandle] = {}
+        self._clock = clock
+        self._views: dict[int, _ViewSession] = {}
         self._lock = threading.Lock()
 
     def show(self, data: WheelSceneData) -> int:
-        """Build the wheel's scene once, show only it; returns the viser server's port."""
+        """Open a new view of the wheel; returns its viser server's port."""
         with self._lock:
-            if self._server is None:
-                self._server = viser.ViserServer(host=self._host, port=self._port, verbose=False)
-                self._server.scene.set_up_direction("+z")
-                # embedded in a narrow panel: controls folded away, the review app's dark look
-                self._server.gui.configure_theme(
-                    control_layout="collapsible",
-                    control_width="small",
-                    dark_mode=True,
-                    show_logo=False,
-                    show_share_button=False,
-                )
-            server = self._server
-            if data.wheel_id not in self._roots:
-                self._roots[data.wheel_id] = build_wheel_scene(server.scene, data)
-            for wheel_id, root in self._roots.items():
-                root.visible = wheel_id == data.wheel_id
+            now = self._clock()
+            self._expire(now)
+            server = viser.ViserServer(host=self._host, port=self._port, verbose=False)
+            server.scene.set_up_direction("+z")
+            # embedded in a narrow panel: the review app's dark look, and viser's own
+            # control panel (scene tree, developer settings) folded away
+            server.gui.configure_theme(dark_mode=True, show_logo=False, show_share_button=False)
+            server.gui.main_panel.minimize()
+            build_wheel_scene(server.scene, data)
             target = tread_point(data.side, place_wheel(data)) * M_PER_MM
             sign = 1.0 if data.side == "right" else -1.0
             server.initial_camera.look_at = tuple(target)
             server.initial_camera.position = tuple(target + np.array([sign * 0.9, -1.3, 0.7]))
-            return server.get_port()
+            port = server.get_port()
+            self._views[port] = _ViewSession(server, data.wheel_id, now)
+            return port
+
+    def open_ports(self) -> list[int]:
+        """Ports of the views still open."""
+        with self._lock:
+            return sorted(self._views)
+
+    def _expire(self, now: float) -> None:
+        for port, view in list(self._views.items()):
+            if view.server.get_clients():
+                view.seen_at_s = now
+            elif now - view.seen_at_s > VIEW_IDLE_S:
+                self._close(port)
+        while len(self._views) >= MAX_VIEWS:
+            self._close(min(self._views, key=lambda p: self._views[p].seen_at_s))
+
+    def _close(self, port: int) -> None:
+        self._views.pop(port).server.stop()
 
     def stop(self) -> None:
-        """Stop the viser server if it was started."""
+        """Stop every view's server."""
         with self._lock:
-            if self._server is not None:
-                self._server.stop()
-                self._server = None
-                self._roots.clear()
+            for port in list(self._views):
+                self._close(port)
 
 
 def load_wheel_scene_data(

@@ -1,25 +1,23 @@
 """One wheel's data: a frame of a pass wheel, its result per method, the extraction stored
-for a frame, the fused profile with its reference, and the wheel's trend across passes.
+for a frame, and the fused profile with its reference (the trend is in `trends`).
 
 Lookups that the API answers with 404 raise `NotFoundError` with what is missing.
 """
 
 from __future__ import annotations
 
-from typing import cast
-
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from backend.api.schemas import ProfileRead, Side, TrendPoint, WheelTrend
+from backend.api.schemas import ProfileRead
 from backend.errors import NotFoundError
 from backend.services.images import cached_artefacts
 from backend.services.pass_wheels import method_measurement, wheel_frames
-from backend.services.queries import METHODS, method_result
+from backend.services.queries import method_result
 from backend.services.results import PARAMETER_NAMES
 from backend.storage.artefacts import FrameArtefacts
 from backend.storage.store import BlobStore
-from db.models import Frame, Measurement, MeasurementFrame, Pass, PassWheel, Wheel
+from db.models import Frame, Measurement, MeasurementFrame, PassWheel
 from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile
 
 
@@ -94,35 +92,4 @@ def wheel_profile(pass_wheel: PassWheel, method: str) -> ProfileRead:
         construction=profile.get("construction", {}),
         parameters={name: getattr(result, name) for name in PARAMETER_NAMES},
         conicity=measurement.conicity,
-    )
-
-
-def wheel_trend(session: Session, wheel: Wheel) -> WheelTrend:
-    """One wheel across passes, oldest first: its parameters per method and alarms."""
-    rows = session.execute(
-        select(PassWheel, Pass)
-        .join(Pass, PassWheel.pass_id == Pass.id)
-        .where(PassWheel.wheel_id == wheel.id)
-        .order_by(Pass.started_at, Pass.id)
-    ).all()
-    points = [
-        TrendPoint(
-            pass_id=train_pass.id,
-            started_at=train_pass.started_at,
-            site=train_pass.site.name,
-            method=m.method,
-            status=m.status,
-            **{name: getattr(m, name) for name in PARAMETER_NAMES},
-            alarm_count=m.alarm_count,
-        )
-        for pass_wheel, train_pass in rows
-        for m in pass_wheel.measurements
-        if m.method in METHODS
-    ]
-    return WheelTrend(
-        wheel_id=wheel.id,
-        vehicle_id=wheel.vehicle_id,
-        axle=wheel.axle,
-        side=cast(Side, wheel.side),
-        points=points,
     )

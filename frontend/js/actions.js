@@ -6,7 +6,7 @@
 import { ApiError } from './api.js';
 import { METHODS } from './lib/format.js';
 import { tintMask } from './lib/layer-pixels.js';
-import { passFilterQuery } from './lib/records.js';
+import { passFilterQuery, reviewQuery } from './lib/records.js';
 
 /** Job states after which nothing more happens. */
 const JOB_ENDS = ['done', 'failed'];
@@ -91,6 +91,30 @@ export function createActions(api, store) {
           throw err;
         }
       }),
+    loadReview: (/** @type {Record<string, string>} */ filter) =>
+      guard('could not load the worst wheels', async () => {
+        store.set({ review: { ...(store.get().review ?? {}), filter, loading: true } });
+        const page = await api.worstWheels(reviewQuery(filter));
+        store.set({ review: { filter, page, loading: false } });
+      }),
+    loadVehicle: (/** @type {string} */ vehicleId) =>
+      guard(`could not load vehicle ${vehicleId}`, async () => {
+        store.set({ vehicle: { id: vehicleId, loading: true } });
+        try {
+          store.set({ vehicle: { id: vehicleId, loading: false, history: await api.vehicle(vehicleId) } });
+        } catch (err) {
+          if (!(err instanceof ApiError) || err.status !== 404) throw err;
+          // not an exact id: offer the vehicles that contain it
+          store.set({ vehicle: { id: vehicleId, loading: false, history: null, matches: await api.searchVehicles(vehicleId) } });
+        }
+      }),
+    addDisposition: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {{kind: string, comment?: string}} */ body) =>
+      guard('could not record the disposition', async () => {
+        await api.addDisposition(passId, wheelId, body);
+        const [record, history] = await Promise.all([api.getWheel(passId, wheelId), api.dispositions(passId, wheelId)]);
+        const w = store.get().wheel;
+        if (w?.passId === passId && w?.wheelId === wheelId) store.set({ wheel: { ...w, record, dispositions: history } });
+      }),
     patchWheel: (/** @type {object} */ patch) => store.set({ wheel: { ...store.get().wheel, ...patch } }),
     openViewer: (/** @type {string} */ passId, /** @type {string} */ wheelId) =>
       guard('could not open the 3D view', async () => {
@@ -112,8 +136,23 @@ export function createActions(api, store) {
     exportProfile: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {string} */ method, /** @type {string} */ format) =>
       guard(`could not export the ${method} profile as ${format.toUpperCase()}`, async () =>
         saveFile(await api.profileFile(passId, wheelId, method, format))),
-    upload: (/** @type {File} */ file) =>
-      guard(`upload of ${file.name} failed`, async () => {
+    upload: (/** @type {File} */ file) => {
+      if (!/\.zip$/i.test(file.name)) {
+        store.set({ upload: null, error: `${file.name} is not a pass archive: drop the .zip of a wheelscan-pass/1 archive` });
+        return Promise.resolve();
+      }
+      return uploadArchive(file);
+    },
+    jobUpdate: (/** @type {any} */ msg) => jobUpdate(store, msg),
+  };
+
+  /**
+   * Upload an archive and follow its measurement job; a refusal leaves no progress bar.
+   * @param {File} file
+   */
+  function uploadArchive(file) {
+    return guard(`upload of ${file.name} failed`, async () => {
+      try {
         store.set({ upload: { fileName: file.name, bytes: file.size, uploadFraction: 0, job: null } });
         const onProgress = (/** @type {number} */ f) =>
           store.set({ upload: { ...store.get().upload, uploadFraction: f } });
@@ -126,9 +165,12 @@ export function createActions(api, store) {
           jobUpdate(store, msg);
           if (JOB_ENDS.includes(msg.state)) stop();
         }, () => {});
-      }),
-    jobUpdate: (/** @type {any} */ msg) => jobUpdate(store, msg),
-  };
+      } catch (err) {
+        store.set({ upload: null });
+        throw err;
+      }
+    });
+  }
 }
 
 /**
@@ -159,18 +201,23 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
   const sameWheel = previous && previous.passId === passId && previous.wheelId === wheelId;
   store.set({ wheel: { ...(sameWheel ? previous : {}), passId, wheelId, loading: true, viewerUrl: null } });
   const byId = (/** @type {any[]} */ list) => list.find((w) => String(w.wheel_id) === String(wheelId));
-  const wheelsLoad = api.listWheels(passId);
-  // coming from the pass page the record is known: start on the frame at once
-  const known = store.get().pass?.id === passId ? byId(store.get().pass.wheels ?? []) : null;
-  const record = known ?? byId(await wheelsLoad);
-  if (!record) throw new ApiError(`pass ${passId} has no wheel ${wheelId}`, 404, 'not_found');
+  // the pass's wheel list is fetched once per pass (for prev/next), never per wheel change
+  const listed = store.get().pass?.id === passId && store.get().pass.wheels?.length ? store.get().pass.wheels : null;
+  const recordLoad = api.getWheel(passId, wheelId);
+  const record = (listed ? byId(listed) : null) ?? await recordLoad;
   const frames = framesOf(record);
-  const frame = frames.find((f) => f.sensor === sensor && f.index === index)
-    ?? frames.find((f) => f.sensor === sensor) ?? frames[0];
+  const frame = frames.find((f) => f.sensor === (sensor ?? frames[0]?.sensor) && f.index === index);
+  if (!frame && frames.length) {
+    const count = frames.filter((f) => f.sensor === sensor).length;
+    throw new ApiError(sensor && count === 0
+      ? `wheel ${wheelId} has no ${sensor} frames (it has ${[...new Set(frames.map((f) => f.sensor))].join(', ')})`
+      : `wheel ${wheelId} has ${count} ${sensor ?? frames[0].sensor} frame(s); frame ${index + 1} does not exist`, 404, 'no_frame');
+  }
   if (!frame) throw new ApiError(`no frames are stored for wheel ${wheelId} of pass ${passId}`, 404, 'no_frames');
   const { sensor: s, index: i } = frame;
-  const [wheels, limits, profiles, trend, comparison, image, adaptive, steger] = await Promise.all([
-    wheelsLoad,
+  const [fresh, dispositions, limits, profiles, trend, comparison, image, adaptive, steger] = await Promise.all([
+    recordLoad,
+    api.dispositions(passId, wheelId).catch(() => []),
     store.get().limits ?? api.getLimits(),
     Promise.all(METHODS.map((m) => api.profile(passId, wheelId, m).catch((err) => ({ error: err.message })))),
     api.trend(wheelId).catch((err) => ({ error: err.message })),
@@ -179,12 +226,13 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
     ...METHODS.map((m) => api.centres(passId, wheelId, s, i, m).catch((err) => ({ error: err.message }))),
   ]);
   const sideLayers = new AbortController();
+  const wheels = (listed ?? [fresh]).map((/** @type {any} */ w) => (String(w.wheel_id) === String(wheelId) ? fresh : w));
   store.set({
     limits,
     pass: { ...(store.get().pass?.id === passId ? store.get().pass : { id: passId, data: null }), wheels },
     wheel: {
       ...store.get().wheel,
-      passId, wheelId, frames, sensor: s, index: i, loading: false, record: byId(wheels) ?? record, sideLayers,
+      passId, wheelId, frames, sensor: s, index: i, loading: false, record: fresh, sideLayers, dispositions,
       layers: { image: image ?? await blankFrame(adaptive, steger), mask: null, sigma: null },
       sigmaScale: null,
       centres: { adaptive, steger },
@@ -198,6 +246,11 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
       loadMs: performance.now() - started,
     },
   });
+  if (!listed) {
+    api.listWheels(passId).then((all) => {
+      if (store.get().pass?.id === passId) store.set({ pass: { ...store.get().pass, wheels: all } });
+    }).catch(() => {});
+  }
   await loadSideLayers(api, store, passId, wheelId, s, i, sideLayers.signal);
 }
 
@@ -226,7 +279,7 @@ async function loadSideLayers(api, store, passId, wheelId, sensor, index, signal
     wheel: {
       ...w,
       layers: { ...w.layers, mask: 'error' in mask ? null : mask, sigma: sigmaOk ? sigma.bitmap : null },
-      sigmaScale: sigmaOk ? { sigma_min_px: sigma.sigma_min_px, sigma_max_px: sigma.sigma_max_px } : null,
+      sigmaScale: sigmaOk ? { sigma_min_px: sigma.sigma_min_px, sigma_max_px: sigma.sigma_max_px, scales_px: sigma.scales_px } : null,
       layerErrors: { mask: 'error' in mask ? mask.error : null, sigma: sigmaOk ? null : sigma.error },
     },
   });

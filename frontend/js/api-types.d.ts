@@ -71,6 +71,30 @@ export interface CentresRead {
   strength: number[];
   nx: number[];
   ny: number[];
+  /** candidates the method rejected [px], where stored */
+  rejected_x?: number[];
+  rejected_y?: number[];
+}
+
+/** A parameter whose adaptive and Steger values differ by more than the fleet allows. */
+export interface Disagreement {
+  parameter: string;
+  /** adaptive − Steger */
+  difference_mm: number;
+  threshold_mm: number;
+}
+
+export interface DispositionCreate {
+  kind: "re_profile" | "monitor" | "false_alarm" | "measurement_doubtful" | "comment";
+  comment?: string | null;
+}
+
+export interface DispositionRead {
+  id: number;
+  kind: "re_profile" | "monitor" | "false_alarm" | "measurement_doubtful" | "comment";
+  comment: string | null;
+  actor: string;
+  created_at: string;
 }
 
 export interface ErrorRead {
@@ -135,6 +159,10 @@ export interface LimitsRead {
   /** equivalent conicity (3 mm) alarm threshold */
   conicity_max: number;
   updated_at: string;
+  /** amber band: fraction of each limit band */
+  near_limit_fraction: number;
+  /** flag adaptive − Steger beyond this [mm] */
+  method_disagreement_mm: number;
 }
 
 /** New limits; each *_min_mm must lie below its *_max_mm (422 otherwise). */
@@ -146,7 +174,23 @@ export interface LimitsUpdate {
   qr_min_mm: number;
   back_to_back_min_mm: number;
   back_to_back_max_mm: number;
+  /** amber band; omitted: kept as it is */
+  near_limit_fraction?: number | null;
+  /** omitted: kept as it is [mm] */
+  method_disagreement_mm?: number | null;
   conicity_max?: number;
+}
+
+/** One parameter's distance to its nearest limit: in mm and as a fraction of the band. */
+export interface MarginRead {
+  parameter: string;
+  value_mm: number;
+  bound: "min" | "max";
+  limit_mm: number;
+  margin_mm: number;
+  band_mm: number;
+  margin_fraction: number;
+  level: "ok" | "near" | "alarm";
 }
 
 /** Who the presented token is. */
@@ -200,6 +244,13 @@ export interface Page_PassSummary_ {
   limit: number;
 }
 
+export interface Page_WorstWheelRead_ {
+  items: WorstWheelRead[];
+  total: number;
+  offset: number;
+  limit: number;
+}
+
 export interface ParameterDifference {
   method: string;
   parameter: string;
@@ -207,6 +258,14 @@ export interface ParameterDifference {
   handheld_mm: number;
   /** wayside − handheld */
   difference_mm: number | null;
+}
+
+/** A checked wheel parameter: its key in results, label, title and unit. */
+export interface ParameterRead {
+  key: string;
+  label: string;
+  title: string;
+  unit: string;
 }
 
 export interface PassAccepted {
@@ -232,6 +291,10 @@ export interface PassSummary {
   job: JobProgress | null;
   /** when frame retention removed the raw frames (results kept) */
   frames_removed_at?: string | null;
+  /** wheels near a limit (amber), none in alarm */
+  near_limit_count?: number;
+  /** the values in alarm, e.g. 'V1 axle 1 left: Sh 36.4 mm' */
+  alarm_values?: string[];
 }
 
 export interface PassWheelRead extends WheelStateRead {
@@ -243,6 +306,13 @@ export interface PassWheelRead extends WheelStateRead {
   alarm_count: number;
   /** when frame retention removed the raw frames (results kept) */
   frames_removed_at?: string | null;
+  /** the adaptive result's worst margin level; none unmeasured */
+  level?: "ok" | "near" | "alarm" | "none";
+  /** adaptive, per parameter */
+  margins?: MarginRead[];
+  /** None: open */
+  disposition?: DispositionRead | null;
+  method_disagreement?: Disagreement[];
 }
 
 /** Fused profile and reference, columnar [mm], with the parameter construction points. */
@@ -348,6 +418,30 @@ export interface TokenRead extends Me {
   revoked_at: string | null;
 }
 
+/** A robust linear wear fit of one parameter and when it reaches its nearest limit. */
+export interface TrendForecast {
+  parameter: string;
+  per: "day" | "1000 km";
+  /** wear rate [mm per day or per 1000 km] */
+  rate_mm: number;
+  rate_low_mm: number;
+  rate_high_mm: number;
+  points: number;
+  bound: "min" | "max" | null;
+  limit_mm: number | null;
+  /** the amber threshold on the same side [mm] */
+  near_mm: number | null;
+  /** when the fit reaches the limit (UTC) */
+  reached_at: string | null;
+  reached_earliest: string | null;
+  reached_latest: string | null;
+  note: string;
+  /** the fit's value at fit_from */
+  intercept_mm?: number | null;
+  /** origin of the fit's x (UTC) */
+  fit_from?: string | null;
+}
+
 export interface TrendPoint {
   pass_id: number;
   started_at: string;
@@ -366,11 +460,30 @@ export interface TrendPoint {
   alarm_count: number;
 }
 
+export interface VehicleHistory {
+  vehicle_id: string;
+  /** newest first */
+  passes: VehiclePass[];
+}
+
+export interface VehiclePass {
+  pass_id: number;
+  started_at: string;
+  site: string;
+  wheels: PassWheelRead[];
+}
+
 /** Where the 3D view of a wheel is served (embed `url` in an iframe). */
 export interface ViewerRead {
   url: string;
   wheel_id: number;
   method: string;
+}
+
+export interface WheelLimits {
+  wheel_profile: string;
+  limits_mm: Record<string, number>;
+  near_limit_fraction: number;
 }
 
 export interface WheelStateRead {
@@ -387,6 +500,23 @@ export interface WheelTrend {
   axle: number;
   side: "left" | "right";
   points: TrendPoint[];
+  limits?: WheelLimits | null;
+  forecasts?: TrendForecast[];
+}
+
+/** One wheel of one pass in the worst-wheels view, at its nearest limit (or the filtered parameter's). */
+export interface WorstWheelRead {
+  pass_id: number;
+  started_at: string;
+  site: string;
+  fleet: string;
+  wheel_id: number;
+  vehicle_id: string;
+  axle: number;
+  side: "left" | "right";
+  wheel_profile: string;
+  margin: MarginRead;
+  disposition: DispositionRead | null;
 }
 
 /** The JSON body of each route's success response. */
@@ -424,6 +554,12 @@ export interface ApiResponses {
   "GET /api/passes/{pass_id}/wheels/{wheel_id}/reference-comparison": ReferenceComparison;
   "GET /api/references/agreement": AgreementRead;
   "GET /api/passes/{pass_id}/wheels/{wheel_id}/viewer": ViewerRead;
+  "GET /api/parameters": ParameterRead[];
+  "GET /api/review/worst-wheels": Page_WorstWheelRead_;
+  "GET /api/passes/{pass_id}/wheels/{wheel_id}/dispositions": DispositionRead[];
+  "POST /api/passes/{pass_id}/wheels/{wheel_id}/dispositions": DispositionRead;
+  "GET /api/vehicles": string[];
+  "GET /api/vehicles/{vehicle_id}": VehicleHistory;
 }
 
 export {};

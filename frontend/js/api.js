@@ -40,7 +40,7 @@ const layerPath = (p, w, layer, sensor, index, suffix, method) =>
  * @property {() => Promise<import('./api-types').LimitsRead[]>} getLimits
  * @property {(p: number|string, w: number|string, sensor: string, index: number) => Promise<ImageBitmap>} frameImage
  * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<ImageBitmap>} maskImage
- * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<{bitmap: ImageBitmap, sigma_min_px: number, sigma_max_px: number, colormap: string}>} sigmaImage
+ * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<{bitmap: ImageBitmap, sigma_min_px: number, sigma_max_px: number, scales_px: number[], colormap: string}>} sigmaImage
  * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string) => Promise<import('./api-types').CentresRead>} centres
  * @property {(passId: number|string, wheelId: number|string, method: string) => Promise<import('./api-types').ProfileRead>} profile
  * @property {(wheelId: number|string) => Promise<import('./api-types').WheelTrend>} trend
@@ -49,6 +49,12 @@ const layerPath = (p, w, layer, sensor, index, suffix, method) =>
  * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').ReferenceComparison>} referenceComparison
  * @property {(wheelId: number|string, file: File) => Promise<import('./api-types').ReferenceRead>} importReference
  * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').ViewerRead>} viewer
+ * @property {(passId: number|string, wheelId: number|string) => Promise<any>} getWheel
+ * @property {(query: Record<string, string>) => Promise<any>} worstWheels
+ * @property {(text: string) => Promise<string[]>} searchVehicles
+ * @property {(vehicleId: string) => Promise<any>} vehicle
+ * @property {(passId: number|string, wheelId: number|string) => Promise<any[]>} dispositions
+ * @property {(passId: number|string, wheelId: number|string, body: {kind: string, comment?: string}) => Promise<any>} addDisposition
  * @property {(jobId: number|string) => Promise<import('./api-types').JobRead>} getJob
  * @property {(file: File, onProgress: (fraction: number) => void) => Promise<{pass_id: number, job_id: number}>} uploadPass
  * @property {(path: 'passes'|string, onMessage: (msg: any) => void, onState: (open: boolean) => void) => () => void} watch
@@ -108,6 +114,7 @@ export function createApi(getToken, base = '') {
       return {
         sigma_min_px: Number(response.headers.get('X-Sigma-Min-Px')),
         sigma_max_px: Number(response.headers.get('X-Sigma-Max-Px')),
+        scales_px: (response.headers.get('X-Sigma-Scales-Px') ?? '').split(',').filter(Boolean).map(Number),
         colormap: response.headers.get('X-Colormap') ?? 'viridis',
         bitmap: await decode(response, path),
       };
@@ -127,6 +134,14 @@ export function createApi(getToken, base = '') {
       return (await request(`/api/wheels/${wheelId}/references`, { method: 'POST', body })).json();
     },
     viewer: (p, w) => json(`${wheelPath(p, w)}/viewer`),
+    getWheel: (p, w) => json(wheelPath(p, w)),
+    worstWheels: (query) => json(`/api/review/worst-wheels?${new URLSearchParams(query)}`),
+    searchVehicles: (text) => json(`/api/vehicles?${new URLSearchParams({ q: text })}`),
+    vehicle: (vehicleId) => json(`/api/vehicles/${encodeURIComponent(vehicleId)}`),
+    dispositions: (p, w) => json(`${wheelPath(p, w)}/dispositions`),
+    addDisposition: async (p, w, body) => (await request(`${wheelPath(p, w)}/dispositions`, {
+      method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body),
+    })).json(),
     getJob: (jobId) => json(`/api/jobs/${jobId}`),
     uploadPass: (file, onProgress) => uploadWithProgress(base, getToken(), file, onProgress),
     watch: (path, onMessage, onState) => watchSocket(base, getToken, path, onMessage, onState),

@@ -6,11 +6,14 @@
 import { createActions } from './actions.js';
 import { createApi } from './api.js';
 import { buildHash, parseHash } from './lib/route.js';
+import { h } from './views/dom.js';
 import { createStore } from './state.js';
 import { renderPass } from './views/pass.js';
 import { renderPasses } from './views/passes.js';
+import { renderReview } from './views/review.js';
 import { renderShell, renderSignIn } from './views/shell.js';
 import { renderUpload } from './views/upload.js';
+import { renderVehicle } from './views/vehicle.js';
 import { LAYERS, WheelView } from './views/wheel.js';
 
 const TOKEN_KEY = 'wheelscan.token';
@@ -29,6 +32,7 @@ const store = createStore({
   me: null, signingIn: false, route: parseHash(''), error: null, helpOpen: false,
   passes: { items: [], filter: {}, loading: false }, selectedRow: 0, liveJobs: {}, socketOpen: false,
   pass: null, wheel: null, upload: null, limits: null, layers: DEFAULT_LAYERS,
+  review: null, vehicle: null,
 });
 const api = createApi(() => store.get().token);
 const actions = createActions(api, store);
@@ -53,9 +57,13 @@ async function onHashChange() {
   }
   const layers = /** @type {typeof DEFAULT_LAYERS} */ (Object.fromEntries(LAYERS.map(([key]) => [key,
     route.query[key] === undefined ? DEFAULT_LAYERS[/** @type {keyof typeof DEFAULT_LAYERS} */ (key)] : route.query[key] === '1'])));
-  store.set({ route, layers });
-  if (!store.get().me) return;
+  if (!store.get().me) {
+    store.set({ route, layers });
+    return;
+  }
   const loadKey = loadKeyOf(route);
+  // a new page starts without the last page's error (restyling the same page keeps it)
+  store.set(loadKey === lastLoadKey ? { route, layers } : { route, layers, error: null });
   if (loadKey === lastLoadKey) return;
   lastLoadKey = loadKey;
   if (route.name === 'passes') await actions.loadPasses(route.query);
@@ -65,7 +73,8 @@ async function onHashChange() {
   }
   else if (route.name === 'wheel') {
     await actions.loadWheel(route.params.passId, route.params.wheelId, route.query.sensor, Number(route.query.frame ?? 0));
-  }
+  } else if (route.name === 'review') await actions.loadReview(route.query);
+  else if (route.name === 'vehicle') await actions.loadVehicle(route.params.vehicleId);
 }
 
 /**
@@ -77,8 +86,9 @@ function loadKeyOf(route) {
   if (route.name === 'wheel') {
     return `wheel/${route.params.passId}/${route.params.wheelId}/${route.query.sensor ?? ''}/${route.query.frame ?? 0}`;
   }
-  if (route.name === 'passes') return `passes?${new URLSearchParams(route.query)}`;
-  return `${route.name}/${route.params.passId ?? ''}`;
+  if (route.name === 'passes' || route.name === 'review') return `${route.name}?${new URLSearchParams(route.query)}`;
+  if (route.name === 'vehicle') return `vehicle/${route.params.vehicleId}`;
+  return `${route.name}/${route.params.passId ?? route.params.path ?? ''}`;
 }
 
 /** Listen for job progress of every pass; a finished job refreshes what is on screen. */
@@ -142,6 +152,8 @@ function render() {
   const state = store.get();
   renderShell(els, state, {
     dismissError: () => store.set({ error: null }),
+    closeHelp: () => store.set({ helpOpen: false }),
+    findVehicle: (text) => { window.location.hash = buildHash(['vehicles', text]); },
     signOut: () => {
       window.localStorage.removeItem(TOKEN_KEY);
       stopWatching?.();
@@ -180,6 +192,10 @@ function render() {
       setMode: (mode) => setQuery({ mode }),
       exportReport: (format) => actions.exportReport(route.params.passId, null, format),
     });
+  } else if (route.name === 'review') {
+    renderReview(els.view, state, { applyFilter: (filter) => { window.location.hash = buildHash(['review'], filter); } });
+  } else if (route.name === 'vehicle') {
+    renderVehicle(els.view, state);
   } else if (route.name === 'wheel') {
     wheelView ??= new WheelView(els.view, {
       setQuery,
@@ -194,12 +210,14 @@ function render() {
       },
       openViewer: () => actions.openViewer(store.get().route.params.passId, store.get().route.params.wheelId),
       closeViewer: () => actions.patchWheel({ viewerUrl: null }),
+      addDisposition: (body) => actions.addDisposition(store.get().route.params.passId, store.get().route.params.wheelId, body),
     });
     wheelView.update(state);
   } else if (route.name === 'upload') {
     renderUpload(els.view, state, { upload: actions.upload });
   } else {
-    els.view.replaceChildren(`Nothing lives at "${route.params.path}". Go back to the passes list.`);
+    els.view.replaceChildren(h('p', { class: 'not-found' }, `Nothing lives at "${route.params.path}". `,
+      h('a', { href: '#/passes' }, 'Go back to the passes list'), '.'));
   }
 }
 
@@ -215,7 +233,8 @@ function onKey(e) {
   else if (e.key === 'Escape') escape(state);
   else if (state.route.name === 'passes') passesKey(e, state);
   else if (state.route.name === 'wheel') wheelKey(e, state);
-  if (pendingG && (e.key === 'p' || e.key === 'u')) window.location.hash = e.key === 'p' ? '#/passes' : '#/upload';
+  const jumps = /** @type {Record<string, string>} */ ({ p: '#/passes', u: '#/upload', w: '#/review' });
+  if (pendingG && jumps[e.key]) window.location.hash = jumps[e.key];
   pendingG = e.key === 'g';
 }
 let pendingG = false;
@@ -225,7 +244,7 @@ function escape(state) {
   if (state.helpOpen) store.set({ helpOpen: false });
   else if (state.route.name === 'wheel' && state.wheel?.viewerUrl) actions.patchWheel({ viewerUrl: null });
   else if (state.route.name === 'wheel') window.location.hash = buildHash(['passes', state.route.params.passId]);
-  else if (state.route.name === 'pass') window.location.hash = '#/passes';
+  else if (state.route.name === 'pass' || state.route.name === 'review' || state.route.name === 'vehicle') window.location.hash = '#/passes';
 }
 
 /** @param {KeyboardEvent} e @param {any} state */
@@ -265,6 +284,10 @@ function wheelKey(e, state) {
 store.subscribe(render);
 window.addEventListener('hashchange', onHashChange);
 window.addEventListener('keydown', onKey);
+// the help closes on a click anywhere outside it
+window.addEventListener('pointerdown', (e) => {
+  if (store.get().helpOpen && !els.help.contains(/** @type {Node} */ (e.target))) store.set({ helpOpen: false });
+});
 (async () => {
   const { token } = store.get();
   if (token && !parseHash(window.location.hash).token) {

@@ -1,4 +1,5 @@
-"""Margins of a result against the limit set that applies: nearer bound, sign, status."""
+"""Margins of a result against the limit set that applies: nearer bound, sign, status (near:
+within the inner 10 % of the band by default)."""
 
 from __future__ import annotations
 
@@ -14,9 +15,12 @@ from backend.services.margins import limit_margins
         ("EN", {"flange_height_mm": 27.9, "flange_thickness_en_mm": 30.0, "qr_mm": 9.0},
          {"flange_height_mm": ("min", 0.4, "near"), "flange_thickness_en_mm": ("max", 3.0, "ok"),
           "qr_mm": ("min", 2.5, "ok")}),
-        ("LM", {"flange_height_mm": 33.2, "flange_thickness_mm": 23.9996, "qr_mm": 6.4},
-         {"flange_height_mm": ("max", -0.2, "alarm"), "flange_thickness_mm": ("min", 0.9996, "ok"),
+        # LM Sd band 23–34 mm: 1.2 mm inside is 10.9 % of it (ok), 0.9996 mm is 9.1 % (near)
+        ("LM", {"flange_height_mm": 33.2, "flange_thickness_mm": 24.2, "qr_mm": 6.4},
+         {"flange_height_mm": ("max", -0.2, "alarm"), "flange_thickness_mm": ("min", 1.2, "ok"),
           "qr_mm": ("min", -0.1, "alarm")}),
+        ("LM", {"flange_thickness_mm": 23.9996},
+         {"flange_thickness_mm": ("min", 0.9996, "near")}),
         ("LM", {"back_to_back_mm": 1355.5, "flange_thickness_en_mm": 20.0},
          {"back_to_back_mm": ("max", 0.5, "near")}),
     ],

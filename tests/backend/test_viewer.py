@@ -125,3 +125,26 @@ def test_scene_builds_on_a_real_viser_server_under_wheel_ids() -> None:
         root.visible = False
     finally:
         server.stop()
+
+
+def test_each_view_is_a_scene_of_its_own_and_idle_ones_close() -> None:
+    pytest.importorskip("viser")
+    from backend.config import Settings
+    from backend.services.viewer import VIEW_IDLE_S, WheelViewer
+
+    now = [0.0]
+    viewer = WheelViewer(Settings(viewer_port=free_port()), clock=lambda: now[0])
+    x_mm, z_mm = flange_profile()
+    truth = WheelPlacement((0.0, 0.0, 460.0), 680.0, NOMINAL_RADIUS_MM)
+    points = {"right_inner": wheel_points(x_mm, z_mm, truth, 1.0, -np.pi / 2)}
+    try:
+        first = viewer.show(scene_data("right", points))
+        second = viewer.show(scene_data("right", points))
+        # a second user's view is another server: the first user's scene stays as it was
+        assert first != second and viewer.open_ports() == sorted([first, second])
+        now[0] = VIEW_IDLE_S + 1.0  # nobody connected to either since
+        third = viewer.show(scene_data("right", points))
+        assert viewer.open_ports() == [third]
+    finally:
+        viewer.stop()
+    assert viewer.open_ports() == []

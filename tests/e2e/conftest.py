@@ -157,7 +157,11 @@ def pass_archive(tmp_path_factory: pytest.TempPathFactory) -> Path:
         cwd=ROOT,
     )
     assert result.returncode == 0, result.stderr
-    archive = out / "e2e-pass.zip"
+    return zip_pass(folder, out / "e2e-pass.zip")
+
+
+def zip_pass(folder: Path, archive: Path) -> Path:
+    """Zip a simulated pass folder for upload, leaving its ground truth out."""
     with zipfile.ZipFile(archive, "w", zipfile.ZIP_DEFLATED) as zf:
         for path in sorted(folder.rglob("*")):
             if path.is_file() and path.name != "truth.json":

@@ -36,6 +36,20 @@ test('drawFrame skips hidden methods', () => {
   assert.equal(drawFrame(ctx, layers, options), 2);
 });
 
+test('drawFrame marks rejected candidates of shown methods only, apart from the centres', () => {
+  const { ctx, calls } = recordingContext();
+  const options = { viewport: fitViewport(100, 100, 100, 100), widthPx: 100, heightPx: 100, pixelRatio: 1,
+    show: { ...SHOW_ALL, steger: false } };
+  const layers = { image: null, mask: null, sigma: null, highlight: null,
+    centres: [{ method: 'adaptive', x: [1, 2], y: [1, 2] }],
+    rejected: [{ method: 'adaptive', x: [5, 6, 7], y: [5, 6, 7] }, { method: 'steger', x: [8], y: [8] }] };
+  assert.equal(drawFrame(ctx, layers, options), 2, 'rejected points are not counted as centres');
+  const styles = calls.filter(([name]) => name === 'set:fillStyle').map(([, [v]]) => v);
+  assert.equal(styles.filter((v) => v === '#f43f5e').length, 1, 'one fill for adaptive rejects, none for hidden Steger');
+  const rects = calls.filter(([name]) => name === 'rect').length;
+  assert.equal(rects, 5);
+});
+
 test('drawProfile strokes a multi-valued flange in API order, never sorted by x', () => {
   const { ctx, calls } = recordingContext();
   // back face going up, then over the flange and down its flank: x goes 0 → 10 → 5 → 30

@@ -2,9 +2,10 @@
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
 
+import { fmtDisposition } from '../../frontend/js/lib/format.js';
 import {
-  framesRemovedNote, hasAlarmOn, limitStem, limitsFor, passFilterQuery, passStatus, resultOf,
-  trendColumns,
+  REVIEW_PAGE_ROWS, familyOf, framesRemovedNote, hasAlarmOn, limitStem, limitsFor, marginOf, passFilterQuery,
+  passStatus, resultOf, reviewQuery, trendColumns,
 } from '../../frontend/js/lib/records.js';
 
 const LIMITS = [{ wheel_profile: 'EN', flange_height_min_mm: 27.5 }, { wheel_profile: 'LM', flange_height_min_mm: 25 }];
@@ -65,4 +66,27 @@ test('framesRemovedNote says when retention removed the frames, and nothing othe
   );
   assert.equal(framesRemovedNote({ frames_removed_at: null }), null);
   assert.equal(framesRemovedNote(undefined), null);
+});
+
+test('reviewQuery maps the worst-wheels form to the API, a page to its offset', () => {
+  assert.deepEqual(reviewQuery({ site: 'bas', parameter: 'qr_mm', open: '1', history: '1', pass: '7', page: '3' }), {
+    site: 'bas', parameter: 'qr_mm', open_only: 'true', latest_only: 'false', pass_id: '7',
+    offset: String(2 * REVIEW_PAGE_ROWS), limit: String(REVIEW_PAGE_ROWS),
+  });
+  assert.deepEqual(reviewQuery({ page: 'x' }), { limit: String(REVIEW_PAGE_ROWS) });
+});
+
+test('familyOf and marginOf read a wheel as the service files it', () => {
+  assert.equal(familyOf({ reference_profile: 'LMA' }), 'LM');
+  assert.equal(familyOf({ reference_profile: 's1002' }), 'EN');
+  assert.equal(familyOf(null), 'EN');
+  const wheel = { margins: [{ parameter: 'qr_mm', level: 'near' }] };
+  assert.equal(marginOf(wheel, 'qr_mm').level, 'near');
+  assert.equal(marginOf(wheel, 'flange_height_mm'), null);
+});
+
+test('fmtDisposition says open without one and gives the reason of a false alarm', () => {
+  assert.equal(fmtDisposition(null), 'open');
+  assert.equal(fmtDisposition({ kind: 'false_alarm', comment: 'wet rail' }), 'false alarm: wet rail');
+  assert.equal(fmtDisposition({ kind: 're_profile', comment: null }), 're-profile');
 });

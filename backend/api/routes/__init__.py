@@ -13,8 +13,10 @@ from backend.api.routes import (
     passes,
     profiles,
     reports,
+    review,
     streams,
     tokens,
+    vehicles,
     viewer,
     wheels,
 )
@@ -32,4 +34,6 @@ ROUTERS: list[APIRouter] = [
     profiles.router,
     blobs.router,
     viewer.router,
+    review.router,
+    vehicles.router,
 ]

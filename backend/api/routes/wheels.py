@@ -21,14 +21,21 @@ from backend.api.schemas import (
     WheelTrend,
 )
 from backend.errors import ERROR_RESPONSES, GoneError, NotFoundError
-from backend.services.images import SIGMA_COLORMAP, LayerPng, cached_artefacts, frame_png, layer_png
+from backend.services.images import (
+    SIGMA_COLORMAP,
+    SIGMA_SCALES_PX,
+    LayerPng,
+    cached_artefacts,
+    frame_png,
+    layer_png,
+)
 from backend.services.queries import pass_wheels
+from backend.services.trends import wheel_trend
 from backend.services.wheel_data import (
     stored_artefacts,
     stored_extraction,
     wheel_frame,
     wheel_profile,
-    wheel_trend,
 )
 from backend.storage.artefacts import FrameArtefacts
 
@@ -62,8 +69,7 @@ def get_pass_wheel(
     pass_wheel: PassWheelDep, session: SessionDep, _viewer: ViewerDep
 ) -> PassWheelRead:
     """One wheel of a pass: identity, state, parameters per method, alarms."""
-    rows = pass_wheels(session, pass_wheel.train_pass)
-    return next(row for row in rows if row.wheel_id == pass_wheel.wheel_id)
+    return pass_wheels(session, pass_wheel.train_pass, only=[pass_wheel])[0]
 
 
 @router.get(WHEEL + "/frames/{position}.png", response_class=Response, responses=FRAME_PNG)
@@ -138,7 +144,8 @@ def get_sigma_png(
     max_width: MaxWidth = None,
 ) -> Response:
     """The σ map coloured (transparent where no scale was chosen). Its colour scale is in
-    the headers X-Colormap, X-Sigma-Min-Px and X-Sigma-Max-Px."""
+    the headers X-Colormap, X-Sigma-Min-Px and X-Sigma-Max-Px (σ1 and σ3 of the configured
+    width range, the same for every frame), the scales σ1, σ2, σ3 in X-Sigma-Scales-Px."""
     _frame_row, row = stored_extraction(session, pass_wheel, method, position, index)
     etag = f'"{row.artefact_sha256[:24]}-sigma-{max_width}"'
     if max_width is None and row.sigma_png_sha256 is not None:
@@ -154,6 +161,7 @@ def get_sigma_png(
         "X-Colormap": SIGMA_COLORMAP,
         "X-Sigma-Min-Px": f"{layer.sigma_min_px}",
         "X-Sigma-Max-Px": f"{layer.sigma_max_px}",
+        "X-Sigma-Scales-Px": ",".join(f"{sigma:.4f}" for sigma in SIGMA_SCALES_PX),
         "ETag": etag,
         **REVALIDATE,
     }
@@ -223,5 +231,6 @@ def get_profile(
 
 @router.get("/wheels/{wheel_id}/trend")
 def get_trend(wheel: WheelDep, session: SessionDep, _viewer: ViewerDep) -> WheelTrend:
-    """One wheel across passes, oldest first: its parameters per method and alarms."""
+    """One wheel across passes, oldest first: its parameters per method and alarms, the
+    limits that apply and a wear forecast per parameter."""
     return wheel_trend(session, wheel)

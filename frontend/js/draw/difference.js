@@ -1,8 +1,8 @@
 // @ts-check
 /**
  * Adaptive − Steger along the stripe: a scatter of the signed offset (px) against the
- * position along the stripe, with the zero line and the ±RMS band. The Δ axis spans the bulk
- * of the offsets; larger ones are drawn on its edge. Pure drawing.
+ * position along the stripe, with the zero line and the ±RMS band (shaded). The Δ axis spans
+ * every offset (at most the pairing radius, so none is clipped). Pure drawing.
  */
 import { boundsOf } from '../lib/ticks.js';
 import { makePlotScale } from '../lib/plot-scale.js';
@@ -12,16 +12,17 @@ import { drawAxes } from './axes.js';
  * Draw the difference plot filling a canvas of the given CSS size.
  * @param {CanvasRenderingContext2D} ctx
  * @param {import('../lib/method-difference.js').MethodDifference} diff
- * @param {{widthPx: number, heightPx: number, pixelRatio: number}} options
- * @returns {boolean} false when there were no pairs to draw
+ * @param {{widthPx: number, heightPx: number, pixelRatio: number, marker?: number}} options
+ *   marker: index of a pair to ring (the hovered one)
+ * @returns {import('../lib/plot-scale.js').PlotScale|false} the plot's scale (for hit tests),
+ *   false when there were no pairs to draw
  */
 export function drawDifference(ctx, diff, options) {
   const xRange = boundsOf([diff.alongPx]);
   if (!xRange) return false;
-  // scale to the bulk (98th percentile of |Δ|), not to a few outliers; those sit on the edge
-  const sortedAbs = Float64Array.from(diff.diffPx, Math.abs).sort();
-  const p98 = sortedAbs[Math.floor(0.98 * (sortedAbs.length - 1))];
-  const limit = Math.max(0.25, Math.min(3, 1.25 * p98));
+  // every offset on the plot: pairs are at most the pairing radius apart (2 px), so the
+  // largest |Δ| with a little room bounds the axis
+  const limit = Math.max(0.25, 1.08 * diff.maxAbsPx);
   const scale = makePlotScale(xRange, [-limit, limit], {
     ...options,
     margin: { left: 44, right: 12, top: 8, bottom: 32 },
@@ -39,9 +40,16 @@ export function drawDifference(ctx, diff, options) {
   ctx.fillStyle = '#e8b04a';
   ctx.beginPath();
   for (let i = 0; i < diff.alongPx.length; i += 1) {
-    const d = Math.max(-limit, Math.min(limit, diff.diffPx[i]));
-    ctx.rect(scale.toX(diff.alongPx[i]) - 1, scale.toY(d) - 1, 2, 2);
+    ctx.rect(scale.toX(diff.alongPx[i]) - 1, scale.toY(diff.diffPx[i]) - 1, 2, 2);
   }
   ctx.fill();
-  return true;
+  const m = options.marker;
+  if (m !== undefined && m >= 0 && m < diff.alongPx.length) {
+    ctx.strokeStyle = '#ffffff';
+    ctx.lineWidth = 1.5;
+    ctx.beginPath();
+    ctx.arc(scale.toX(diff.alongPx[m]), scale.toY(diff.diffPx[m]), 5, 0, 2 * Math.PI);
+    ctx.stroke();
+  }
+  return scale;
 }

@@ -8,6 +8,8 @@ import { visibleImageRect } from '../lib/viewport.js';
 /** Point colours: adaptive orange, Steger cyan (distinct for common colour blindness);
  * Steger's dots are drawn smaller on top of the adaptive ones. */
 export const METHOD_COLOURS = { adaptive: '#ff7a1a', steger: '#22c3ee', handheld: '#a3e635' };
+/** Candidates a method rejected (where the extraction stores them): rose, never a centre colour. */
+export const REJECTED_COLOUR = '#f43f5e';
 
 /**
  * @typedef {object} FrameLayers
@@ -16,6 +18,8 @@ export const METHOD_COLOURS = { adaptive: '#ff7a1a', steger: '#22c3ee', handheld
  * @property {CanvasImageSource|null} sigma coloured σ map (RGBA), same size as the frame
  * @property {Array<{method: string, x: ArrayLike<number>, y: ArrayLike<number>}>} centres
  * @property {{x: number, y: number}|null} highlight the hovered centre, image px
+ * @property {Array<{method: string, x: ArrayLike<number>, y: ArrayLike<number>}>} [rejected]
+ *   candidate points each method rejected, drawn under its centres while they are shown
  */
 
 /**
@@ -56,6 +60,9 @@ export function drawFrame(ctx, layers, options) {
     ctx.globalAlpha = 1;
   }
   ctx.restore();
+  for (const set of layers.rejected ?? []) {
+    if (show[/** @type {'adaptive'|'steger'} */ (set.method)]) drawPoints(ctx, set.x, set.y, REJECTED_COLOUR, 0.8, options);
+  }
   let drawn = 0;
   for (const set of layers.centres) {
     if (!show[/** @type {'adaptive'|'steger'} */ (set.method)]) continue;

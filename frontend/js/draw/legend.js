@@ -8,6 +8,8 @@ import { niceTicks } from '../lib/ticks.js';
  * @property {number} min value at the left end
  * @property {number} max value at the right end
  * @property {string} label title with unit, e.g. "σ (px)"
+ * @property {number[]} [marks] values marked on the bar (the configured scales σ1..σ3),
+ *   labelled in place of round ticks
  */
 
 /**
@@ -37,9 +39,12 @@ export function drawColourLegend(ctx, data, options) {
   ctx.textAlign = 'left';
   ctx.fillText(data.label, left, 2);
   ctx.textAlign = 'center';
-  for (const t of niceTicks(data.min, data.max, 5)) {
+  const marks = data.marks?.length ? data.marks : niceTicks(data.min, data.max, 5);
+  for (const [i, t] of marks.entries()) {
     const x = left + ((right - left) * (t - data.min)) / (data.max - data.min);
     ctx.fillRect(x - 0.5, barTop + barHeight, 1, 3);
-    ctx.fillText(String(t), x, barTop + barHeight + 4);
+    // labels at the bar's ends stay inside the canvas
+    ctx.textAlign = i === 0 && x - left < 12 ? 'left' : i === marks.length - 1 && right - x < 12 ? 'right' : 'center';
+    ctx.fillText(data.marks?.length ? t.toFixed(2) : String(t), x, barTop + barHeight + 4);
   }
 }

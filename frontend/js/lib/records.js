@@ -4,6 +4,9 @@
  * the views need them. Pure: no DOM, no network.
  */
 
+/** Rows per page of the worst-wheels view. */
+export const REVIEW_PAGE_ROWS = 50;
+
 /** Reference profile → limit family, as the service files its limits (EN or LM). */
 const PROFILE_FAMILY = { S1002: 'EN', LMA: 'LM', LM: 'LM' };
 
@@ -43,13 +46,32 @@ export function hasAlarmOn(result, key, family) {
 }
 
 /**
+ * The limit family (EN or LM) of a result, from its reference profile.
+ * @param {any} result a MethodResult or null
+ * @returns {'EN'|'LM'}
+ */
+export function familyOf(result) {
+  return /** @type {'EN'|'LM'} */ (PROFILE_FAMILY[/** @type {'S1002'} */ ((result?.reference_profile ?? '').toUpperCase())] ?? 'EN');
+}
+
+/**
+ * The margin of one parameter of a wheel (adaptive), or null.
+ * @param {any} wheel a PassWheelRead
+ * @param {string} key parameter key
+ * @returns {any|null} a MarginRead
+ */
+export function marginOf(wheel, key) {
+  return wheel?.margins?.find((/** @type {any} */ m) => m.parameter === key) ?? null;
+}
+
+/**
  * The limits row that applies to a result's reference profile (EN unless LM).
  * @param {any[]|null} limits the list GET /api/limits returns
  * @param {string|null|undefined} referenceProfile e.g. "S1002", "LMA"
  * @returns {any|null} a LimitsRead
  */
 export function limitsFor(limits, referenceProfile) {
-  const family = PROFILE_FAMILY[/** @type {'S1002'} */ ((referenceProfile ?? '').toUpperCase())] ?? 'EN';
+  const family = familyOf({ reference_profile: referenceProfile });
   return limits?.find((l) => l.wheel_profile === family) ?? null;
 }
 
@@ -83,6 +105,24 @@ export function passFilterQuery(filter) {
     query.started_to = next.toISOString().replace('.000Z', 'Z');
   }
   if (filter.alarm === 'true') query.alarm = 'true';
+  return query;
+}
+
+/**
+ * The API query of the worst-wheels filter form.
+ * @param {Record<string, string>} filter site, fleet, vehicle, parameter, open ('1'), history ('1'), pass, page (1-based)
+ * @returns {Record<string, string>}
+ */
+export function reviewQuery(filter) {
+  /** @type {Record<string, string>} */
+  const query = {};
+  for (const key of ['site', 'fleet', 'vehicle', 'parameter']) if (filter[key]) query[key] = filter[key];
+  if (filter.open === '1') query.open_only = 'true';
+  if (filter.history === '1') query.latest_only = 'false';
+  if (filter.pass) query.pass_id = filter.pass;
+  const page = Number(filter.page ?? 1);
+  if (Number.isInteger(page) && page > 1) query.offset = String((page - 1) * REVIEW_PAGE_ROWS);
+  query.limit = String(REVIEW_PAGE_ROWS);
   return query;
 }
 

@@ -3,12 +3,13 @@
  * The hash router's pure half: location hash ⇄ route object.
  *
  * Routes: `#/passes?site=..`, `#/passes/{id}`, `#/passes/{id}/wheels/{wheelId}?sensor=..&method=..`,
- * `#/upload`, and the sign-in link `#token=T` that `make run` prints.
+ * `#/review?site=..&parameter=..` (worst wheels), `#/vehicles/{id}`, `#/upload`, and the
+ * sign-in link `#token=T` that `make run` prints.
  */
 
 /**
  * @typedef {object} Route
- * @property {'passes'|'pass'|'wheel'|'upload'|'not-found'} name
+ * @property {'passes'|'pass'|'wheel'|'review'|'vehicle'|'upload'|'not-found'} name
  * @property {Record<string, string>} params path parameters (passId, wheelId)
  * @property {Record<string, string>} query query parameters after `?`
  * @property {string|null} token a sign-in token carried by `#token=T`, else null
@@ -19,6 +20,8 @@ const PATTERNS = [
   { name: 'pass', re: /^\/passes\/(\d+)\/?$/, keys: ['passId'] },
   { name: 'wheel', re: /^\/passes\/(\d+)\/wheels\/([^/]+)\/?$/, keys: ['passId', 'wheelId'] },
   { name: 'upload', re: /^\/upload\/?$/, keys: [] },
+  { name: 'review', re: /^\/review\/?$/, keys: [] },
+  { name: 'vehicle', re: /^\/vehicles\/([^/]+)\/?$/, keys: ['vehicleId'] },
 ];
 
 /**

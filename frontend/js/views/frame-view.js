@@ -18,13 +18,15 @@ import { fitCanvas, h } from './dom.js';
 const HOVER_RADIUS_CSS_PX = 8;
 /** Margin around the stripe when the view fits it, image px. */
 const STRIPE_MARGIN_PX = 60;
+/** Default opacity of the σ map: the stripe stays visible under it. */
+const SIGMA_ALPHA = 0.55;
 
 /**
  * @typedef {object} FrameData
  * @property {ImageBitmap} image
  * @property {ImageBitmap|null} mask
  * @property {ImageBitmap|null} sigma
- * @property {{sigma_min_px: number, sigma_max_px: number}|null} sigmaScale
+ * @property {{sigma_min_px: number, sigma_max_px: number, scales_px?: number[]}|null} sigmaScale
  * @property {Record<string, any>} centres method → columnar centres (or {error})
  */
 
@@ -36,7 +38,16 @@ export class FrameView {
     this.canvas = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'frame-canvas', tabindex: 0, 'aria-label': 'camera frame' }));
     this.readout = h('div', { class: 'readout mono' }, 'hover a centre point');
     this.legend = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'legend' }));
-    root.replaceChildren(h('div', { class: 'frame-wrap' }, this.canvas), h('div', { class: 'frame-foot' }, this.readout, this.legend));
+    /** opacity of the σ map over the frame, 0..1 (at 85 % it hid the stripe) */
+    this.sigmaAlpha = SIGMA_ALPHA;
+    this.opacity = /** @type {HTMLInputElement} */ (h('input', {
+      type: 'range', min: 10, max: 100, step: 5, value: String(SIGMA_ALPHA * 100), class: 'sigma-opacity',
+      'aria-label': 'σ map opacity', title: 'σ map opacity',
+      oninput: () => { this.sigmaAlpha = Number(this.opacity.value) / 100; this.request(); },
+    }));
+    this.opacityLabel = h('label', { class: 'opacity', hidden: true }, 'σ opacity ', this.opacity);
+    root.replaceChildren(h('div', { class: 'frame-wrap' }, this.canvas),
+      h('div', { class: 'frame-foot' }, this.readout, this.opacityLabel, this.legend));
     /** @type {FrameData|null} */
     this.data = null;
     this.show = { image: true, mask: false, sigma: false, adaptive: true, steger: true };
@@ -122,6 +133,23 @@ export class FrameView {
       xs[1] + STRIPE_MARGIN_PX, ys[1] + STRIPE_MARGIN_PX, widthPx, heightPx);
   }
 
+  /**
+   * Centre the view on an image point, zoomed in to at least `minScale` screen px per
+   * image px, and ring it.
+   * @param {number} x image x [px]
+   * @param {number} y image y [px]
+   * @param {number} [minScale]
+   */
+  centreOn(x, y, minScale = 4) {
+    if (!this.data) return;
+    const w = this.canvas.clientWidth;
+    const hgt = this.canvas.clientHeight;
+    const scale = Math.max(this.viewport?.scale ?? 1, minScale);
+    this.viewport = { scale, offsetX: w / 2 - x * scale, offsetY: hgt / 2 - y * scale };
+    this.highlight = { x, y };
+    this.request();
+  }
+
   /** @param {number} factor */
   zoom(factor) {
     if (!this.viewport) return;
@@ -158,8 +186,11 @@ export class FrameView {
     const centres = Object.entries(this.data.centres)
       .filter(([, c]) => c && Array.isArray(c.x))
       .map(([method, c]) => ({ method, x: c.x, y: c.y }));
-    this.pointsDrawn = drawFrame(ctx, { ...this.data, centres, highlight: this.highlight }, {
-      viewport: this.viewport, widthPx, heightPx, pixelRatio, show: this.show,
+    const rejected = Object.entries(this.data.centres)
+      .filter(([, c]) => c && Array.isArray(c.rejected_x) && c.rejected_x.length)
+      .map(([method, c]) => ({ method, x: c.rejected_x, y: c.rejected_y }));
+    this.pointsDrawn = drawFrame(ctx, { ...this.data, centres, rejected, highlight: this.highlight }, {
+      viewport: this.viewport, widthPx, heightPx, pixelRatio, show: this.show, sigmaAlpha: this.sigmaAlpha,
     });
     const ended = performance.now();
     this.lastDrawMs = ended - started;
@@ -172,10 +203,11 @@ export class FrameView {
   drawLegend() {
     const scale = this.data?.sigmaScale;
     this.legend.hidden = !this.show.sigma || !scale;
+    this.opacityLabel.hidden = this.legend.hidden;
     if (this.legend.hidden || !scale) return;
     const { ctx, widthPx, heightPx, pixelRatio } = fitCanvas(this.legend);
-    drawColourLegend(ctx, { lut: VIRIDIS, min: scale.sigma_min_px, max: scale.sigma_max_px, label: 'σ map, chosen scale σ (px)' },
-      { widthPx, heightPx, pixelRatio });
+    drawColourLegend(ctx, { lut: VIRIDIS, min: scale.sigma_min_px, max: scale.sigma_max_px, marks: scale.scales_px,
+      label: 'σ map, chosen scale σ (px); ticks: σ1 σ2 σ3' }, { widthPx, heightPx, pixelRatio });
   }
 
   bindEvents() {

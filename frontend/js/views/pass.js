@@ -4,12 +4,10 @@
  * back-to-back and its alarm state by colour, for the adaptive method, Steger, or their
  * difference (adaptive − Steger).
  */
-import { fmtNumber, fmtSigned, fmtTime, PARAMETERS } from '../lib/format.js';
-import { passStatus, resultOf } from '../lib/records.js';
+import { fmtDisposition, fmtNumber, fmtSigned, fmtTime, PARAMETERS, parameterOf } from '../lib/format.js';
+import { familyOf, hasAlarmOn, marginOf, passStatus, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { alarmClass, h } from './dom.js';
-
-const SHOWN = PARAMETERS.filter((p) => p.key !== 'flange_thickness_en_mm' && p.key !== 'back_to_back_mm');
 
 /**
  * Render the pass page.
@@ -36,11 +34,16 @@ export function renderPass(root, state, handlers) {
         h('span', { class: 'meta' }, `${p.site ?? ''} · ${fmtTime(p.started_at)} · ${p.direction ?? '–'} · ${fmtNumber(p.speed_kmh, 1)} km/h`),
         h('span', { class: `status status-${status.state}` }, status.state,
           status.running && status.progress != null ? ` ${Math.round(status.progress * 100)} %` : null),
-        h('span', { class: 'meta' }, `${p.wheels_measured} / ${p.wheels_total} wheels measured · ${p.wheels_not_measured} not measured · ${p.alarm_count} in alarm`),
+        h('span', { class: 'meta' }, `${p.wheels_measured} / ${p.wheels_total} wheels measured · ${p.wheels_not_measured} not measured · `,
+          h('span', { class: p.alarm_count ? 'alarm-text' : null }, `${p.alarm_count} in alarm`), ' · ',
+          h('span', { class: p.near_limit_count ? 'near-text' : null }, `${p.near_limit_count ?? 0} near a limit`)),
+        h('a', { class: 'button', href: buildHash(['review'], { pass: p.id }) }, 'Worst wheels of this pass'),
         h('span', { class: 'spacer' }),
         modeSwitch(mode, handlers.setMode),
         exportButtons(handlers.exportReport),
       ),
+      (p.alarm_values ?? []).length
+        ? h('p', { class: 'alarm-values' }, h('strong', {}, 'In alarm: '), p.alarm_values.join(' · ')) : null,
       train(pass.wheels, mode, String(p.id)),
     ),
   );
@@ -149,24 +152,55 @@ function wheelCard(wheel, side, mode, passId) {
   const adaptive = resultOf(wheel, 'adaptive');
   const steger = resultOf(wheel, 'steger');
   const shown = mode === 'steger' ? steger : adaptive;
-  const cls = mode === 'difference' ? alarmClass(adaptive) : alarmClass(shown);
+  const cls = mode === 'steger' ? alarmClass(shown) : cardLevel(wheel, adaptive);
+  const family = familyOf(adaptive ?? steger);
   const alarms = (shown?.alarms ?? []).map((/** @type {any} */ a) => a.message).join('; ');
   const reason = reasonShown(wheel, mode === 'difference' ? undefined : shown);
+  const disagreement = (wheel.method_disagreement ?? []).map((/** @type {any} */ d) =>
+    `${parameterOf(d.parameter).label} ${fmtSigned(d.difference_mm, 1)} mm`).join(', ');
   return h('a', {
     class: `wheel-card ${cls} state-${wheel.state}`,
     href: buildHash(['passes', passId, 'wheels', wheel.wheel_id], mode === 'difference' ? {} : { method: mode }),
     title: alarms || wheel.reason || '',
-    dataset: { wheelId: String(wheel.wheel_id), side },
+    dataset: { wheelId: String(wheel.wheel_id), side, level: cls },
   },
-  h('div', { class: 'card-head' }, h('span', {}, side), h('span', { class: 'state' }, wheel.state.replace('_', ' '))),
+  h('div', { class: 'card-head' }, h('span', {}, side),
+    h('span', { class: 'limit-set', title: `checked against the ${family} limits` }, `${family} limits`),
+    h('span', { class: 'state' }, wheel.state.replace('_', ' '))),
   reason
     ? h('div', { class: 'reason' }, reason)
-    : h('table', {}, SHOWN.map((p) => h('tr', {},
+    : h('table', {}, PARAMETERS.filter((p) => p.card && p.families.includes(family)).map((p) => h('tr', { dataset: { parameter: p.key } },
       h('th', { title: p.title }, p.label),
-      h('td', { class: 'num' }, mode === 'difference'
+      h('td', { class: `num ${mode === 'difference' ? '' : valueLevel(wheel, shown, p.key, family, mode)}` }, mode === 'difference'
         ? fmtSigned(diff(adaptive?.[p.key], steger?.[p.key]), p.digits)
-        : fmtNumber(shown?.[p.key], p.digits)))),
-  ));
+        : fmtNumber(shown?.[p.key], p.digits)),
+      h('td', { class: 'unit' }, p.unit)))),
+  disagreement ? h('div', { class: 'flag disagreement', title: 'adaptive − Steger beyond the fleet\'s threshold: check the frame' }, `methods differ: ${disagreement}`) : null,
+  h('div', { class: `disposition ${wheel.disposition ? 'set' : 'open'}` }, fmtDisposition(wheel.disposition)),
+  );
+}
+
+/**
+ * The card's colour: the service's level of the adaptive result (alarm, near, ok).
+ * @param {any} wheel a PassWheelRead
+ * @param {any} adaptive its adaptive MethodResult or null
+ * @returns {string}
+ */
+function cardLevel(wheel, adaptive) {
+  if (alarmClass(adaptive) === 'none') return 'none';
+  return wheel.level && wheel.level !== 'none' ? wheel.level : alarmClass(adaptive);
+}
+
+/**
+ * Class of one value on a card: "alarm" or "near" from the margins (adaptive) or the
+ * alarms (Steger, which has no margins), else none.
+ * @param {any} wheel @param {any} result @param {string} key @param {string} family @param {string} mode
+ * @returns {string}
+ */
+function valueLevel(wheel, result, key, family, mode) {
+  if (mode === 'steger') return hasAlarmOn(result, key, family) ? 'alarm' : '';
+  const level = marginOf(wheel, key)?.level;
+  return level === 'alarm' || level === 'near' ? level : '';
 }
 
 /**

@@ -10,11 +10,14 @@ import { h } from './dom.js';
 
 /** Table columns: title and class (numbers align right under their heading). */
 const COLUMNS = [['Pass', null], ['Time', null], ['Site', null], ['Dir.', null], ['km/h', 'num'],
-  ['Vehicles', 'num'], ['Measured', 'num'], ['Not measured', 'num'], ['Wheels in alarm', 'num'], ['Status', null]];
+  ['Vehicles', null], ['Measured', 'num'], ['Not measured', 'num'], ['Alarms', 'num'], ['Wheels near limit', 'num'],
+  ['Values in alarm', null], ['Status', null]];
+/** Vehicle ids listed in a row before "+ n more". */
+const VEHICLES_SHOWN = 4;
 
 const FILTERS = [
-  { key: 'site', label: 'Site', type: 'text', size: 10 },
-  { key: 'vehicle', label: 'Vehicle', type: 'text', size: 10 },
+  { key: 'site', label: 'Site', type: 'text', size: 10, placeholder: 'any part' },
+  { key: 'vehicle', label: 'Vehicle', type: 'text', size: 10, placeholder: 'any part' },
   { key: 'since', label: 'From', type: 'date' },
   { key: 'until', label: 'To', type: 'date' },
 ];
@@ -24,6 +27,7 @@ const FILTERS = [
  * @param {HTMLElement} root
  * @param {any} state
  * @param {{applyFilter: (filter: Record<string, string>) => void, select: (index: number) => void}} handlers
+ *   applyFilter({}) clears every filter
  */
 export function renderPasses(root, state, handlers) {
   const passes = state.passes ?? { items: [], filter: {} };
@@ -43,9 +47,11 @@ export function renderPasses(root, state, handlers) {
     },
   },
   FILTERS.map((f) => h('label', {}, f.label, ' ',
-    h('input', { name: f.key, type: f.type, size: f.size, value: filter[f.key] ?? '' }))),
+    h('input', { name: f.key, type: f.type, size: f.size, placeholder: f.placeholder, value: filter[f.key] ?? '' }))),
   h('label', {}, h('input', { type: 'checkbox', name: 'alarm', value: 'true', checked: filter.alarm === 'true' }), ' alarms only'),
   h('button', { type: 'submit' }, 'Apply'),
+  h('button', { type: 'button', 'data-action': 'clear-filters', disabled: Object.keys(filter).length === 0,
+    onclick: () => handlers.applyFilter({}) }, 'Clear filters'),
   h('span', { class: 'count' })));
   /** @type {HTMLElement} */ (form.querySelector('.count')).textContent =
     passes.loading ? 'loading…' : `${passes.total} pass${passes.total === 1 ? '' : 'es'}`;
@@ -56,7 +62,7 @@ export function renderPasses(root, state, handlers) {
       form,
       h('table', { class: 'grid' },
         h('thead', {}, h('tr', {}, COLUMNS.map(([t, cls]) => h('th', { class: cls }, t)))),
-        h('tbody', {}, rows.length ? rows : h('tr', {}, h('td', { colspan: 10, class: 'empty' },
+        h('tbody', {}, rows.length ? rows : h('tr', {}, h('td', { colspan: COLUMNS.length, class: 'empty' },
           passes.loading ? 'Loading passes…' : 'No passes match. Upload one or widen the filters.')))),
     ),
   );
@@ -84,14 +90,29 @@ function passRow(p, live, selected, onSelect) {
   h('td', {}, p.site ?? '–'),
   h('td', {}, p.direction ?? '–'),
   h('td', { class: 'num' }, fmtNumber(p.speed_kmh, 1)),
-  h('td', { class: 'num', title: (p.vehicles ?? []).join(', ') }, p.vehicles?.length ?? '–'),
+  h('td', { class: 'vehicles', title: (p.vehicles ?? []).join(', ') }, vehicleLinks(p.vehicles ?? [])),
   h('td', { class: 'num' }, `${running ? job?.wheels_done ?? '–' : p.wheels_measured} / ${p.wheels_total}`),
   h('td', { class: `num ${p.wheels_not_measured > 0 ? 'warn' : ''}` }, p.wheels_not_measured ?? '–'),
   h('td', { class: `num ${p.alarm_count > 0 ? 'alarm' : ''}` }, p.alarm_count),
+  h('td', { class: `num ${p.near_limit_count > 0 ? 'near' : ''}` }, p.near_limit_count ?? 0),
+  h('td', { class: 'alarm-values', title: (p.alarm_values ?? []).join('\n') },
+    (p.alarm_values ?? []).slice(0, 2).join(' · ') + ((p.alarm_values ?? []).length > 2 ? ` (+${p.alarm_values.length - 2})` : '')),
   h('td', { class: `status status-${status}` }, status,
     running && progress != null
       ? h('span', { class: 'bar', title: fmtPercent(progress) }, h('span', { style: `width:${Math.round(progress * 100)}%` }))
       : null,
     running && progress != null ? ` ${fmtPercent(progress)}` : null),
   );
+}
+
+/**
+ * The vehicle ids of a pass as links to each vehicle's history, the first few only.
+ * @param {string[]} vehicles
+ * @returns {Array<HTMLElement|string>}
+ */
+function vehicleLinks(vehicles) {
+  if (vehicles.length === 0) return ['–'];
+  const links = vehicles.slice(0, VEHICLES_SHOWN).flatMap((v, i) => [i ? ', ' : '',
+    h('a', { href: buildHash(['vehicles', v]), onclick: (/** @type {Event} */ e) => e.stopPropagation() }, v)]);
+  return vehicles.length > VEHICLES_SHOWN ? [...links, ` +${vehicles.length - VEHICLES_SHOWN}`] : links;
 }

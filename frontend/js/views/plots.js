@@ -7,7 +7,7 @@ import uPlot from '../../vendor/uPlot-1.6.32.esm.js';
 import { drawDifference } from '../draw/difference.js';
 import { METHOD_COLOURS } from '../draw/frame.js';
 import { drawProfile } from '../draw/profile.js';
-import { fmtNumber, METHODS } from '../lib/format.js';
+import { fmtNumber, fmtSigned, METHODS, PARAMETERS } from '../lib/format.js';
 import { trendColumns } from '../lib/records.js';
 import { fitCanvas, h } from './dom.js';
 
@@ -48,18 +48,23 @@ export function renderProfile(canvas, profiles, methods, marker = null) {
 }
 
 /**
- * Draw the difference plot and return its summary line.
+ * Draw the difference plot and return its summary line and scale.
  * @param {HTMLCanvasElement} canvas
  * @param {import('../lib/method-difference.js').MethodDifference|null} diff
- * @returns {string}
+ * @param {number} [marker] index of the pair to ring
+ * @returns {{note: string, scale: import('../lib/plot-scale.js').PlotScale|null}}
  */
-export function renderDifference(canvas, diff) {
+export function renderDifference(canvas, diff, marker) {
   const { ctx, widthPx, heightPx, pixelRatio } = fitCanvas(canvas);
-  if (!diff || !drawDifference(ctx, diff, { widthPx, heightPx, pixelRatio })) {
+  const scale = diff ? drawDifference(ctx, diff, { widthPx, heightPx, pixelRatio, marker }) : false;
+  if (!diff || !scale) {
     ctx.clearRect(0, 0, canvas.width, canvas.height);
-    return 'no adaptive/Steger pairs to compare';
+    return { note: 'no adaptive/Steger pairs to compare', scale: null };
   }
-  return `${diff.alongPx.length} pairs · mean ${fmtNumber(diff.meanPx, 3)} px · RMS ${fmtNumber(diff.rmsPx, 3)} px · max |Δ| ${fmtNumber(diff.maxAbsPx, 3)} px · ${diff.unmatched} adaptive without a Steger partner within 2 px`;
+  return {
+    note: `${diff.alongPx.length} pairs · mean ${fmtNumber(diff.meanPx, 3)} px · RMS ${fmtNumber(diff.rmsPx, 3)} px (shaded: ±RMS) · max |Δ| ${fmtNumber(diff.maxAbsPx, 3)} px · ${diff.unmatched} adaptive without a Steger partner within 2 px · hover to read, click to show that point on the frame`,
+    scale,
+  };
 }
 
 /**
@@ -111,53 +116,160 @@ export function renderDeltaR(root, profiles, methods, previous) {
   return plot;
 }
 
-const TREND_SERIES = [
-  { key: 'flange_height_mm', label: 'Sh', dash: [] },
-  { key: 'flange_thickness_mm', label: 'Sd', dash: [6, 3] },
-  { key: 'qr_mm', label: 'qR', dash: [2, 3] },
-];
+/** Height of one parameter's trend plot [CSS px]. */
+const TREND_HEIGHT_PX = 130;
+/** Half the x range shown when every pass is at one instant [s]. */
+const SINGLE_INSTANT_HALF_RANGE_S = 12 * 3600;
 
 /**
- * Build (or rebuild) the trend plot of one wheel across passes.
+ * Build (or rebuild) the trend of one wheel across passes: one small plot per checked
+ * parameter in its colour (adaptive solid, Steger dashed), its limit line, the amber band
+ * inside it and the wear fit, with the forecast in words underneath. The x-axis spans
+ * the passes (UTC); forecasts are given as dates, not drawn out to them.
  * @param {HTMLElement} root
  * @param {any} trend a WheelTrend
- * @param {uPlot|null} previous the plot to replace
- * @returns {uPlot|null}
+ * @param {{destroy: () => void}|null} previous the plots to replace
+ * @returns {{destroy: () => void}|null}
  */
 export function renderTrend(root, trend, previous) {
   previous?.destroy();
   root.replaceChildren();
-  const { x, columns } = trendColumns(trend, METHODS, TREND_SERIES.map((s) => s.key));
+  const family = trend?.limits?.wheel_profile ?? 'EN';
+  const shown = PARAMETERS.filter((p) => p.card && p.families.includes(family));
+  const { x, columns } = trendColumns(trend, METHODS, shown.map((p) => p.key));
   if (x.length < 2) {
     root.append(h('p', { class: 'empty' },
       x.length ? 'This is the only pass of this wheel so far: the trend starts with the next one.'
         : 'No measured passes of this wheel yet.'));
     return null;
   }
-  const series = [{}];
-  const data = [x];
-  // Steger first, so the adaptive lines (the product's method) are drawn on top
-  for (const method of [...METHODS].reverse()) {
-    for (const s of TREND_SERIES) {
-      series.push({
-        label: `${s.label} ${method}`,
-        stroke: METHOD_COLOURS[/** @type {'adaptive'|'steger'} */ (method)],
-        dash: s.dash,
-        width: 1.5,
-        points: { show: true, size: 5 },
-        value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v),
-      });
-      data.push(columns[`${method}:${s.key}`]);
-    }
-  }
-  const width = Math.max(280, root.clientWidth);
+  const plots = shown.map((p) => {
+    const forecast = (trend.forecasts ?? []).find((/** @type {any} */ f) => f.parameter === p.key) ?? null;
+    const box = h('div', { class: 'trend-plot', dataset: { parameter: p.key } });
+    root.append(box, h('p', { class: 'note forecast', dataset: { parameter: p.key } }, forecastText(p, forecast)));
+    return parameterPlot(box, p, x, columns, forecast, trend.limits);
+  });
+  return { destroy: () => plots.forEach((plot) => plot.destroy()) };
+}
+
+/**
+ * @param {HTMLElement} box
+ * @param {any} p a PARAMETERS entry
+ * @param {number[]} x pass times [s]
+ * @param {Record<string, Array<number|null>>} columns
+ * @param {any} forecast a TrendForecast or null
+ * @param {any} limits the trend's WheelLimits or null
+ * @returns {uPlot}
+ */
+function parameterPlot(box, p, x, columns, forecast, limits) {
+  const fit = x.map((t) => (forecast ? fitValue(forecast, t) : null));
+  const lowMm = limits?.limits_mm?.[`${limitStemOf(p.key)}_min_mm`] ?? null;
+  const highMm = limits?.limits_mm?.[`${limitStemOf(p.key)}_max_mm`] ?? null;
+  const band = lowMm != null && highMm != null ? (highMm - lowMm) * (limits?.near_limit_fraction ?? 0.1) : null;
+  const series = [{},
+    { label: `${p.label} adaptive`, stroke: p.colour, width: 1.8, points: { show: true, size: 5 }, value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v) },
+    { label: `${p.label} Steger`, stroke: p.colour, dash: [5, 4], width: 1, points: { show: true, size: 3 }, value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v) },
+    { label: 'fit', stroke: '#e5e7eb', dash: [2, 3], width: 1, points: { show: false }, value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v) }];
+  const values = [...columns[`adaptive:${p.key}`], ...columns[`steger:${p.key}`]].filter((v) => v != null);
+  const yMin = Math.min(...values, ...(lowMm != null ? [lowMm] : []));
+  const yMax = Math.max(...values, ...(highMm != null ? [highMm] : []));
+  const pad = Math.max(0.2, 0.08 * (yMax - yMin));
   return new uPlot({
-    width, height: 190, series,
-    scales: { x: { time: true } },
+    width: Math.max(280, box.clientWidth || 420), height: TREND_HEIGHT_PX, series,
+    scales: {
+      x: { time: true, range: (/** @type {any} */ _u, /** @type {number} */ lo, /** @type {number} */ hi) => (hi - lo < 1
+        ? [lo - SINGLE_INSTANT_HALF_RANGE_S, hi + SINGLE_INSTANT_HALF_RANGE_S] : [lo - 0.03 * (hi - lo), hi + 0.03 * (hi - lo)]) },
+      y: { range: () => [yMin - pad, yMax + pad] },
+    },
     // pass times in UTC, like every other time the application shows
     tzDate: (/** @type {number} */ ts) => uPlot.tzDate(new Date(ts * 1000), 'Etc/UTC'),
-    axes: [{ stroke: '#c9d1db', grid: { stroke: '#262d37' } },
-      { stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: 'mm', size: 44 }],
+    axes: [{ stroke: '#c9d1db', grid: { stroke: '#262d37' }, space: 90, values: utcDays },
+      { stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: `${p.label} (${p.unit})`, size: 50 }],
     legend: { live: true },
-  }, /** @type {any} */ (data), root);
+    hooks: {
+      drawClear: [(/** @type {uPlot} */ u) => drawLimits(u, lowMm, highMm, band)],
+      // the x range on the element, in s (UTC), for whoever checks what the axis spans
+      setScale: [(/** @type {uPlot} */ u, /** @type {string} */ key) => {
+        if (key === 'x') Object.assign(box.dataset, { xMin: String(u.scales.x.min), xMax: String(u.scales.x.max) });
+      }],
+    },
+  }, /** @type {any} */ ([x, columns[`adaptive:${p.key}`], columns[`steger:${p.key}`], fit]), box);
+}
+
+/**
+ * x-axis labels: the UTC date of each tick, with the time where ticks are less than a day apart.
+ * @param {uPlot} _u
+ * @param {number[]} splits tick times [s]
+ * @returns {string[]}
+ */
+function utcDays(_u, splits) {
+  const step = splits.length > 1 ? splits[1] - splits[0] : 86400;
+  return splits.map((s) => {
+    const iso = new Date(s * 1000).toISOString();
+    return step < 86400 ? `${iso.slice(5, 10)} ${iso.slice(11, 16)}` : iso.slice(0, 10);
+  });
+}
+
+/**
+ * The limit stem ("flange_thickness") of a parameter key.
+ * @param {string} key
+ */
+function limitStemOf(key) {
+  return key === 'flange_thickness_en_mm' ? 'flange_thickness' : key.replace(/_mm$/, '');
+}
+
+/**
+ * The wear fit's value at pass time t [s] (none without a fit).
+ * @param {any} forecast a TrendForecast
+ * @param {number} t
+ * @returns {number|null}
+ */
+function fitValue(forecast, t) {
+  if (forecast.intercept_mm == null || !forecast.fit_from) return null;
+  return forecast.intercept_mm + forecast.rate_mm * (t - Date.parse(forecast.fit_from) / 1000) / 86400;
+}
+
+/**
+ * Limit lines (red) and the amber band inside them, behind the series.
+ * @param {uPlot} u
+ * @param {number|null} lowMm @param {number|null} highMm @param {number|null} bandMm
+ */
+function drawLimits(u, lowMm, highMm, bandMm) {
+  const { ctx } = u;
+  const { left, width } = u.bbox;
+  const y = (/** @type {number} */ v) => u.valToPos(v, 'y', true);
+  ctx.save();
+  for (const [limit, inward] of [[lowMm, 1], [highMm, -1]]) {
+    if (limit == null) continue;
+    if (bandMm != null) {
+      ctx.fillStyle = 'rgba(245, 158, 11, 0.18)';
+      const a = y(limit);
+      const b = y(limit + inward * bandMm);
+      ctx.fillRect(left, Math.min(a, b), width, Math.abs(b - a));
+    }
+    ctx.strokeStyle = '#ef4444';
+    ctx.lineWidth = 1.5 * devicePixelRatio;
+    ctx.beginPath();
+    ctx.moveTo(left, y(limit));
+    ctx.lineTo(left + width, y(limit));
+    ctx.stroke();
+  }
+  ctx.restore();
+}
+
+/**
+ * The forecast of one parameter in words.
+ * @param {any} p a PARAMETERS entry
+ * @param {any} forecast a TrendForecast or null
+ * @returns {string}
+ */
+function forecastText(p, forecast) {
+  if (!forecast) return `${p.label}: no forecast`;
+  if (forecast.points < 3 || forecast.limit_mm == null) return `${p.label}: ${forecast.note}`;
+  const per = forecast.per === 'day' ? 'day' : '1000 km';
+  const rate = `${fmtSigned(forecast.rate_mm, 3)} mm/${per} (${fmtSigned(forecast.rate_low_mm, 3)} to ${fmtSigned(forecast.rate_high_mm, 3)})`;
+  if (!forecast.reached_at) return `${p.label}: ${rate}; ${forecast.note}`;
+  const day = (/** @type {string|null} */ iso) => (iso ? iso.slice(0, 10) : 'later');
+  return `${p.label}: ${rate}; reaches ${forecast.bound === 'max' ? '≤' : '≥'} ${fmtNumber(forecast.limit_mm, 1)} mm `
+    + `on ${day(forecast.reached_at)} UTC (90 %: ${day(forecast.reached_earliest)} – ${day(forecast.reached_latest)})`;
 }

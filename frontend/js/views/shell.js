@@ -7,17 +7,19 @@ import { h } from './dom.js';
 
 /** Keyboard shortcuts shown by "?" (the wheel page's are listed there too). */
 export const SHORTCUTS = [
-  ['g p', 'passes'], ['g u', 'upload'], ['j / k', 'next / previous row'], ['Enter', 'open row'],
-  ['a / s', 'adaptive / Steger centres'], ['m / o', 'stripe mask / σ map'], ['f', 'fit stripe / whole frame'],
-  ['+ / −', 'zoom'], ['← ↑ → ↓', 'pan'], ['[ / ]', 'previous / next wheel'], ['i', 'next sensor'],
-  ['Esc', 'close 3D or help, else up one level'], ['?', 'this help'],
+  ['g p', 'passes'], ['g w', 'worst wheels'], ['g u', 'upload'], ['j / k', 'next / previous row'], ['Enter', 'open row'],
+  ['a / s', 'adaptive / Steger centres'], ['m / o', 'stripe mask / σ map'], ['x', 'camera frame on / off'],
+  ['f', 'fit stripe / whole frame'], ['+ / −', 'zoom'], ['scroll', 'zoom at the pointer'],
+  ['double-click', 'zoom in there (with ⇧: out)'], ['drag', 'pan the frame'], ['← ↑ → ↓', 'pan'],
+  ['[ / ]', 'previous / next wheel'], ['i', 'next sensor'],
+  ['Esc', 'close 3D or help, else up one level'], ['?', 'this help (a click outside closes it)'],
 ];
 
 /**
  * Render the header and banner from state into their containers.
  * @param {{header: HTMLElement, banner: HTMLElement, help: HTMLElement}} els
  * @param {any} state
- * @param {{dismissError: () => void, signOut: () => void}} handlers
+ * @param {{dismissError: () => void, signOut: () => void, closeHelp: () => void, findVehicle: (text: string) => void}} handlers
  */
 export function renderShell(els, state, handlers) {
   const role = state.me?.role ?? null;
@@ -26,10 +28,12 @@ export function renderShell(els, state, handlers) {
     h('a', { class: 'brand', href: '#/passes' }, 'wheelscan'),
     h('nav', {},
       h('a', { href: '#/passes', class: name === 'passes' || name === 'pass' || name === 'wheel' ? 'active' : null }, 'Passes'),
+      h('a', { href: '#/review', class: name === 'review' ? 'active' : null }, 'Worst wheels'),
       role && role !== 'viewer'
         ? h('a', { href: '#/upload', class: name === 'upload' ? 'active' : null }, 'Upload')
         : null,
     ),
+    role ? vehicleSearch(state, handlers.findVehicle) : null,
     h('span', { class: 'spacer' }),
     h('span', { class: `live ${state.socketOpen ? 'on' : 'off'}`, title: 'live updates (WebSocket)' },
       state.socketOpen ? '● live' : '○ offline'),
@@ -48,10 +52,34 @@ export function renderShell(els, state, handlers) {
   els.help.hidden = !state.helpOpen;
   if (state.helpOpen && !els.help.firstChild) {
     els.help.append(
-      h('h2', {}, 'Keyboard'),
+      h('button', { class: 'link close', onclick: handlers.closeHelp, 'aria-label': 'close help' }, '×'),
+      h('h2', {}, 'Keyboard and mouse'),
       h('table', {}, SHORTCUTS.map(([key, what]) => h('tr', {}, h('td', {}, h('kbd', {}, key)), h('td', {}, what)))),
     );
   }
+}
+
+/**
+ * The vehicle search of the header (every page): Enter opens the vehicle's history, or the
+ * vehicles whose id contains the text.
+ * @param {any} state
+ * @param {(text: string) => void} findVehicle
+ * @returns {HTMLElement}
+ */
+function vehicleSearch(state, findVehicle) {
+  const existing = /** @type {HTMLFormElement|null} */ (document.querySelector('header form.vehicle-search'));
+  if (existing) return existing;
+  const input = /** @type {HTMLInputElement} */ (h('input', {
+    type: 'search', name: 'vehicle', placeholder: 'vehicle id…', size: 14, 'aria-label': 'find a vehicle',
+    value: state.route?.name === 'vehicle' ? state.route.params.vehicleId : '',
+  }));
+  return h('form', {
+    class: 'vehicle-search', role: 'search',
+    onsubmit: (/** @type {Event} */ e) => {
+      e.preventDefault();
+      if (input.value.trim()) findVehicle(input.value.trim());
+    },
+  }, input);
 }
 
 /**

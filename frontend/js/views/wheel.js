@@ -7,7 +7,7 @@
  */
 import { differenceAlongStripe } from '../lib/method-difference.js';
 import { nearestOnScreen } from '../lib/plot-scale.js';
-import { DIAMETER_NOTE, fmtNumber, fmtSensor, fmtSigned, fmtTime, METHODS, PARAMETERS } from '../lib/format.js';
+import { DIAMETER_NOTE, DISPOSITIONS, fmtDisposition, fmtNumber, fmtSensor, fmtSigned, fmtTime, METHODS, PARAMETERS, parameterOf } from '../lib/format.js';
 import { framesRemovedNote, hasAlarmOn, limitStem, limitsFor, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { alarmClass, h } from './dom.js';
@@ -24,7 +24,7 @@ export const LAYERS = [
 export class WheelView {
   /**
    * @param {HTMLElement} root
-   * @param {{setQuery: (q: Record<string, string>) => void, exportReport: (format: string) => Promise<void>|void, exportProfile: (format: string) => Promise<void>|void, importReference: (file: File) => Promise<void>|void, openViewer: () => void, closeViewer: () => void}} handlers
+   * @param {{setQuery: (q: Record<string, string>) => void, exportReport: (format: string) => Promise<void>|void, exportProfile: (format: string) => Promise<void>|void, importReference: (file: File) => Promise<void>|void, openViewer: () => void, closeViewer: () => void, addDisposition: (body: {kind: string, comment?: string}) => void}} handlers
    */
   constructor(root, handlers) {
     this.handlers = handlers;
@@ -41,18 +41,20 @@ export class WheelView {
     this.diffNote = h('p', { class: 'note mono' });
     this.deltaRRoot = h('div', { class: 'trend delta-r' });
     this.trendRoot = h('div', { class: 'trend' });
+    this.dispositionRoot = h('div', { class: 'dispositions' });
     this.viewerRoot = h('div', { class: 'viewer' });
-    this.section = h('section', { class: 'wheel' }, this.title,
-      h('div', { class: 'wheel-grid' },
+    this.grid = h('div', { class: 'wheel-grid' },
         h('div', { class: 'frame-panel' }, this.toolbar, frameRoot, this.viewerOverlay),
         h('div', { class: 'side-panel' },
           h('h2', {}, 'Parameters'), this.table,
+          h('h2', {}, 'Disposition'), this.dispositionRoot,
           h('h2', {}, 'Profile vs reference'), this.profileCanvas, this.profileNote,
           h('h2', {}, 'Axle rolling-radius difference Δr(y)'), this.deltaRRoot,
           h('h2', {}, 'Handheld gauge'), this.comparisonRoot,
           h('h2', {}, 'Adaptive − Steger along the stripe'), this.diffCanvas, this.diffNote,
           h('h2', {}, 'Trend across passes'), this.trendRoot,
-          h('h2', {}, '3D'), this.viewerRoot)));
+          h('h2', {}, '3D'), this.viewerRoot));
+    this.section = h('section', { class: 'wheel' }, this.title, this.grid);
     root.replaceChildren(this.section);
     this.frame = new FrameView(frameRoot);
     /** @type {Record<string, any>} */
@@ -62,6 +64,16 @@ export class WheelView {
     this.profileScale = null;
     this.profileCanvas.addEventListener('pointermove', (e) => this.hoverProfile(e.offsetX, e.offsetY));
     this.profileCanvas.addEventListener('pointerleave', () => this.drawProfilePlot(null));
+    /** @type {import('../lib/method-difference.js').MethodDifference|null} */
+    this.difference = null;
+    /** @type {import('../lib/plot-scale.js').PlotScale|null} */
+    this.diffScale = null;
+    this.diffCanvas.addEventListener('pointermove', (e) => this.drawDifferencePlot(this.pairAt(e.offsetX, e.offsetY)));
+    this.diffCanvas.addEventListener('pointerleave', () => this.drawDifferencePlot(-1));
+    this.diffCanvas.addEventListener('click', (e) => {
+      const i = this.pairAt(e.offsetX, e.offsetY);
+      if (i >= 0 && this.difference) this.frame.centreOn(this.difference.x[i], this.difference.y[i]);
+    });
     /** @type {any} */
     this.shown = {};
     /** @type {any} */
@@ -80,13 +92,18 @@ export class WheelView {
     const { passId, wheelId } = state.route.params;
     // never show another wheel's data under this wheel's address (the store may still hold it)
     if (!w || !w.layers || w.passId !== passId || w.wheelId !== wheelId) {
-      this.title.replaceChildren(h('p', { class: 'loading' }, w?.failed
-        ? `Wheel ${w.wheelId} of pass ${w.passId} could not be shown (the reason is above). `
-        : 'Loading wheel…', w?.failed ? h('a', { href: buildHash(['passes', w.passId]) }, 'Back to the pass') : ''));
+      const failed = w?.failed && w.passId === passId && w.wheelId === wheelId;
+      this.title.replaceChildren(failed
+        ? h('p', { class: 'notice failed' }, `Wheel ${wheelId} of pass ${passId} could not be shown (the reason is above). `,
+          h('a', { href: buildHash(['passes', passId]) }, `Back to pass #${passId}`), ' · ', h('a', { href: '#/passes' }, 'the passes'))
+        : h('p', { class: 'loading' }, 'Loading wheel…'));
+      // a wheel that cannot be shown shows no empty panels
+      this.grid.hidden = Boolean(failed);
       this.frame.clear();
       this.shown = {};
       return;
     }
+    this.grid.hidden = false;
     const show = LAYERS.reduce((acc, [key]) => ({ ...acc, [key]: state.layers[key] }), {});
     const changed = (/** @type {string} */ key, /** @type {any} */ value) => {
       if (this.shown[key] === value) return false;
@@ -94,10 +111,14 @@ export class WheelView {
       return true;
     };
     if (changed('titleDeps', `${w.loadMs}|${method}|${w.loading}|${state.pass?.wheels?.length}`)) this.renderTitle(state, w, method);
+    if (changed('dispositions', `${JSON.stringify(w.dispositions)}|${state.me?.role}`)) this.renderDispositions(w, state.me?.role);
     if (changed('toolbar', JSON.stringify(show))) this.renderToolbar(show);
     if (changed('layers', w.layers)) {
+      // when this wheel's frame data reached the canvas (the browser tests time from here)
+      performance.mark('frame-data', { detail: `${w.passId}/${w.wheelId}` });
       this.frame.setData({ ...w.layers, sigmaScale: w.sigmaScale, centres: w.centres });
-      this.diffNote.textContent = renderDifference(this.diffCanvas, pairDifference(w.centres));
+      this.difference = pairDifference(w.centres);
+      this.drawDifferencePlot(-1);
     }
     this.frame.setShow(show);
     // which wheel is fully on screen (the browser tests wait for it)
@@ -134,6 +155,36 @@ export class WheelView {
   }
 
   /**
+   * Draw the difference plot, ringing and reading out pair `i` (none when -1).
+   * @param {number} i
+   */
+  drawDifferencePlot(i) {
+    const { note, scale } = renderDifference(this.diffCanvas, this.difference, i);
+    this.diffScale = scale;
+    const d = this.difference;
+    this.diffNote.textContent = i >= 0 && d
+      ? `Δ ${fmtSigned(d.diffPx[i], 3)} px at ${fmtNumber(d.alongPx[i], 0)} px along the stripe (frame x ${fmtNumber(d.x[i], 1)}, y ${fmtNumber(d.y[i], 1)} px): click to show it on the frame`
+      : note;
+    // what the plot spans and holds, for checks that nothing is clipped
+    Object.assign(this.diffCanvas.dataset, {
+      hovered: String(i), deltaTopPx: String(scale?.yRange[1] ?? ''), maxAbsPx: String(d?.maxAbsPx ?? ''),
+      zeroY: String(scale ? scale.toY(0) : ''), left: String(scale?.left ?? ''), right: String(scale?.right ?? ''),
+    });
+  }
+
+  /**
+   * The pair under a point of the difference plot (within 8 CSS px), or -1.
+   * @param {number} sx
+   * @param {number} sy
+   * @returns {number}
+   */
+  pairAt(sx, sy) {
+    const d = this.difference;
+    if (!d || !this.diffScale) return -1;
+    return nearestOnScreen(this.diffScale, d.alongPx, d.diffPx, sx, sy, 8);
+  }
+
+  /**
    * @param {number} sx
    * @param {number} sy
    */
@@ -158,6 +209,8 @@ export class WheelView {
   renderTitle(state, w, method) {
     const r = w.record;
     const siblings = state.pass?.wheels ?? [];
+    const level = alarmClass(resultOf(r, method)) === 'none' ? 'none' : method === 'adaptive' && r?.level && r.level !== 'none' ? r.level : alarmClass(resultOf(r, method));
+    const disagreement = (r?.method_disagreement ?? []).map((/** @type {any} */ d) => `${parameterOf(d.parameter).label} ${fmtSigned(d.difference_mm, 1)} mm`).join(', ');
     const at = siblings.findIndex((/** @type {any} */ s) => String(s.wheel_id) === String(w.wheelId));
     const link = (/** @type {any} */ s, /** @type {string} */ text, /** @type {string} */ rel) => s
       ? h('a', { class: 'button', rel, href: buildHash(['passes', w.passId, 'wheels', s.wheel_id], { method }) }, text)
@@ -166,8 +219,10 @@ export class WheelView {
       h('h1', {}, h('a', { href: '#/passes' }, 'Passes'), ' › ',
         h('a', { href: buildHash(['passes', w.passId]) }, `Pass #${w.passId}`), ' › ',
         r ? `Vehicle ${r.vehicle_id} · axle ${r.axle} · ${r.side}` : `Wheel ${w.wheelId}`),
-      h('span', { class: `badge ${alarmClass(resultOf(r, method))}` },
-        r?.reason ? 'not measured' : { ok: 'within limits', alarm: 'ALARM', none: r?.state ?? '–' }[alarmClass(resultOf(r, method))]),
+      h('span', { class: `badge ${level}`, 'data-level': level },
+        r?.reason ? 'not measured' : { ok: 'within limits', near: 'NEAR LIMIT', alarm: 'ALARM', none: r?.state ?? '–' }[level]),
+      h('span', { class: `disposition ${r?.disposition ? 'set' : 'open'}` }, fmtDisposition(r?.disposition)),
+      disagreement ? h('span', { class: 'flag disagreement', title: 'adaptive and Steger differ by more than the fleet\'s threshold' }, `methods differ: ${disagreement}`) : '',
       h('div', { class: 'segmented', role: 'group', 'aria-label': 'frame' }, w.frames.map((/** @type {any} */ f) =>
         h('button', { class: f.sensor === w.sensor && f.index === w.index ? 'on' : null, 'data-sensor': f.sensor,
           onclick: () => this.handlers.setQuery({ sensor: f.sensor, frame: String(f.index) }) },
@@ -237,6 +292,32 @@ export class WheelView {
       h('ul', { class: 'alarms' }, [...(a.alarms ?? []).map((/** @type {any} */ al) => ['adaptive', al]),
         ...(s.alarms ?? []).map((/** @type {any} */ al) => ['steger', al])].map(([m, al]) =>
         h('li', { class: 'alarm' }, `${m}: ${al.message}`))),
+    );
+  }
+
+  /**
+   * The disposition in force, its history (who, when) and, for operators, the form.
+   * @param {any} w the wheel state
+   * @param {string|undefined} role
+   */
+  renderDispositions(w, role) {
+    const history = w.dispositions ?? [];
+    const kind = /** @type {HTMLSelectElement} */ (h('select', { name: 'kind' }, DISPOSITIONS.map(([k, label]) => h('option', { value: k }, label))));
+    const comment = /** @type {HTMLInputElement} */ (h('input', { name: 'comment', size: 28, maxlength: 1000, placeholder: 'reason or comment' }));
+    const form = role === 'operator' || role === 'admin'
+      ? h('form', {
+        class: 'disposition-form',
+        onsubmit: (/** @type {Event} */ e) => {
+          e.preventDefault();
+          this.handlers.addDisposition({ kind: kind.value, ...(comment.value.trim() ? { comment: comment.value.trim() } : {}) });
+        },
+      }, kind, ' ', comment, ' ', h('button', { type: 'submit' }, 'Record'))
+      : h('p', { class: 'note' }, 'Recording a disposition needs an operator token.');
+    this.dispositionRoot.replaceChildren(
+      h('p', { class: `current disposition ${history.length ? 'set' : 'open'}` }, history.length ? fmtDisposition(history[0]) : 'open (no disposition yet)'),
+      form,
+      history.length ? h('ul', { class: 'disposition-history' }, history.map((/** @type {any} */ d) =>
+        h('li', {}, h('span', { class: 'mono' }, fmtTime(d.created_at)), ` ${d.actor}: `, fmtDisposition(d)))) : '',
     );
   }
 

@@ -1,0 +1,549 @@
+"""The depot's review in real headless Chromium: worst wheels, amber and red with the values,
+dispositions, trends with limits, vehicle history, method disagreement, and the defects
+the walk-through found (each test would have caught one).
+
+Three passes of one simulated train (1 vehicle, 2 axles, LMA wheels, the clean stripe on
+black: every wheel measured) are uploaded through
+the API with the LM flange-thickness maximum lowered to 31.3 mm for them (the truth puts
+axle 1's wheels at 31.7–31.8 mm: in alarm; axle 2 left at 30.7 mm: within the amber band),
+then dated 60, 30 and 0 days before 2026-11-22. Screenshots land in tests/e2e/screenshots/.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import subprocess
+from collections.abc import Iterator
+from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
+from pathlib import Path
+from typing import Any
+
+import httpx
+import pytest
+from sqlalchemy import create_engine, update
+
+from db.models import Pass
+from tests.e2e.conftest import ROOT, WHEELSCAN, Service, zip_pass
+from tests.e2e.test_retention_page import wait_for_job
+
+pytestmark = [pytest.mark.e2e, pytest.mark.slow]
+
+VIEWPORT = {"width": 1600, "height": 1000}
+LM_SD_MAX_MM = 31.3
+DAYS_BACK = (60, 30, 0)
+NEWEST_AT = datetime(2026, 11, 22, 8, tzinfo=UTC)
+"""The newest of these passes: a day before the simulator's own pass time, so passes other
+browser tests upload stay the newest in the list."""
+
+
+@dataclass(frozen=True, slots=True)
+class Depot:
+    passes: list[int]
+    """Oldest first."""
+
+    @property
+    def newest(self) -> int:
+        return self.passes[-1]
+
+
+def api(service: Service, role: str, method: str, path: str, **kwargs: Any) -> httpx.Response:
+    headers = {"Authorization": f"Bearer {service.token(role)}"}
+    return httpx.request(method, f"{service.url}{path}", headers=headers, timeout=60, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def depot(service: Service, tmp_path_factory: pytest.TempPathFactory) -> Depot:
+    """Three measured passes of one train under a lowered LM Sd limit (restored after)."""
+    out = tmp_path_factory.mktemp("depot")
+    subprocess.run(
+        [*WHEELSCAN, "synth-pass", str(out / "train"), "--vehicles", "1", "--axles", "2"]
+        + ["--seed", "11", "--repeat", "3", "--field", "clean"],
+        capture_output=True,
+        timeout=600,
+        check=True,
+        cwd=ROOT,
+    )
+    original = lm_limits(service)
+    lowered = original | {"flange_thickness_max_mm": LM_SD_MAX_MM}
+    assert api(service, "admin", "PUT", "/api/limits/default/LM", json=lowered).is_success
+    passes = []
+    try:
+        for folder in sorted((out / "train").glob("pass-*")):
+            archive = zip_pass(folder, out / f"{folder.name}.zip")
+            response = api(
+                service, "operator", "POST", "/api/passes",
+                files={"file": (archive.name, archive.read_bytes(), "application/zip")},
+            )  # fmt: skip
+            assert response.status_code == 202, response.text
+            wait_for_job(service, response.json()["job_id"])
+            passes.append(response.json()["pass_id"])
+    finally:
+        assert api(service, "admin", "PUT", "/api/limits/default/LM", json=original).is_success
+    engine = create_engine(f"sqlite:///{service.data_dir / 'wheelscan.db'}")
+    with engine.begin() as connection:
+        for pass_id, days in zip(passes, DAYS_BACK, strict=True):
+            when = NEWEST_AT - timedelta(days=days)
+            connection.execute(update(Pass).where(Pass.id == pass_id).values(started_at=when))
+    engine.dispose()
+    return Depot(passes)
+
+
+def lm_limits(service: Service) -> dict[str, float]:
+    """The default fleet's LM limits as a PUT body."""
+    row = next(
+        r for r in api(service, "viewer", "GET", "/api/limits").json() if r["wheel_profile"] == "LM"
+    )
+    return {k: v for k, v in row.items() if k.endswith("_mm") or k.startswith("near")}
+
+
+def new_page(browser: Any, service: Service, role: str, viewport: dict | None = None) -> Any:
+    context = browser.new_context(viewport=viewport or VIEWPORT, accept_downloads=True)
+    page = context.new_page()
+    page.errors = []
+    page.on("pageerror", lambda exc: page.errors.append(str(exc)))
+    page.goto(f"{service.url}/#token={service.token(role)}")
+    page.locator("header .role").wait_for()
+    return page
+
+
+@pytest.fixture()
+def viewer(browser: Any, service: Service) -> Iterator[Any]:
+    page = new_page(browser, service, "viewer")
+    yield page
+    page.context.close()
+    assert page.errors == [], f"uncaught errors in the page: {page.errors}"
+
+
+@pytest.fixture()
+def operator(browser: Any, service: Service) -> Iterator[Any]:
+    page = new_page(browser, service, "operator")
+    yield page
+    page.context.close()
+    assert page.errors == [], f"uncaught errors in the page: {page.errors}"
+
+
+def wheels(service: Service, pass_id: int) -> list[dict]:
+    return list(api(service, "viewer", "GET", f"/api/passes/{pass_id}/wheels").json())
+
+
+def wheel_at(service: Service, pass_id: int, axle: int, side: str) -> dict:
+    return next(w for w in wheels(service, pass_id) if (w["axle"], w["side"]) == (axle, side))
+
+
+def open_wheel(page: Any, service: Service, pass_id: int, wheel_id: int, query: str = "") -> None:
+    page.goto(f"{service.url}/#/passes/{pass_id}/wheels/{wheel_id}{query}")
+    page.locator(f".wheel[data-loaded-wheel='{pass_id}/{wheel_id}']").wait_for()
+
+
+def test_worst_wheels_put_alarms_first_then_amber_with_margins(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    page.get_by_role("link", name="Worst wheels").click()
+    rows = page.locator("table.worst tbody tr[data-wheel-id]")
+    rows.first.wait_for()
+    assert rows.count() == 4, "each wheel once: its newest pass"
+    levels = [rows.nth(i).get_attribute("data-level") for i in range(4)]
+    assert levels[:2] == ["alarm", "alarm"] and levels[2] == "near", levels
+    first = rows.first.inner_text()
+    assert "Sd" in first and "≤ 31.3" in first and "ALARM" in first and "open" in first
+    assert all(
+        r == str(depot.newest) for r in rows.evaluate_all("rs => rs.map(r => r.dataset.passId)")
+    )
+    page.screenshot(path=str(screenshots / "20-worst-wheels.png"))
+    page.locator("select[name=parameter]").select_option("qr_mm")
+    page.locator("form.filters button[type=submit]").click()
+    page.wait_for_url("**parameter=qr_mm")
+    page.wait_for_function(
+        "() => [...document.querySelectorAll('table.worst tbody tr td:nth-child(6)')]"
+        ".every(td => td.textContent === 'qR')"
+    )
+    page.locator("input[name=history]").check()
+    page.locator("form.filters button[type=submit]").click()
+    page.wait_for_function(
+        "() => document.querySelectorAll('table.worst tbody tr[data-wheel-id]').length === 12"
+    )
+    page.locator("[data-action=clear-filters]").click()
+    page.wait_for_url("**#/review")
+    page.wait_for_function(
+        "() => document.querySelectorAll('table.worst tbody tr[data-wheel-id]').length === 4"
+    )
+
+
+def test_pass_list_and_pass_page_show_amber_red_and_the_values_in_alarm(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    row = page.locator(f"tr[data-pass-id='{depot.newest}']")
+    row.wait_for()
+    text = row.inner_text()
+    assert "V001" in text, "the pass list shows vehicle ids"
+    assert "V001 axle 1 left: Sd" in text
+    assert row.locator("td.near").inner_text() == "1"
+    page.screenshot(path=str(screenshots / "21-passes-levels.png"))
+    row.locator("a", has_text=f"#{depot.newest}").click()
+    cards = page.locator("a.wheel-card")
+    cards.first.wait_for()
+    by_level = {c.get_attribute("data-level") for c in cards.all()}
+    assert {"alarm", "near"} <= by_level, by_level
+    alarm_card = page.locator("a.wheel-card[data-level=alarm]").first
+    value = alarm_card.locator("tr[data-parameter=flange_thickness_mm] td.alarm")
+    assert float(value.inner_text()) > LM_SD_MAX_MM
+    assert "mm" in alarm_card.inner_text() and "LM limits" in alarm_card.inner_text()
+    assert alarm_card.locator("tr[data-parameter=flange_thickness_en_mm]").count() == 0
+    assert page.locator(".alarm-values").inner_text().startswith("In alarm:")
+    page.screenshot(path=str(screenshots / "22-pass-levels.png"))
+
+
+def test_a_disposition_is_recorded_and_shown_on_wheel_pass_and_worst_wheels(
+    operator: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = operator
+    target = wheel_at(service, depot.newest, 1, "left")
+    open_wheel(page, service, depot.newest, target["wheel_id"])
+    form = page.locator(".disposition-form")
+    form.locator("select").select_option("false_alarm")
+    form.locator("button").click()
+    assert "false alarm needs its reason" in page.locator("#banner .error").inner_text()
+    form.locator("input[name=comment]").fill("flange lubricant on the stripe")
+    form.locator("button").click()
+    current = page.locator(".dispositions .current")
+    current.filter(has_text="false alarm: flange lubricant").wait_for()
+    history = page.locator(".disposition-history li").first.inner_text()
+    assert "e2e operator" in history and "UTC" in history
+    page.locator(".side-panel").screenshot(path=str(screenshots / "23-wheel-disposition.png"))
+    page.goto(f"{service.url}/#/passes/{depot.newest}")
+    card = page.locator(f"a.wheel-card[data-wheel-id='{target['wheel_id']}']")
+    card.wait_for()
+    assert "false alarm: flange lubricant" in card.inner_text()
+    page.goto(f"{service.url}/#/review")
+    row = page.locator(f"table.worst tr[data-wheel-id='{target['wheel_id']}']")
+    row.wait_for()
+    assert "false alarm: flange lubricant" in row.inner_text()
+    page.locator("input[name=open]").check()
+    page.locator("form.filters button[type=submit]").click()
+    page.wait_for_url("**open=1")
+    page.wait_for_function(
+        f"() => !document.querySelector(\"tr[data-wheel-id='{target['wheel_id']}']\")"
+    )
+
+
+def test_trend_spans_the_passes_with_limits_and_a_forecast_in_utc(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    target = wheel_at(service, depot.newest, 1, "left")
+    open_wheel(page, service, depot.newest, target["wheel_id"])
+    plots = page.locator(".trend-plot")
+    plots.first.locator("canvas").wait_for()
+    assert plots.count() == 3  # Sh, Sd (12 mm for LM), qR
+    span = plots.first.evaluate("(el) => [Number(el.dataset.xMin), Number(el.dataset.xMax)]")
+    days = (span[1] - span[0]) / 86400
+    assert 60 <= days < 70, f"the x-axis spans the 60 days of passes, got {days:.1f} days"
+    forecasts = page.locator(".forecast").all_inner_texts()
+    assert any("mm/day" in text for text in forecasts), forecasts
+    page.locator(".trend:not(.delta-r)").screenshot(path=str(screenshots / "24-wheel-trend.png"))
+
+
+def test_vehicle_history_is_found_from_any_page(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    page.goto(f"{service.url}/#/passes/{depot.newest}")
+    page.locator("a.wheel-card").first.wait_for()
+    search = page.locator("header form.vehicle-search input")
+    search.fill("v00")
+    search.press("Enter")
+    page.get_by_role("link", name="V001").click()
+    table = page.locator("table.vehicle-history")
+    table.wait_for()
+    passes = table.locator("tbody tr").evaluate_all("rs => rs.map(r => Number(r.dataset.passId))")
+    assert passes[:3] == depot.passes[::-1], "newest pass first"
+    assert table.locator("td.level-alarm").count() >= 2
+    page.screenshot(path=str(screenshots / "25-vehicle-history.png"))
+
+
+def test_method_disagreement_beyond_the_fleets_threshold_is_flagged(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    body = lm_limits(service)
+    tight = body | {"method_disagreement_mm": 0.01}
+    assert api(service, "admin", "PUT", "/api/limits/default/LM", json=tight).is_success
+    try:
+        page = viewer
+        page.goto(f"{service.url}/#/passes/{depot.newest}")
+        flag = page.locator("a.wheel-card .flag.disagreement").first
+        flag.wait_for()
+        assert flag.inner_text().startswith("methods differ: ")
+        page.screenshot(path=str(screenshots / "26-pass-disagreement.png"))
+    finally:
+        assert api(service, "admin", "PUT", "/api/limits/default/LM", json=body).is_success
+
+
+def test_defect_1_each_user_gets_a_3d_scene_of_their_own(
+    browser: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    pages = [new_page(browser, service, "viewer") for _ in range(2)]
+    targets = [
+        wheel_at(service, depot.newest, 1, "left"),
+        wheel_at(service, depot.newest, 2, "right"),
+    ]
+    urls = []
+    for page, target in zip(pages, targets, strict=True):
+        open_wheel(page, service, depot.newest, target["wheel_id"])
+        page.locator("button[data-action='open-3d']").click()
+        page.frame_locator("iframe.viewer-frame").locator("canvas").first.wait_for(timeout=60_000)
+        urls.append(page.locator("iframe.viewer-frame").get_attribute("src"))
+    assert urls[0] != urls[1], "the second user's wheel replaced the first user's scene"
+    first = pages[0]
+    assert first.locator("iframe.viewer-frame").get_attribute("src") == urls[0]
+    first.wait_for_timeout(2000)  # viser streams the scene, then fades it in
+    first.screenshot(path=str(screenshots / "33-3d-own-scene.png"))
+    for page in pages:
+        page.context.close()
+
+
+def test_defect_2_an_error_banner_clears_on_the_next_page(viewer: Any, service: Service) -> None:
+    page = viewer
+    page.goto(f"{service.url}/#/passes/987654")
+    page.locator("#banner .error").wait_for()
+    page.locator("header nav a", has_text="Passes").click()
+    page.locator("tr[data-pass-id]").first.wait_for()
+    assert page.locator("#banner .error").count() == 0
+
+
+def test_defect_4_the_sigma_map_has_one_scale_for_every_frame_and_an_opacity(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    ranges = []
+    for axle, side in ((1, "left"), (2, "right")):
+        target = wheel_at(service, depot.newest, axle, side)
+        open_wheel(page, service, depot.newest, target["wheel_id"], "?sigma=1")
+        page.locator(".legend").wait_for(state="visible")
+        sigma = api(
+            service, "viewer", "GET",
+            f"/api/passes/{depot.newest}/wheels/{target['wheel_id']}/sigma/inner.png",
+        )  # fmt: skip
+        ranges.append((sigma.headers["X-Sigma-Min-Px"], sigma.headers["X-Sigma-Max-Px"]))
+    assert ranges[0] == ranges[1], f"the σ colours differ between frames: {ranges}"
+    assert float(ranges[0][0]) == pytest.approx(5 / 3**0.5, abs=1e-4)
+    slider = page.locator("input.sigma-opacity")
+    assert slider.is_visible() and slider.input_value() == "55"
+    slider.fill("30")
+    page.screenshot(path=str(screenshots / "34-sigma-fixed-scale.png"))
+
+
+def test_defect_5_the_difference_plot_shows_every_offset_and_leads_to_the_frame(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    target = wheel_at(service, depot.newest, 1, "left")
+    open_wheel(page, service, depot.newest, target["wheel_id"])
+    plot = page.locator(".diff-plot")
+    data = plot.evaluate("(c) => ({ ...c.dataset })")
+    assert float(data["deltaTopPx"]) >= float(data["maxAbsPx"]) > 0, data
+    assert "shaded: ±RMS" in page.locator(".diff-plot + .note").inner_text()
+    plot.scroll_into_view_if_needed()  # below the fold when the side panel is long
+    box = plot.bounding_box()
+    before = page.locator(".frame-canvas").get_attribute("data-viewport")
+    y = box["y"] + float(data["zeroY"])
+    for sx in range(int(float(data["left"])), int(float(data["right"])), 3):
+        page.mouse.move(box["x"] + sx, y)
+        if plot.get_attribute("data-hovered") != "-1":
+            break
+    assert plot.get_attribute("data-hovered") != "-1", "no pair found along the zero line"
+    assert "click to show it on the frame" in page.locator(".diff-plot + .note").inner_text()
+    page.mouse.click(box["x"] + sx, y)
+    page.wait_for_function(
+        "(b) => document.querySelector('.frame-canvas').dataset.viewport !== b", arg=before
+    )
+    assert json.loads(page.locator(".frame-canvas").get_attribute("data-viewport"))["scale"] >= 4
+    page.screenshot(path=str(screenshots / "32-difference-click.png"))
+
+
+def test_defect_6_a_narrow_window_gives_the_frame_the_full_width(
+    browser: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = new_page(browser, service, "viewer", {"width": 800, "height": 900})
+    target = wheel_at(service, depot.newest, 2, "left")
+    open_wheel(page, service, depot.newest, target["wheel_id"])
+    width = page.locator(".frame-canvas").bounding_box()["width"]
+    assert width > 700, f"the frame gets {width:.0f} px of 800"
+    page.screenshot(path=str(screenshots / "27-wheel-800px.png"))
+    page.context.close()
+
+
+def test_defect_7_unknown_ids_and_a_bad_frame_say_so_with_a_link_back(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    page.goto(f"{service.url}/#/passes/{depot.newest}/wheels/999999")
+    page.locator("#banner .error").wait_for()
+    assert page.locator(".wheel-grid").is_hidden(), "no empty panels"
+    stray = [t for t in page.get_by_text("loading").all() if t.is_visible()]
+    assert stray == [], "a stray loading note stays on screen"
+    page.get_by_role("link", name=f"Back to pass #{depot.newest}").wait_for()
+    page.screenshot(path=str(screenshots / "28-unknown-wheel.png"))
+    target = wheel_at(service, depot.newest, 2, "left")
+    page.goto(
+        f"{service.url}/#/passes/{depot.newest}/wheels/{target['wheel_id']}?sensor=left_inner&frame=7"
+    )
+    banner = page.locator("#banner .error")
+    banner.filter(has_text="does not exist").wait_for()
+    page.goto(f"{service.url}/#/nowhere")
+    page.get_by_role("link", name="Go back to the passes list").click()
+    page.wait_for_url("**#/passes")
+
+
+def test_defect_8_a_dropped_text_file_is_refused_without_a_progress_bar(
+    browser: Any, service: Service, screenshots: Path
+) -> None:
+    page = new_page(browser, service, "operator")
+    page.get_by_role("link", name="Upload").click()
+    zone = page.locator(".drop-zone")
+    zone.wait_for()
+    transfer = page.evaluate_handle(
+        """([b64, name]) => {
+          const t = new DataTransfer();
+          const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+          t.items.add(new File([bytes], name, { type: 'text/plain' }));
+          return t;
+        }""",
+        [base64.b64encode(b"not an archive").decode(), "notes.txt"],
+    )
+    zone.dispatch_event("drop", {"dataTransfer": transfer})
+    banner = page.locator("#banner .error")
+    banner.wait_for()
+    assert "notes.txt" in banner.inner_text() and ".zip" in banner.inner_text()
+    assert page.locator(".upload-progress").count() == 0
+    page.screenshot(path=str(screenshots / "29-upload-txt.png"))
+    response = api(
+        service, "operator", "POST", "/api/passes",
+        files={"file": ("notes.zip", b"not an archive", "application/zip")},
+    )  # fmt: skip
+    detail = response.json()["detail"]
+    assert response.status_code == 422 and detail.count("pass archive") == 1, detail
+    page.context.close()
+
+
+def test_defect_9_help_lists_every_key_closes_outside_and_leaves_exports_free(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    target = wheel_at(service, depot.newest, 2, "left")
+    open_wheel(page, service, depot.newest, target["wheel_id"])
+    page.keyboard.press("?")
+    help_box = page.locator("#help")
+    help_box.wait_for(state="visible")
+    text = help_box.inner_text()
+    assert "camera frame" in text and "double-click" in text and "drag" in text
+    exports = page.locator(".titlebar .exports.report").bounding_box()
+    box = help_box.bounding_box()
+    overlap_x = min(box["x"] + box["width"], exports["x"] + exports["width"]) - max(
+        box["x"], exports["x"]
+    )
+    overlap_y = min(box["y"] + box["height"], exports["y"] + exports["height"]) - max(
+        box["y"], exports["y"]
+    )
+    assert overlap_x <= 0 or overlap_y <= 0, "the help covers the export buttons"
+    page.screenshot(path=str(screenshots / "30-help.png"))
+    page.mouse.click(20, 300)
+    help_box.wait_for(state="hidden")
+
+
+def test_defect_10_filters_match_parts_clear_and_wheel_changes_skip_the_wheel_list(
+    viewer: Any, service: Service, depot: Depot
+) -> None:
+    page = viewer
+    site = api(service, "viewer", "GET", f"/api/passes/{depot.newest}").json()["site"]
+    page.locator("form.filters input[name=site]").fill(site[1:4].upper())
+    page.locator("form.filters button[type=submit]").click()
+    page.locator(f"tr[data-pass-id='{depot.newest}']").wait_for()
+    page.locator("[data-action=clear-filters]").click()
+    page.wait_for_url("**#/passes")
+    assert page.locator("form.filters input[name=site]").input_value() == ""
+    first, second = (w["wheel_id"] for w in wheels(service, depot.newest)[:2])
+    open_wheel(page, service, depot.newest, first)
+    page.locator("a[rel=next]").wait_for()  # the pass's wheel list, fetched once, is in
+    listed: list[str] = []
+    page.on("request", lambda r: listed.append(r.url) if r.url.endswith("/wheels") else None)
+    page.locator("a[rel=next]").click()
+    page.locator(f".wheel[data-loaded-wheel='{depot.newest}/{second}']").wait_for()
+    assert listed == [], f"the next wheel re-fetched the pass's wheel list: {listed}"
+
+
+def test_defect_11_a_report_being_made_shows_progress_and_disables_its_button(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    page.goto(f"{service.url}/#/passes/{depot.newest}")
+    page.locator("a.wheel-card").first.wait_for()
+    during = page.evaluate(
+        """() => {
+          const pdf = document.querySelector('button[data-export=pdf]');
+          pdf.click();
+          const status = document.querySelector('.exports .export-progress');
+          return { shown: !status.hidden, disabled: pdf.disabled };
+        }"""
+    )
+    assert during == {"shown": True, "disabled": True}, during
+    page.screenshot(path=str(screenshots / "31-pdf-progress.png"))
+    page.locator(".exports .export-progress").wait_for(state="hidden", timeout=120_000)
+    assert page.locator("button[data-export=pdf]").is_enabled()
+
+
+DRAWN_AFTER_JS = """([t0, wheel]) => {
+  const data = performance.getEntriesByName('frame-data')
+    .find((e) => e.startTime > t0 && e.detail === wheel);
+  if (!data) return undefined;
+  return performance.getEntriesByName('frame-draw')
+    .filter((e) => e.startTime >= data.startTime).map((e) => e.startTime + e.duration)[0];
+}"""
+
+
+def drawn_after(page: Any, started_ms: float, pass_id: int, wheel_id: int) -> float:
+    """Time from `started_ms` to the first draw of this wheel's frame and centres [ms]
+    (not a redraw of the wheel before it)."""
+    arg = [started_ms, f"{pass_id}/{wheel_id}"]
+    page.wait_for_function(f"(a) => ({DRAWN_AFTER_JS})(a) !== undefined", arg=arg)
+    return float(page.evaluate(DRAWN_AFTER_JS, arg) - started_ms)
+
+
+def test_wheel_page_and_next_wheel_times_are_recorded(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    """The bars (≤ 500 ms from a click to frame and overlays drawn, ≤ 300 ms to the next
+    wheel) are measured here and kept in measurements.json; the machine is shared, so the
+    test fails only far beyond them."""
+    page = viewer
+    ids = [w["wheel_id"] for w in wheels(service, depot.newest)]
+    page.goto(f"{service.url}/#/passes/{depot.newest}")
+    page.locator("a.wheel-card").first.wait_for()
+    opened, nexts = [], []
+    for wheel_id in ids:
+        page.goto(f"{service.url}/#/passes/{depot.newest}")
+        card = page.locator(f"a.wheel-card[data-wheel-id='{wheel_id}']")
+        card.wait_for()
+        started = page.evaluate("() => performance.now()")
+        card.click()
+        opened.append(drawn_after(page, started, depot.newest, wheel_id))
+    open_wheel(page, service, depot.newest, ids[0])
+    for wheel_id in ids[1:]:
+        started = page.evaluate("() => performance.now()")
+        page.locator(".frame-canvas").focus()
+        page.keyboard.press("]")
+        nexts.append(drawn_after(page, started, depot.newest, wheel_id))
+    figures = {
+        "click_to_drawn_ms": [round(v) for v in opened],
+        "click_to_drawn_median_ms": round(sorted(opened)[len(opened) // 2]),
+        "next_wheel_ms": [round(v) for v in nexts],
+        "next_wheel_median_ms": round(sorted(nexts)[len(nexts) // 2]),
+    }
+    path = screenshots / "measurements.json"
+    data = json.loads(path.read_text()) if path.exists() else {}
+    path.write_text(json.dumps({**data, "depot_wheel_page": figures}, indent=2))
+    assert figures["click_to_drawn_median_ms"] < 3 * 500, figures
+    assert figures["next_wheel_median_ms"] < 3 * 300, figures
