@@ -276,9 +276,9 @@ def _left_out_safely(band: StripeBand, found: BandMask, stride: int) -> bool:
     CONTINUITY_GAP_PX of the mask (pieces there would continue it).
 
     Not checked: whether a left-out region holds a line stronger than the strongest
-    candidate in the band, which on the whole frame would raise the mask's floor
-    (`segmentation.MASK_FLOOR`); bounding it from the seed's scale alone keeps the spots of
-    a cluttered frame in the band and doubles its time.
+    candidate in the band, which on the whole frame would raise the strong pieces' bar
+    (`segmentation.STRONG_FRACTION`); bounding it from the seed's scale alone keeps the
+    spots of a cluttered frame in the band and doubles its time.
     """
     if band.left_out is None:
         return True

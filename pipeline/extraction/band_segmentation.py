@@ -20,7 +20,6 @@ from pipeline.extraction.ridges import RIDGE_THRESHOLD
 from pipeline.extraction.scalespace import blend, column_taps, linear_tap
 from pipeline.extraction.segmentation import (
     CONTINUITY_GAP_PX,
-    MASK_FLOOR,
     candidates,
     stripe_components,
     strong_candidates,
@@ -148,37 +147,6 @@ def _run_peaks(runs, pixel_strength):
 
 
 @kernel
-def _split_runs(runs, pixel_strength, floor):
-    """The stretches of the runs whose pixels have C ≥ floor, raster order, and the largest C
-    on each: ((K, 3) int64, (K,) float64)."""
-    count = 0
-    for p in range(pixel_strength.size):  # stretches start where C rises to the floor
-        if pixel_strength[p] >= floor and (p == 0 or pixel_strength[p - 1] < floor):
-            count += 1
-    count += runs.shape[0]  # a run's start after a strong run's end is one more at most
-    out = np.empty((count, 3), np.int64)
-    peak = np.empty(count)
-    count = 0
-    at = 0
-    for k in range(runs.shape[0]):
-        r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2]
-        start = -1
-        for c in range(c0, c1 + 1):
-            strong = c < c1 and pixel_strength[at + c - c0] >= floor
-            if strong and start < 0:
-                start = c
-                peak[count] = 0.0
-            if strong:
-                peak[count] = max(peak[count], pixel_strength[at + c - c0])
-            elif start >= 0:
-                out[count, 0], out[count, 1], out[count, 2] = r, start, c
-                count += 1
-                start = -1
-        at += c1 - c0
-    return out[:count].copy(), peak[:count].copy()
-
-
-@kernel
 def runs_near_band_edge(runs, blocks, reach):
     """Whether a pixel of each run has a pixel outside the band within `reach` (Chebyshev;
     beyond the frame counts as band): whether a block the run's square neighbourhood
@@ -239,21 +207,13 @@ def segment_band(
 
     Notes
     -----
-    V > RIDGE_THRESHOLD, 8-connected components; the strongest candidate's C sets the floor
-    MASK_FLOOR·C: pixels whose C (the largest over the scales) is below it leave the mask
-    (the faint ridges of texture and outlines around the stripe, which would join it into
-    one component); the components again, the stripe's among them
+    V > RIDGE_THRESHOLD, 8-connected components, the stripe's among them
     (`segmentation.stripe_components`), closed. With every block in the band (the whole
     frame) no component comes near the band's edge: the frame's edge counts as band.
     """
     runs = _stripe_runs(responses, strides, blocks, shape)
     pixel_strength = _pixel_strengths(runs, strengths, strides, shape[1])
     label, shapes, strength = _components(runs, _run_peaks(runs, pixel_strength))
-    shaped = candidates(shapes)
-    floor = MASK_FLOOR * float(strength[shaped].max()) if shaped.any() else 0.0
-    if pixel_strength.min(initial=floor) < floor:  # else the floor leaves every pixel in
-        runs, peaks = _split_runs(runs, pixel_strength, floor)
-        label, shapes, strength = _components(runs, peaks)
     near = labels_within(runs, label, strong_candidates(shapes, strength), CONTINUITY_GAP_PX)
     keep = stripe_components(shapes, strength, near)
     # A component the band may have cut: one shaped like a stripe piece (kept ones are). A

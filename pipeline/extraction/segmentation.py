@@ -30,13 +30,6 @@ scale whatever its width, so this is a share of the peak contrast: a ghost at 10
 texture and the outlines of a lit scene (C ≲ 0.15 of the laser's) fall below it; a laser
 stretch dimmed to 25 % stays kept with the component it belongs to."""
 
-MASK_FLOOR = 0.08
-"""A pixel of V > RIDGE_THRESHOLD stays in the mask only where its C (the largest over the
-scales) is at least this share of the strongest candidate's: the faint ridges of a lit
-scene's texture and outlines would otherwise join the stripe into one component. A
-simulated wheel's flank, dimmed where the laser grazes it, needs it below 0.15 (measured:
-0.05 and 0.08 keep it, 0.15 loses it)."""
-
 CHAIN_FRACTION = 0.5
 """A short linked chain of centres is the stripe's only when its highest line (the
 unsmoothed profile's height above the brighter side, `line_test.line_profiles`) is at least

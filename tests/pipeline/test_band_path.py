@@ -132,7 +132,7 @@ def test_a_short_stripe_left_out_beside_a_faint_long_ridge_is_taken_back(monkeyp
 
 def _stripe_with_faint_branch(branch_px: float) -> np.ndarray:
     """A stripe (w 9 px, peak 40) and, off its side, a fainter thin line (w 3 px, peak 16)
-    of `branch_px`: the finest scale sees the line (V > 0.5, C above the mask's floor), the
+    of `branch_px`: the finest scale sees the line (V > 0.5), the
     coarsest hardly (V < 0.1), so the band located on the coarsest scale ends where the
     line goes on."""
     rows, cols = np.mgrid[0:600, 0:800].astype(np.float64)
