@@ -386,7 +386,7 @@ def _with_peaks(
     return tuple(peaked)
 
 
-def _segment(scales, levels, blocks, shape):
+def _segment(scales, levels, blocks, shape, c_grey):
     """`segment_band` of the scales' V and C (C not yet max-filtered); `blocks` per level,
     the frame's first."""
     return segment_band(
@@ -395,6 +395,7 @@ def _segment(scales, levels, blocks, shape):
         tuple(2**lv for lv in levels),
         blocks[0],
         shape,
+        c_grey,
     )
 
 
@@ -422,7 +423,7 @@ def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey):
         return (
             band,
             scales,
-            _segment(scales, pyramid.scale_levels, band.blocks, pyramid.image.shape),
+            _segment(scales, pyramid.scale_levels, band.blocks, pyramid.image.shape, c_grey),
         )
 
     # A stripe the band cuts (a spot fused to its edge, a faint end) gets one wider band.
@@ -505,7 +506,7 @@ def analyse_band(
         else _analysed(pyramid, sigma, lv, everywhere[lv], ~everywhere[lv], c_grey)
         for i, (sigma, lv) in enumerate(zip(sigmas_px, levels, strict=True))
     ]
-    whole = _segment(scales, levels, everywhere, image.shape)
+    whole = _segment(scales, levels, everywhere, image.shape, c_grey)
     return BandAnalysis(
         tuple(float(s) for s in sigmas_px),
         _with_peaks(scales, levels, shapes, whole.mask, everywhere[0], peak_reach_px),

@@ -185,6 +185,7 @@ def segment_band(
     strides: tuple[int, ...],
     blocks: np.ndarray,
     shape: tuple[int, int],
+    c_grey: float,
 ) -> BandMask:
     """Stripe mask from the scales' ridge responses inside the band.
 
@@ -200,6 +201,8 @@ def segment_band(
         The band's frame (level-0) blocks.
     shape : tuple of int
         Frame shape (M, N).
+    c_grey : float
+        The ridge response's structure constant c [grey levels] (`ridges`).
 
     Returns
     -------
@@ -214,8 +217,9 @@ def segment_band(
     runs = _stripe_runs(responses, strides, blocks, shape)
     pixel_strength = _pixel_strengths(runs, strengths, strides, shape[1])
     label, shapes, strength = _components(runs, _run_peaks(runs, pixel_strength))
-    near = labels_within(runs, label, strong_candidates(shapes, strength), CONTINUITY_GAP_PX)
-    keep = stripe_components(shapes, strength, near)
+    strong = strong_candidates(shapes, strength, c_grey)
+    near = labels_within(runs, label, strong, CONTINUITY_GAP_PX)
+    keep = stripe_components(shapes, strength, near, c_grey)
     # A component the band may have cut: one shaped like a stripe piece (kept ones are). A
     # round spot (a specular reflection beside the stripe) is not, whole or cut, so it may.
     piece = candidates(shapes)

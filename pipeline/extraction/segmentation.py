@@ -3,10 +3,11 @@ and continuity.
 
 The laser stripe is the brightest narrow ridge of a frame. A component is a stripe piece
 when it is shaped like one (not a spot), its ridge strength is comparable to the strongest
-piece's (a dimmer outline, texture, a ghost stripe are not), and it is either long beside
-the other strong pieces or continues one of those kept (the pieces of a stripe broken at
-depth steps). Another part's bright stripe, long or continuing, may still pass here;
-measurement rejects it later by its place in the track frame.
+piece's or strong in itself (a dimmer outline, texture, a ghost stripe are neither), and
+it is either long beside the other strong pieces or continues one of those kept (the
+pieces of a stripe broken at depth steps). Another part's bright stripe, long or
+continuing, may still pass here; measurement rejects it later by its place in the track
+frame.
 """
 
 from __future__ import annotations
@@ -29,6 +30,15 @@ share of the strongest candidate's. A Gaussian line of peak A has C ≈ 0.385·A
 scale whatever its width, so this is a share of the peak contrast: a ghost at 10–30 %, the
 texture and the outlines of a lit scene (C ≲ 0.15 of the laser's) fall below it; a laser
 stretch dimmed to 25 % stays kept with the component it belongs to."""
+
+STRONG_C_RATIO = 10.0
+"""A candidate whose strength is at least this many times the ridge response's structure
+constant c (`ridges.RIDGE_C_FULL_SCALE`: 0.01 of full scale, 2.55 grey levels for 8 bit) is
+strong whatever else the frame holds: C ≥ 25.5 grey levels is a Gaussian line of peak
+contrast ≥ 66 grey levels, ≥ 6σ of a read noise of 10. A stripe dimmed where the laser
+grazes the wheel's back face (C 30–37 beside the tread's 94–104 on simulated inner frames,
+0.31–0.39 of it) is one; a ghost of 20 % of a saturated laser (C ≤ 19.6), the texture and
+outlines of a lit scene (C 11–15 beside a laser's 66) are not."""
 
 CHAIN_FRACTION = 0.5
 """A short linked chain of centres is the stripe's only when its highest line (the
@@ -54,7 +64,7 @@ to 12 px)."""
 
 
 def stripe_components(
-    shapes: ComponentShapes, strength: np.ndarray, near: np.ndarray
+    shapes: ComponentShapes, strength: np.ndarray, near: np.ndarray, c_grey: float
 ) -> np.ndarray:
     """Which components (index 0: background, never) are parts of the stripe (bool (K,)).
 
@@ -67,15 +77,17 @@ def stripe_components(
     near : ndarray of shape (K, K), bool
         Which strong candidates lie within CONTINUITY_GAP_PX of each other
         (`components.labels_within`).
+    c_grey : float
+        The ridge response's structure constant c [grey levels].
 
     Notes
     -----
     Candidates have area ≥ MIN_COMPONENT_AREA_PX and elongation ≥ MIN_ELONGATION; strong ones
-    a strength ≥ STRONG_FRACTION of the strongest candidate's. Strong ones at least
-    KEEP_FRACTION of the longest strong one's length are kept, then every strong one within
-    CONTINUITY_GAP_PX of a kept one, until none is added.
+    a strength ≥ STRONG_FRACTION of the strongest candidate's or ≥ STRONG_C_RATIO·c. Strong
+    ones at least KEEP_FRACTION of the longest strong one's length are kept, then every
+    strong one within CONTINUITY_GAP_PX of a kept one, until none is added.
     """
-    strong = strong_candidates(shapes, strength)
+    strong = strong_candidates(shapes, strength, c_grey)
     if not strong.any():
         return strong
     keep = strong & (shapes.length_px >= KEEP_FRACTION * shapes.length_px[strong].max())
@@ -93,9 +105,11 @@ def candidates(shapes: ComponentShapes) -> np.ndarray:
     return shaped
 
 
-def strong_candidates(shapes: ComponentShapes, strength: np.ndarray) -> np.ndarray:
-    """Candidates whose strength is ≥ STRONG_FRACTION of the strongest candidate's."""
+def strong_candidates(shapes: ComponentShapes, strength: np.ndarray, c_grey: float) -> np.ndarray:
+    """Candidates whose strength is ≥ STRONG_FRACTION of the strongest candidate's or
+    ≥ STRONG_C_RATIO·c_grey [grey levels]."""
     shaped = candidates(shapes)
     if not shaped.any():
         return shaped
-    return shaped & (strength >= STRONG_FRACTION * strength[shaped].max())
+    least = min(STRONG_FRACTION * strength[shaped].max(), STRONG_C_RATIO * c_grey)
+    return shaped & (strength >= least)
