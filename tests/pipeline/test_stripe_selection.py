@@ -91,3 +91,16 @@ def test_every_piece_of_a_broken_stripe_is_kept_and_a_longer_dimmer_outline_is_n
     assert ((np.abs(centres.y - 100.3) < 0.1) & (centres.x > 30) & (centres.x < 410)).sum() > 370
     assert not (np.abs(centres.y - 40.4) < 3).any()
     assert not (np.abs(centres.y - 230.2) < 3).any()
+
+
+def test_a_stripe_dimmed_to_a_third_of_the_frames_strongest_is_kept_and_a_ghost_is_not() -> None:
+    # A wheel's back face where the laser grazes it: a wide stripe, C ≈ 28 grey levels
+    # (≥ 10·c = 25.5) beside the tread's saturated one (C ≈ 81), 0.35 of it, far from it.
+    rows, cols = np.mgrid[0:300, 0:640].astype(np.float64)
+    image = 12 + _segment(rows, cols, 60.3, 20, 340, 243, width_px=5)  # the tread, saturated
+    image += _segment(rows, cols, 200.6, 40, 600, 80, width_px=11)  # the back face, dim
+    image += _segment(rows, cols, 110.2, 20, 340, 48, width_px=5)  # a 20 % ghost of the tread
+    centres = extract_centres(np.rint(image).astype(np.uint8), width_min=5, width_max=21)
+    assert ((np.abs(centres.y - 200.6) < 0.1) & (centres.x > 50) & (centres.x < 590)).sum() > 500
+    assert ((np.abs(centres.y - 60.3) < 0.1) & (centres.x > 30) & (centres.x < 330)).sum() > 290
+    assert not (np.abs(centres.y - 110.2) < 3).any()
