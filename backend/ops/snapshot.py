@@ -44,7 +44,12 @@ BLOB_COLUMNS: dict[str, dict[str, str]] = {
 """Columns that name a blob in the frame store, with the blob's suffix."""
 
 DIGEST_COLUMNS: frozenset[tuple[str, str]] = frozenset(
-    {("calibration", "sha256"), ("train_pass", "archive_sha256"), ("api_token", "token_sha256")}
+    {
+        ("calibration", "sha256"),
+        ("train_pass", "archive_sha256"),
+        ("api_token", "token_sha256"),
+        ("handheld_reference", "sha256"),
+    }
 )
 """sha256 columns that are digests of something not kept in the store."""
 

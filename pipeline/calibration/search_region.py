@@ -27,9 +27,11 @@ PROFILE_Z_MM = (-45.0, 40.0)
 """Profile-frame z from the rim's inner edge (−40) to a worn flange's tip (< 36 + 4)."""
 MARGIN_PX = 24
 """Added on every side: half the widest stripe (21 px) and the filters' reach."""
+MIN_SIDE_PX = MARGIN_PX + 1
+"""Fewer rows or columns than this inside the frame: the window itself misses the frame."""
 
 
-def stripe_search_region(sensor: SensorCalibration, side: str) -> PixelRegion:
+def stripe_search_region(sensor: SensorCalibration, side: str) -> PixelRegion | None:
     """The part of the sensor's frame where a wheel's stripe can lie.
 
     Parameters
@@ -41,9 +43,11 @@ def stripe_search_region(sensor: SensorCalibration, side: str) -> PixelRegion:
 
     Returns
     -------
-    PixelRegion
+    PixelRegion or None
         The bounding box of the projected window, widened by `MARGIN_PX` and clipped to
-        the frame.
+        the frame; None when less than `MIN_SIDE_PX` of it in either direction lies inside
+        the frame (a calibration that does not see the window: the whole frame is searched,
+        and the quality figures say so by a searched share of 1).
 
     Notes
     -----
@@ -67,9 +71,8 @@ def stripe_search_region(sensor: SensorCalibration, side: str) -> PixelRegion:
     low = np.floor(pixels.min(axis=0)).astype(int) - MARGIN_PX
     high = np.ceil(pixels.max(axis=0)).astype(int) + MARGIN_PX + 1
     width, height = sensor.image_width_px, sensor.image_height_px
-    return PixelRegion(
-        row_start=int(np.clip(low[1], 0, height - 1)),
-        row_stop=int(np.clip(high[1], 1, height)),
-        col_start=int(np.clip(low[0], 0, width - 1)),
-        col_stop=int(np.clip(high[0], 1, width)),
-    )
+    row_start, row_stop = max(int(low[1]), 0), min(int(high[1]), height)
+    col_start, col_stop = max(int(low[0]), 0), min(int(high[0]), width)
+    if row_stop - row_start < MIN_SIDE_PX or col_stop - col_start < MIN_SIDE_PX:
+        return None
+    return PixelRegion(row_start, row_stop, col_start, col_stop)

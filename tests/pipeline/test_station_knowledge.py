@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -42,10 +44,18 @@ def test_search_region_holds_every_possible_wheel_stripe(name: str) -> None:
     side, position = name.split("_")
     for sensor, samples in _sections(side, position):
         region = stripe_search_region(sensor, side)
+        assert region is not None
         x, y = samples.pixels.T
         assert region.area_px < 0.8 * sensor.image_width_px * sensor.image_height_px
         assert np.all((x >= region.col_start) & (x < region.col_stop))
         assert np.all((y >= region.row_start) & (y < region.row_stop))
+
+
+def test_a_camera_that_does_not_see_the_window_searches_its_whole_frame() -> None:
+    """A 40×30 px frame of a real sensor's calibration sees none of the wheel window."""
+    sensor = build_station().calibration.sensor("left_inner")
+    tiny = dataclasses.replace(sensor, image_width_px=40, image_height_px=30)
+    assert stripe_search_region(tiny, "left") is None
 
 
 def test_wheel_window_keeps_the_wheel_and_drops_what_is_off_it() -> None:
