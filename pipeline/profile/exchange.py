@@ -314,8 +314,9 @@ def handheld_parameters(profile: HandheldProfile) -> HandheldParameters:
     """Sh, Sd and qR of a handheld profile by the wayside profile's code.
 
     The least-squares fits of `fit_flange_parameters` are used when every fit window has
-    enough samples; a flank sampled more sparsely is read by linear interpolation between
-    its samples (`curve_flange_parameters`), flagged "interpolated".
+    enough samples; a flank sampled more sparsely (a gap the wayside fit would bridge) is
+    read by linear interpolation between its samples (`curve_flange_parameters`), which is
+    exact on a gauge's polyline, flagged "interpolated".
 
     Raises
     ------
@@ -323,10 +324,15 @@ def handheld_parameters(profile: HandheldProfile) -> HandheldParameters:
         If even the samples do not cross a height the parameters need.
     """
     try:
-        return HandheldParameters(fit_flange_parameters(profile.x_mm, profile.z_mm), "fit", None)
+        fitted = fit_flange_parameters(profile.x_mm, profile.z_mm)
     except FlangeNotFoundError as exc:
-        parameters = curve_flange_parameters(profile.x_mm, profile.z_mm)
-        return HandheldParameters(parameters, "interpolated", str(exc))
+        reason = str(exc)
+    else:
+        if fitted.flank_gap_mm == 0.0:
+            return HandheldParameters(fitted, "fit", None)
+        reason = f"the flank's samples are {fitted.flank_gap_mm:.2f} mm apart in z"
+    parameters = curve_flange_parameters(profile.x_mm, profile.z_mm)
+    return HandheldParameters(parameters, "interpolated", reason)
 
 
 def _rows(x_mm: np.ndarray, z_mm: np.ndarray, separator: str) -> list[str]:

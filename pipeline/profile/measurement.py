@@ -131,8 +131,9 @@ class WheelMeasurement:
 
     def quality_figures(self) -> dict[str, float | int | None]:
         """The measurement's quality figures: points per sensor, the sensors' overlap, points
-        rejected by fusion, and what the search regions left out (bright pixels outside
-        them, and the searched share of the frames' area)."""
+        rejected by fusion, the flank gap bridged at the Sd and qR heights (None when not
+        measured), and what the search regions left out (bright pixels outside them, and
+        the searched share of the frames' area)."""
         profile = self.profile
         searched = [
             f.centres.region.area_px / f.centres.mask.size
@@ -145,6 +146,7 @@ class WheelMeasurement:
             "overlap_residual_mm": None if profile is None else profile.overlap_residual_mm,
             "overlap_points": 0 if profile is None else profile.overlap_points,
             "rejected_points": 0 if profile is None else profile.rejected_points,
+            "flank_gap_mm": None if self.parameters is None else self.parameters.flank_gap_mm,
             "excluded_bright_px": sum(f.excluded_bright_px for f in self.frames),
             "searched_fraction": float(np.mean(searched)) if searched else 1.0,
         }

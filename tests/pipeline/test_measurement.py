@@ -123,3 +123,23 @@ def test_pass_without_calibration_needs_the_site_one(sim_pass: Path, tmp_path: P
     bare = write_pass_archive(tmp_path / "bare.zip", archive.manifest, frames)
     with pytest.raises(ValueError, match="no calibration.json"):
         measure_pass(read_pass_archive(bare))
+
+
+@pytest.mark.slow
+def test_every_wheel_of_a_clean_four_axle_pass_is_measured_by_both_methods(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> None:
+    """Seed 2026's dim outer flanks (V001 axle 3 left, axle 4 right) are kept by the selection."""
+    folder = tmp_path_factory.mktemp("clean4")
+    (path,) = write_synthetic_passes(folder, seed=2026, axles_per_vehicle=4)
+    results = measure_pass(read_pass_archive(path), methods=("adaptive", "steger"))
+    truth = _truth(path)
+    assert len(results) == 16
+    for result in results:
+        m, w = result.measurement, result.wheel
+        assert m.status == MEASURED, f"{w.vehicle_id} {w.axle} {w.side} {m.method}: {m.reason}"
+        row = truth[(w.vehicle_id, w.axle, w.side)]
+        tolerance = 0.1 if m.method == "adaptive" else 0.6
+        assert m.parameters.flange_height_mm == pytest.approx(
+            row["flange_height_mm"], abs=tolerance
+        )
