@@ -300,7 +300,7 @@ def _full_table(
         data.append(row)
     return [
         Paragraph("All wheels", s["h2"]),
-        grid_table(data, [15, 8, 9, 10, 14, 11, 11, 11, 11, 15, 12, 9, 12, 34], extra),
+        grid_table(data, [13, 7, 8, 9, 13, 10, 10, 11, 10, 14, 11, 8, 11, 47], extra),
         Paragraph(
             f"{TERMS} Red: outside its limit; orange: within {amber} of its band.", s["small"]
         ),
