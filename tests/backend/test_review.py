@@ -268,9 +268,12 @@ def test_reports_show_each_wheels_disposition_and_a_new_one_changes_the_etag(
     assert (alarm["disposition"], alarm["disposition_comment"]) == ("false alarm", "wet rail")
     assert alarm["disposition_by"] == actor and alarm["disposition_at"].endswith("+00:00")
     assert by_wheel[depot["near"]]["disposition"] == "open"
-    path = f"/api/passes/{depot['new']}/wheels/{depot['alarm']}/report.json"
-    wheel = client.get(path, headers=auth("viewer")).json()["wheels"][0]
+    path = f"/api/passes/{depot['new']}/wheels/{depot['alarm']}/report"
+    wheel = client.get(f"{path}.json", headers=auth("viewer")).json()["wheels"][0]
     assert wheel["disposition"]["kind"] == "false_alarm" and wheel["disposition"]["actor"] == actor
+    one = tmp_path / "wheel.pdf"
+    one.write_bytes(client.get(f"{path}.pdf", headers=auth("viewer")).content)
+    assert f"Disposition: false alarm: wet rail — by {actor}" in pdf_text(one)
 
 
 def test_report_margins_use_the_fleets_amber_band(client, auth, depot, tmp_path) -> None:
