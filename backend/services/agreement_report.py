@@ -11,13 +11,8 @@ from reportlab.lib.units import mm
 from reportlab.platypus import Paragraph, SimpleDocTemplate, Table
 
 from backend.api.schemas import AgreementRead, AgreementRow
-from backend.services.report_pdf import (
-    MARGIN_PT,
-    PARAMETERS,
-    grid_table,
-    numbered_canvas,
-    report_styles,
-)
+from backend.services.margins import REPORTED
+from backend.services.report_pdf import MARGIN_PT, grid_table, numbered_canvas, report_styles
 from db.types import utc_now
 
 COLUMNS = (
@@ -66,7 +61,7 @@ def _table(rows: list[AgreementRow], names: dict[str, str], *, with_wheel: bool)
 def agreement_pdf(table: AgreementRead) -> bytes:
     """The tables as PDF, with how they were formed."""
     s = report_styles()
-    names = dict(PARAMETERS)
+    names = {p.key: p.label for p in REPORTED}
     generated = f"{utc_now():%Y-%m-%d %H:%M} UTC"
     story = [
         Paragraph(TITLE, s["title"]),

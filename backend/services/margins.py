@@ -2,7 +2,8 @@
 
 `PARAMETERS` is the one list of checked parameters (name, label, unit, limit): alarms,
 margins, the worst-wheels view and the trends all iterate it, so a new parameter is one
-entry here (and its limit columns).
+entry here (and its limit columns). `REPORTED` adds the values shown without a limit
+(tread hollow, flange angle, rim width), in the order the reports show them.
 
 A margin is the signed distance from a value to its nearest limit [mm], negative outside
 the band, and as a fraction of the band: the limits' span where there are two, or the
@@ -49,6 +50,10 @@ class Parameter:
     limit: str
     families: tuple[str, ...] = ("EN", "LM")
     alarm: str = ""
+    digits: int = 2
+    """Decimals shown."""
+    per_axle: bool = False
+    """One value per axle (the same on both wheels)."""
 
     @property
     def alarm_name(self) -> str:
@@ -75,9 +80,20 @@ PARAMETERS = (
     ),
     Parameter("qr_mm", "qR", "Flange slope qR", "mm", "qr"),
     Parameter("back_to_back_mm", "B2B", "Back-to-back distance", "mm", "back_to_back"),
-    Parameter("equivalent_conicity", "λe", "Equivalent conicity (axle)", "", "conicity"),
-)
+    Parameter(
+        "equivalent_conicity", "λe", "Equivalent conicity (axle)", "", "conicity",
+        digits=3, per_axle=True,
+    ),
+)  # fmt: skip
 PARAMETER_KEYS = tuple(p.key for p in PARAMETERS)
+REPORTED = (
+    *(p for p in PARAMETERS if not p.per_axle),
+    Parameter("tread_hollow_mm", "Hollow", "Tread hollow", "mm", "", ()),
+    Parameter("flange_angle_deg", "δ", "Flange angle", "°", "", (), digits=1),
+    Parameter("rim_width_mm", "Rim", "Rim width", "mm", "", ()),
+    *(p for p in PARAMETERS if p.per_axle),
+)
+"""Every value the reports show, checked (`PARAMETERS`) or not (no limit families)."""
 
 
 @dataclass(frozen=True, slots=True)

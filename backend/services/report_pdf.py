@@ -4,8 +4,10 @@ Order: header (site, pass, time UTC, direction, speed, vehicles, calibration, so
 pipeline versions); the wheels in alarm or near a limit, with the limit set that applies,
 the margin and the disposition; the full table; one compact section per wheel (profile
 against reference with its constructions in words, both methods, the limits that apply);
-a reviewer block. Every page carries "page x of y". Terms and units are the web app's:
-Sh, Sd (at 12 mm), Sd EN (at 10 mm), qR, B2B, in mm.
+a reviewer block. Every page carries "page x of y". Terms and units are the web app's,
+from the one parameter list (`margins.REPORTED`): Sh, Sd (at 12 mm), Sd EN (at 10 mm), qR,
+B2B, tread hollow, rim width in mm, the flange angle δ in degrees, and the axle's equivalent
+conicity λe (no unit) once per axle.
 """
 
 from __future__ import annotations
@@ -31,25 +33,22 @@ from reportlab.platypus import (
 )
 
 from backend.api.schemas import MethodResult, PassSummary, PassWheelRead
-from backend.services.margins import Margin
+from backend.services.margins import REPORTED, Margin, Parameter
+from backend.services.review import disposition_text
 
-PARAMETERS = (
-    ("flange_height_mm", "Sh"),
-    ("flange_thickness_mm", "Sd"),
-    ("flange_thickness_en_mm", "Sd EN"),
-    ("qr_mm", "qR"),
-    ("back_to_back_mm", "B2B"),
-)
+WHEEL_COLUMNS = tuple(p for p in REPORTED if not p.per_axle)
+"""The values of a wheel's table row, in `REPORTED` order."""
+AXLE_VALUES = tuple(p for p in REPORTED if p.per_axle)
+"""The values shown once per axle (the equivalent conicity)."""
+BY_KEY = {p.key: p for p in REPORTED}
 TERMS = (
     "Sh flange height above the tread reference point; Sd flange thickness at z = 12 mm "
     "(LM limits), Sd EN at z = 10 mm (EN limits), both from the back face; qR from the flank "
-    "at Sh − 2 mm to the flank at z = 10 mm; B2B back-to-back distance of the axle. All in mm."
+    "at Sh − 2 mm to the flank at z = 10 mm; B2B back-to-back distance of the axle; Hollow "
+    "tread hollow below a straight edge at x = 60 and 120 mm; δ steepest flank angle [°]; "
+    "Rim rim width, back face to field face, where the outer sensor sees it. In mm but δ. "
+    "λe the axle's equivalent conicity at 3 mm amplitude (EN 15302), no unit."
 )
-LIMIT_STEMS = {
-    "flange_height_mm": "flange_height",
-    "qr_mm": "qr",
-    "back_to_back_mm": "back_to_back",
-}
 RED_HEX, AMBER_HEX = "#b71c1c", "#e65100"
 RED, AMBER = colors.HexColor(RED_HEX), colors.HexColor(AMBER_HEX)
 HEAD = colors.Color(0.9, 0.9, 0.9)
@@ -106,6 +105,8 @@ def grid_table(data: list[list[Any]], widths_mm: Sequence[float], extra: list[An
                 ("VALIGN", (0, 0), (-1, -1), "MIDDLE"),
                 ("TOPPADDING", (0, 0), (-1, -1), 1.5),
                 ("BOTTOMPADDING", (0, 0), (-1, -1), 1.5),
+                ("LEFTPADDING", (0, 0), (-1, -1), 2.5),
+                ("RIGHTPADDING", (0, 0), (-1, -1), 2.5),
                 *extra,
             ]
         )
@@ -113,24 +114,30 @@ def grid_table(data: list[list[Any]], widths_mm: Sequence[float], extra: list[An
     return table
 
 
-def _number(value: float | None) -> str:
-    return "–" if value is None else f"{value:.2f}"
+def _number(value: float | None, parameter: Parameter) -> str:
+    return "–" if value is None else f"{value:.{parameter.digits}f}"
 
 
-def limit_text(limits_mm: dict[str, float], stem: str) -> str:
-    """'min–max', '≥ min' or '≤ max' of one limit stem [mm]."""
-    low, high = limits_mm.get(f"{stem}_min_mm"), limits_mm.get(f"{stem}_max_mm")
+def limit_text(limits: dict[str, float], parameter: Parameter, family: str) -> str:
+    """'min–max', '≥ min' or '≤ max' of one parameter in a limit set; 'not checked' where
+    the set does not check it, 'no limit' for a value shown without one."""
+    if not parameter.families:
+        return "no limit"
+    if family not in parameter.families:
+        return "not checked"
+    low = limits.get(parameter.bound_field("min"))
+    high = limits.get(parameter.bound_field("max"))
     if low is not None and high is not None:
         return f"{low:g}–{high:g}"
     return f"≥ {low:g}" if low is not None else f"≤ {high:g}" if high is not None else "–"
 
 
-def _stem(key: str, family: str) -> str | None:
-    if key == "flange_thickness_mm":
-        return "flange_thickness" if family == "LM" else None
-    if key == "flange_thickness_en_mm":
-        return "flange_thickness" if family == "EN" else None
-    return LIMIT_STEMS[key]
+def amber_text(near_limit_fractions: dict[str, float], families: Sequence[str]) -> str:
+    """The fleet's amber band in words: "the inner 10 %" (per limit set where they differ)."""
+    shown = {f: f"{100 * near_limit_fractions[f]:g} %" for f in families}
+    if len(set(shown.values())) <= 1:
+        return f"the inner {next(iter(shown.values()), '–')}"
+    return "the inner " + ", ".join(f"{v} ({f})" for f, v in shown.items())
 
 
 def _header_block(
@@ -176,17 +183,21 @@ def _result(wheel: PassWheelRead, method: str) -> MethodResult | None:
     return next((r for r in wheel.results if r.method == method), None)
 
 
-def _attention(sections: list[WheelSection], dispositions: dict[int, str], s: dict) -> list:
-    """Wheels in alarm, then near a limit (adaptive margins; Steger's value beside)."""
-    names = dict(PARAMETERS)
+def _attention(sections: list[WheelSection], amber: str, s: dict) -> list:
+    """Wheels in alarm, then near a limit (adaptive margins; Steger's value beside); an
+    axle's value (λe) once per axle."""
     rows = []
+    seen: set[tuple[str, int, str]] = set()
     for section in sections:
+        w = section.wheel
         # the adaptive result, which the alarms follow; Steger's where adaptive measured none
         method = "adaptive" if section.margins.get("adaptive") else "steger"
-        other = _result(section.wheel, "steger" if method == "adaptive" else "adaptive")
+        other = _result(w, "steger" if method == "adaptive" else "adaptive")
         for margin in section.margins.get(method, []):
-            if margin.status == "ok":
+            axle = (w.vehicle_id, w.axle, margin.parameter)
+            if margin.status == "ok" or (BY_KEY[margin.parameter].per_axle and axle in seen):
                 continue
+            seen.add(axle)
             other_mm = None if other is None else getattr(other, margin.parameter)
             rows.append((margin, section, method, other_mm))
     rows.sort(key=lambda r: (r[0].status != "alarm", r[0].margin_mm))
@@ -199,30 +210,33 @@ def _attention(sections: list[WheelSection], dispositions: dict[int, str], s: di
     data: list[list[Any]] = [head]
     extra = []
     for margin, section, method, other_mm in rows:
-        w = section.wheel
+        w, parameter = section.wheel, BY_KEY[margin.parameter]
         alarm = margin.status == "alarm"
         word = ("below" if margin.bound == "min" else "above") if alarm else margin.bound
-        disposition = Paragraph(dispositions.get(w.wheel_id, "awaiting review"), s["small"])
-        values = [f"{margin.value_mm:.2f}", _number(other_mm)]
+        disposition = Paragraph(disposition_text(w.disposition), s["small"])
+        values = [_number(margin.value_mm, parameter), _number(other_mm, parameter)]
         status = ("ALARM" if alarm else "near limit") + (
             "" if method == "adaptive" else " (Steger)"
         )
         hex_colour = RED_HEX if alarm else AMBER_HEX
         status_cell = Paragraph(f'<font color="{hex_colour}">{status}</font>', s["small"])
         data.append([
-            w.vehicle_id, w.axle, w.side, names[margin.parameter],
+            w.vehicle_id, w.axle, "axle" if parameter.per_axle else w.side, parameter.label,
             *(values if method == "adaptive" else values[::-1]),
-            f"{word} {margin.limit_mm:g} ({section.family})", f"{margin.margin_mm:+.2f}",
+            f"{word} {margin.limit_mm:g} ({section.family})",
+            f"{margin.margin_mm:+.{parameter.digits}f}",
             status_cell, disposition,
         ])  # fmt: skip
         colour = RED if margin.status == "alarm" else AMBER
         extra.append(("TEXTCOLOR", (4, len(data) - 1), (8, len(data) - 1), colour))
-    story.append(grid_table(data, [20, 10, 11, 16, 16, 16, 31, 15, 18, 29], extra))
+    story.append(grid_table(data, [17, 9, 10, 13, 14, 14, 27, 13, 17, 48], extra))
     story.append(
         Paragraph(
             "Margin: distance inside the limit (negative outside) of the adaptive result, the "
             "method the alarms follow, or of Steger's where adaptive measured nothing. Near a "
-            "limit: inside by less than the inner 10 % of its limit band.",
+            f"limit: inside by less than {amber} of its limit band (the fleet's amber band). "
+            "Disposition: the operator's decision in force, who recorded it and when (UTC); "
+            "open where there is none.",
             s["small"],
         )
     )
@@ -231,8 +245,8 @@ def _attention(sections: list[WheelSection], dispositions: dict[int, str], s: di
 
 def _cells(result: MethodResult | None) -> list[str]:
     if result is None:
-        return ["–"] * len(PARAMETERS)
-    return [_number(getattr(result, key)) for key, _ in PARAMETERS]
+        return ["–"] * len(WHEEL_COLUMNS)
+    return [_number(getattr(result, p.key), p) for p in WHEEL_COLUMNS]
 
 
 def _status(result: MethodResult | None, wheel: PassWheelRead) -> str:
@@ -245,10 +259,10 @@ def _status(result: MethodResult | None, wheel: PassWheelRead) -> str:
 
 def _colours(row: int, margins: list[Margin], first_column: int) -> list[Any]:
     """Red (alarm) and orange (near) cells of one table row; parameters from first_column."""
-    columns = {key: i for i, (key, _) in enumerate(PARAMETERS)}
+    columns = {p.key: i for i, p in enumerate(WHEEL_COLUMNS)}
     out: list[tuple[Any, ...]] = []
     for margin in margins:
-        if margin.status == "ok":
+        if margin.status == "ok" or margin.parameter not in columns:
             continue
         column = first_column + columns[margin.parameter]
         colour = RED if margin.status == "alarm" else AMBER
@@ -257,8 +271,14 @@ def _colours(row: int, margins: list[Margin], first_column: int) -> list[Any]:
     return out
 
 
-def _full_table(sections: list[WheelSection], all_limits: dict[str, dict], s: dict) -> list:
-    head = ["Vehicle", "Axle", "Side", "Limits", "Method", *(label for _, label in PARAMETERS),
+def _limit_cells(limits: dict[str, float], family: str, s: dict) -> list[Any]:
+    return [Paragraph(limit_text(limits, p, family), s["small"]) for p in WHEEL_COLUMNS]
+
+
+def _full_table(
+    sections: list[WheelSection], all_limits: dict[str, dict], amber: str, s: dict
+) -> list:
+    head = ["Vehicle", "Axle", "Side", "Limits", "Method", *(p.label for p in WHEEL_COLUMNS),
             "Result"]  # fmt: skip
     data: list[list[Any]] = [head]
     extra: list[Any] = []
@@ -274,18 +294,62 @@ def _full_table(sections: list[WheelSection], all_limits: dict[str, dict], s: di
     used = sorted({section.family for section in sections if section.family})
     for family in used:
         limits = all_limits[family]
-        row = [f"Limits {family}", "", "", family, ""]
-        row += [limit_text(limits, stem) if (stem := _stem(k, family)) else "not checked"
-                for k, _ in PARAMETERS]  # fmt: skip
-        row.append("")
+        row = [f"Limits {family}", "", "", family, "", *_limit_cells(limits, family, s), ""]
         extra.append(("BACKGROUND", (0, len(data)), (-1, len(data)), colors.Color(0.94, 0.95, 1)))
         extra.append(("SPAN", (0, len(data)), (2, len(data))))
         data.append(row)
     return [
         Paragraph("All wheels", s["h2"]),
-        grid_table(data, [22, 10, 11, 12, 17, 15, 16, 16, 14, 19, 30], extra),
+        grid_table(data, [13, 7, 8, 9, 13, 10, 10, 11, 10, 14, 11, 8, 11, 47], extra),
         Paragraph(
-            TERMS + " Red: outside its limit; orange: within the inner 10 % of its band.",
+            f"{TERMS} Red: outside its limit; orange: within {amber} of its band.", s["small"]
+        ),
+    ]
+
+
+STATUS_WORDS = {"alarm": "ALARM", "near": "near limit", "ok": "within limit"}
+
+
+def _axle_row(section: WheelSection, parameter: Parameter) -> tuple[list[Any], Margin | None]:
+    """One per-axle value of an axle (from one of its wheels' sections), and its margin."""
+    w, family = section.wheel, section.family
+    values = [_number(None if r is None else getattr(r, parameter.key), parameter)
+              for r in (_result(w, "adaptive"), _result(w, "steger"))]  # fmt: skip
+    margins = section.margins.get("adaptive", [])
+    margin = next((m for m in margins if m.parameter == parameter.key), None)
+    limit = f"{limit_text(section.limits_mm, parameter, family)} ({family})" if family else "–"
+    row = [w.vehicle_id, w.axle, parameter.label, *values, limit]
+    if margin is None:
+        return [*row, "–", "not computed"], None
+    return [*row, f"{margin.margin_mm:+.{parameter.digits}f}", STATUS_WORDS[margin.status]], margin
+
+
+def _axle_table(sections: list[WheelSection], s: dict) -> list[Any]:
+    """The per-axle values (λe) of each axle, adaptive and Steger, with the limit that
+    applies and the adaptive margin."""
+    axles: dict[tuple[str, int], WheelSection] = {}
+    for section in sections:
+        key = (section.wheel.vehicle_id, section.wheel.axle)
+        if key not in axles or axles[key].family is None:
+            axles[key] = section
+    head = ["Vehicle", "Axle", "Value", "Adaptive", "Steger", "Limit (set)", "Margin", "Status"]
+    data: list[list[Any]] = [head]
+    extra: list[Any] = []
+    for section in axles.values():
+        for parameter in AXLE_VALUES:
+            row, margin = _axle_row(section, parameter)
+            data.append(row)
+            if margin is not None and margin.status != "ok":
+                colour = RED if margin.status == "alarm" else AMBER
+                extra.append(("TEXTCOLOR", (3, len(data) - 1), (7, len(data) - 1), colour))
+    return [
+        Paragraph("Axles", s["h2"]),
+        grid_table(data, [20, 10, 14, 20, 20, 40, 20, 38], extra),
+        Paragraph(
+            "λe: the axle's equivalent conicity at 3 mm amplitude (EN 15302, nonlinear method) "
+            "from both wheels' measured profiles at their back-to-back distance on the site's "
+            "rails; no unit. Not computed where either wheel or the back-to-back distance was "
+            "not measured.",
             s["small"],
         ),
     ]
@@ -294,23 +358,22 @@ def _full_table(sections: list[WheelSection], all_limits: dict[str, dict], s: di
 def _wheel_table(section: WheelSection, s: dict) -> Table:
     w, family = section.wheel, section.family
     adaptive, steger = _result(w, "adaptive"), _result(w, "steger")
-    head = ["", *(label for _, label in PARAMETERS), "Result"]
+    head = ["", *(p.label for p in WHEEL_COLUMNS), "Result"]
     data: list[list[Any]] = [head]
     extra: list[Any] = []
     for name, result in (("Adaptive", adaptive), ("Steger", steger)):
         data.append([name, *_cells(result), Paragraph(_status(result, w), s["small"])])
         extra += _colours(len(data) - 1, section.margins.get(name.lower(), []), 1)
     differences = []
-    for key, _ in PARAMETERS:
-        a = None if adaptive is None else getattr(adaptive, key)
-        b = None if steger is None else getattr(steger, key)
-        differences.append("–" if a is None or b is None else f"{a - b:+.2f}")
+    for p in WHEEL_COLUMNS:
+        a = None if adaptive is None else getattr(adaptive, p.key)
+        b = None if steger is None else getattr(steger, p.key)
+        differences.append("–" if a is None or b is None else f"{a - b:+.{p.digits}f}")
     data.append(["Adaptive − Steger", *differences, ""])
     if family is not None:
-        limits = [limit_text(section.limits_mm, st) if (st := _stem(k, family)) else "not checked"
-                  for k, _ in PARAMETERS]  # fmt: skip
+        limits = _limit_cells(section.limits_mm, family, s)
         data.append([f"Limits {family} (apply)", *limits, ""])
-    return grid_table(data, [30, 19, 19, 19, 19, 21, 55], extra)
+    return grid_table(data, [27, 14, 14, 14, 14, 16, 14, 12, 14, 43], extra)
 
 
 def _wheel_block(section: WheelSection, s: dict) -> KeepTogether:
@@ -325,7 +388,12 @@ def _wheel_block(section: WheelSection, s: dict) -> KeepTogether:
         parts.append(
             Paragraph(f"No profile to draw ({w.reason or 'no stored points'}).", s["body"])
         )
-    parts += [Spacer(1, 1 * mm), _wheel_table(section, s), Spacer(1, 4 * mm)]
+    parts += [
+        Spacer(1, 1 * mm),
+        _wheel_table(section, s),
+        Paragraph(f"<b>Disposition</b>: {disposition_text(w.disposition)}", s["body"]),
+        Spacer(1, 4 * mm),
+    ]
     return KeepTogether(parts)
 
 
@@ -379,10 +447,11 @@ def render_pdf(
     summary: PassSummary,
     sections: list[WheelSection],
     all_limits: dict[str, dict[str, float]],
-    dispositions: dict[int, str],
+    near_limit_fractions: dict[str, float],
     header: ReportHeader,
 ) -> bytes:
-    """The PDF of a pass (all its wheel sections) or of one wheel (one section)."""
+    """The PDF of a pass (all its wheel sections) or of one wheel (one section); the
+    fleet's amber band of each limit set (`near_limit_fractions`) is named in words."""
     s = report_styles()
     buffer = io.BytesIO()
     document = SimpleDocTemplate(
@@ -390,9 +459,12 @@ def render_pdf(
         bottomMargin=14 * mm, title=header.title, author="wheelscan",
     )  # fmt: skip
     story = _header_block(summary, header, sections[0].wheel if header.wheel_report else None, s)
-    story += _attention(sections, dispositions, s)
+    used = sorted({section.family for section in sections if section.family})
+    amber = amber_text(near_limit_fractions, used)
+    story += _attention(sections, amber, s)
     if len(sections) > 1:
-        story += _full_table(sections, all_limits, s)
+        story += _full_table(sections, all_limits, amber, s)
+    story += _axle_table(sections, s)
     story.append(Paragraph("Wheels", s["h2"]))
     story += [_wheel_block(section, s) for section in sections]
     story += _signature(s)

@@ -1,8 +1,9 @@
 """Pass and wheel reports: CSV, JSON and the PDF a depot files, cached by content.
 
 The PDF (layout in `report_pdf`, plots in `report_plot`) is drawn from stored results;
-nothing is recomputed. It is cached on disk under a key of everything it shows (the
-pass, every result row, the limits, the dispositions and the software version), which is
+nothing is recomputed but the margins, against the fleet's current limits and amber band.
+It is cached on disk under a key of everything it shows (the pass, every result row with
+its disposition in force, the limits, the amber band and the software version), which is
 also its ETag: a second request, or one after an unrelated change, costs one key and one
 file read; a new result or disposition gives a new key and a new PDF.
 """
@@ -17,6 +18,7 @@ import os
 import tempfile
 import time
 from dataclasses import dataclass
+from datetime import UTC
 from pathlib import Path
 from typing import Any
 
@@ -25,12 +27,18 @@ from sqlalchemy.orm import Session
 
 from backend import __version__
 from backend.api.schemas import PassReport, PassSummary, PassWheelRead
-from backend.services.limits import WHEEL_PROFILES, limits_for, profile_family
+from backend.services.limits import (
+    WHEEL_PROFILES,
+    limits_for,
+    profile_family,
+    review_thresholds,
+)
 from backend.services.margins import limit_margins
 from backend.services.queries import pass_summary, pass_wheels
 from backend.services.report_pdf import ReportHeader, WheelSection, render_pdf
 from backend.services.report_plot import Curve, construction_labels, profile_drawing
 from backend.services.results import PARAMETER_NAMES
+from backend.services.review import DISPOSITION_WORDS
 from db.models import Pass, PassWheel
 from db.types import utc_now
 from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile
@@ -39,13 +47,27 @@ REPORT_CACHE_FILES = 500
 """PDFs kept in the cache, newest first (a pass PDF is ~250 kB: about 125 MB at most)."""
 STALE_PART_S = 3600.0
 """A half-written cache file older than this was left by a killed process."""
-REPORT_LAYOUT = "6"
+REPORT_LAYOUT = "7"
 """Part of the cache key: bump when the PDF's layout changes, so old PDFs are not served."""
 CSV_COLUMNS = (
     "pass_id", "site", "started_at", "vehicle_id", "axle", "side", "wheel_id", "state",
     "method", "status", "reason", *PARAMETER_NAMES, "alarm_count", "alarms",
-    "pipeline_version",
+    "pipeline_version", "disposition", "disposition_comment", "disposition_by",
+    "disposition_at",
 )  # fmt: skip
+"""`disposition` is the kind in force in words ("open" where there is none); `_at` in UTC."""
+
+
+def _disposition_columns(wheel: PassWheelRead) -> dict[str, str | None]:
+    d = wheel.disposition
+    if d is None:
+        return {"disposition": "open"}
+    return {
+        "disposition": DISPOSITION_WORDS[d.kind],
+        "disposition_comment": d.comment,
+        "disposition_by": d.actor,
+        "disposition_at": d.created_at.astimezone(UTC).isoformat(),
+    }
 
 
 def report_rows(summary: PassSummary, wheels: list[PassWheelRead]) -> list[dict[str, Any]]:
@@ -61,6 +83,7 @@ def report_rows(summary: PassSummary, wheels: list[PassWheelRead]) -> list[dict[
             "side": wheel.side,
             "wheel_id": wheel.wheel_id,
             "state": wheel.state,
+            **_disposition_columns(wheel),
         }
         if not wheel.results:
             rows.append({**base, "reason": wheel.reason, "alarm_count": 0})
@@ -90,7 +113,9 @@ def report_csv(summary: PassSummary, wheels: list[PassWheelRead]) -> bytes:
     return buffer.getvalue().encode("utf-8")
 
 
-def _section(pass_wheel: PassWheel, wheel: PassWheelRead, fleet_limits: dict) -> WheelSection:
+def _section(
+    pass_wheel: PassWheel, wheel: PassWheelRead, fleet_limits: dict, amber: dict[str, float]
+) -> WheelSection:
     measurements = {m.method: m for m in pass_wheel.measurements}
     reference = next(
         (m.reference_profile for m in measurements.values() if m.reference_profile), None
@@ -98,7 +123,7 @@ def _section(pass_wheel: PassWheel, wheel: PassWheelRead, fleet_limits: dict) ->
     family = profile_family(reference) if reference else None
     limits = fleet_limits[family] if family else {}
     margins = {
-        r.method: limit_margins(r.model_dump(), limits, family)
+        r.method: limit_margins(r.model_dump(), limits, family, amber[family])
         for r in wheel.results
         if r.status == "measured" and family
     }
@@ -125,10 +150,11 @@ def _report_key(
     summary: PassSummary,
     wheels: list[PassWheelRead],
     limits: dict,
-    dispositions: dict[int, str],
+    amber: dict[str, float],
     train_pass: Pass,
 ) -> str:
-    """sha256 of everything the PDF shows (the job's progress and times excluded)."""
+    """sha256 of everything the PDF shows (the job's progress and times excluded); the
+    wheels carry their dispositions in force."""
     measurements = sorted(
         (m.id, m.created_at.isoformat()) for w in train_pass.wheels for m in w.measurements
     )
@@ -139,7 +165,7 @@ def _report_key(
         "wheels": [w.model_dump(mode="json") for w in wheels],
         "measurements": measurements,
         "limits": limits,
-        "dispositions": {str(k): v for k, v in sorted(dispositions.items())},
+        "amber": amber,
     }
     return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()
 
@@ -166,20 +192,20 @@ class ReportContent:
     summary: PassSummary
     wheels: list[PassWheelRead]
     limits: dict[str, dict[str, float]]
-    dispositions: dict[int, str]
+    amber: dict[str, float]
+    """The fleet's amber band per limit set (fraction of each limit band)."""
 
 
-def report_content(
-    session: Session, train_pass: Pass, only: PassWheel | None, dispositions: dict[int, str]
-) -> ReportContent:
+def report_content(session: Session, train_pass: Pass, only: PassWheel | None) -> ReportContent:
     """What the report of a pass (or of its wheel `only`) shows, with its content key."""
     summary = pass_summary(session, train_pass)
     wheels = pass_wheels(session, train_pass)
     if only is not None:
         wheels = [w for w in wheels if w.wheel_id == only.wheel_id]
     limits = {f: limits_for(session, train_pass.fleet, f) for f in WHEEL_PROFILES}
-    key = _report_key(summary, wheels, limits, dispositions, train_pass)
-    return ReportContent(key, train_pass, only, summary, wheels, limits, dispositions)
+    amber = {f: review_thresholds(session, train_pass.fleet, f)[0] for f in WHEEL_PROFILES}
+    key = _report_key(summary, wheels, limits, amber, train_pass)
+    return ReportContent(key, train_pass, only, summary, wheels, limits, amber)
 
 
 def report_pdf(content: ReportContent, cache_dir: Path) -> bytes:
@@ -192,7 +218,7 @@ def report_pdf(content: ReportContent, cache_dir: Path) -> bytes:
         pass  # not rendered yet, or pruned meanwhile
     only, summary, wheels, limits = content.only, content.summary, content.wheels, content.limits
     by_wheel = {pw.wheel_id: pw for pw in content.train_pass.wheels}
-    sections = [_section(by_wheel[w.wheel_id], w, limits) for w in wheels]
+    sections = [_section(by_wheel[w.wheel_id], w, limits, content.amber) for w in wheels]
     versions = sorted({r.pipeline_version for w in wheels for r in w.results}) or ["–"]
     header = ReportHeader(
         title="Wheel profile report" if only else "Train pass wheel report",
@@ -201,7 +227,7 @@ def report_pdf(content: ReportContent, cache_dir: Path) -> bytes:
         software_version=__version__,
         pipeline_versions=", ".join(versions),
     )
-    pdf = render_pdf(summary, sections, limits, content.dispositions, header)
+    pdf = render_pdf(summary, sections, limits, content.amber, header)
     _write_atomically(path, pdf)
     prune_report_cache(cache_dir, REPORT_CACHE_FILES)
     return pdf
@@ -244,13 +270,12 @@ def render_report(
     fmt: str,
     only: PassWheel | None,
     if_none_match: str | None,
-    dispositions: dict[int, str],
 ) -> RenderedReport:
     """The report of a pass (or of its wheel `only`) as "csv", "json" or "pdf"; a PDF is
     rendered only when `cache_dir` does not hold its content, and not sent (data None) when
     `if_none_match` is its ETag."""
     stem = f"wheelscan-pass-{train_pass.id}" + (f"-wheel-{only.wheel_id}" if only else "")
-    content = report_content(session, train_pass, only, dispositions)
+    content = report_content(session, train_pass, only)
     etag = f'"{content.key[:32]}"'
     if fmt == "csv":
         data: bytes | None = report_csv(content.summary, content.wheels)

@@ -9,6 +9,7 @@ worst-wheels view is one indexed query however many passes there are. Reports ca
 from __future__ import annotations
 
 from dataclasses import dataclass
+from datetime import UTC
 from typing import cast
 
 from sqlalchemy import Select, exists, func, select
@@ -43,6 +44,14 @@ from db.models import (
 PRIMARY_METHOD = "adaptive"
 """Margins, levels and the ranking come from the product's method (Steger is the baseline)."""
 NEEDS_COMMENT = {"false_alarm": "a false alarm needs its reason", "comment": "a comment is empty"}
+DISPOSITION_WORDS = {
+    "re_profile": "re-profile",
+    "monitor": "monitor",
+    "false_alarm": "false alarm",
+    "measurement_doubtful": "measurement doubtful",
+    "comment": "comment",
+}
+"""A disposition's kind as the web app and the reports write it."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -196,6 +205,17 @@ def current_dispositions(session: Session, pass_wheel_ids: list[int]) -> dict[in
     ):
         found[row.pass_wheel_id] = DispositionRead.model_validate(row)
     return found
+
+
+def disposition_text(disposition: DispositionRead | None) -> str:
+    """A disposition in words, who recorded it and when (UTC): "false alarm: wet rail — by
+    J. Doe, 2026-12-01 19:05 UTC"; "open" where there is none."""
+    if disposition is None:
+        return "open"
+    words = DISPOSITION_WORDS[disposition.kind]
+    what = f"{words}: {disposition.comment}" if disposition.comment else words
+    at = disposition.created_at.astimezone(UTC)
+    return f"{what} — by {disposition.actor}, {at:%Y-%m-%d %H:%M} UTC"
 
 
 def dispositions_of(session: Session, pass_wheel: PassWheel) -> list[DispositionRead]:

@@ -49,12 +49,12 @@ const layerPath = (p, w, layer, sensor, index, suffix, method) =>
  * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').ReferenceComparison>} referenceComparison
  * @property {(wheelId: number|string, file: File) => Promise<import('./api-types').ReferenceRead>} importReference
  * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').ViewerRead>} viewer
- * @property {(passId: number|string, wheelId: number|string) => Promise<any>} getWheel
- * @property {(query: Record<string, string>) => Promise<any>} worstWheels
+ * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').PassWheelRead>} getWheel
+ * @property {(query: Record<string, string>) => Promise<import('./api-types').Page_WorstWheelRead_>} worstWheels
  * @property {(text: string) => Promise<string[]>} searchVehicles
- * @property {(vehicleId: string) => Promise<any>} vehicle
- * @property {(passId: number|string, wheelId: number|string) => Promise<any[]>} dispositions
- * @property {(passId: number|string, wheelId: number|string, body: {kind: string, comment?: string}) => Promise<any>} addDisposition
+ * @property {(vehicleId: string) => Promise<import('./api-types').VehicleHistory>} vehicle
+ * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').DispositionRead[]>} dispositions
+ * @property {(passId: number|string, wheelId: number|string, body: {kind: string, comment?: string}) => Promise<import('./api-types').DispositionRead>} addDisposition
  * @property {(jobId: number|string) => Promise<import('./api-types').JobRead>} getJob
  * @property {(file: File, onProgress: (fraction: number) => void) => Promise<{pass_id: number, job_id: number}>} uploadPass
  * @property {(path: 'passes'|string, onMessage: (msg: any) => void, onState: (open: boolean) => void) => () => void} watch

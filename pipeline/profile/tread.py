@@ -125,7 +125,7 @@ def flange_angle(x_mm: np.ndarray, z_mm: np.ndarray, flange_height_mm: float) ->
         raise TreadNotFoundError(
             f"the flank shows no points from z = {edges[0]:.1f} to {edges[1]:.1f} mm"
         )
-    steepest = -math.inf
+    steepest, at = -math.inf, math.nan
     for centre in np.arange(low, high + 1e-9, FLANK_STEP_MM):
         near = np.abs(fz - centre) <= FLANK_HALF_HEIGHT_MM
         if np.count_nonzero(near) < MIN_WINDOW_POINTS:
@@ -134,9 +134,16 @@ def flange_angle(x_mm: np.ndarray, z_mm: np.ndarray, flange_height_mm: float) ->
             slope = robust_polyfit(fz[near] - centre, fx[near], 1, "flank")[0]
         except PipelineError:
             continue
-        steepest = max(steepest, math.degrees(math.atan2(1.0, -slope)))  # dx/dz < 0 down it
+        angle = math.degrees(math.atan2(1.0, -slope))  # dx/dz < 0 down the flank
+        if angle > steepest:
+            steepest, at = angle, float(centre)
     if not math.isfinite(steepest):
         raise TreadNotFoundError("too few flank points for the flange angle")
+    if steepest >= 90.0:
+        # x rising with z: a flank cannot overhang, so these points are not the wheel's.
+        raise TreadNotFoundError(
+            f"the flank overhangs at z = {at:.1f} mm ({steepest:.1f}°): points off the wheel"
+        )
     return steepest
 
 

@@ -6,7 +6,8 @@ from __future__ import annotations
 import pytest
 
 from backend.services.limits import DEFAULT_LIMITS_MM
-from backend.services.margins import limit_margins
+from backend.services.margins import PARAMETERS, REPORTED, limit_margins
+from backend.services.results import PARAMETER_NAMES
 
 
 @pytest.mark.parametrize(
@@ -32,3 +33,10 @@ def test_margins_take_the_nearer_bound_of_the_set_that_applies(family, values, e
     for name, (bound, margin, status) in expected.items():
         assert got[name][0] == bound and got[name][2] == status, name
         assert got[name][1] == pytest.approx(margin), name
+
+
+def test_the_reports_list_every_stored_parameter_once_and_checks_only_those_with_limits():
+    assert sorted(p.key for p in REPORTED) == sorted(PARAMETER_NAMES)
+    assert [p for p in REPORTED if p.families] == list(PARAMETERS)
+    unchecked = {"tread_hollow_mm": 0.4, "flange_angle_deg": 70.0, "rim_width_mm": 135.0}
+    assert limit_margins(unchecked, DEFAULT_LIMITS_MM["EN"], "EN") == []

@@ -53,7 +53,8 @@ def test_a_steger_only_wheel_is_summarised_and_an_unmeasured_one_has_no_limit_se
     )  # fmt: skip
     header = ReportHeader("Train pass wheel report", False, "now", "0.1.0", "test")
     pdf = tmp_path / "layout.pdf"
-    pdf.write_bytes(render_pdf(summary, sections, DEFAULT_LIMITS_MM, {}, header))
+    amber = {"EN": 0.1, "LM": 0.1}
+    pdf.write_bytes(render_pdf(summary, sections, DEFAULT_LIMITS_MM, amber, header))
     assert len(render_pages(pdf, tmp_path / "pages")) == len(pdf_pages(pdf))
     assert all(overlapping_words(page) == [] for page in pdf_pages(pdf))
     text = pdf_text(pdf)

@@ -93,6 +93,38 @@ def test_the_wheel_pdf_shows_one_wheel_and_its_limit_set(client, auth, measured,
     assert f"Limits {other}" not in text
 
 
+def test_the_pdf_shows_tread_values_per_wheel_and_conicity_per_axle(
+    client, auth, measured, tmp_path
+) -> None:
+    pass_id = measured["pass_id"]
+    wheels = client.get(f"/api/passes/{pass_id}/wheels", headers=auth("viewer")).json()
+    pdf, _ = fetch_pdf(client, auth, f"/api/passes/{pass_id}/report.pdf", tmp_path, "pass.pdf")
+    text = looked_at(pdf, tmp_path)
+    header = next(line for line in text.splitlines() if "Sd EN" in line and "Method" in line)
+    assert header.split()[-5:] == ["B2B", "Hollow", "δ", "Rim", "Result"]
+    shown = 0
+    for wheel in wheels:
+        adaptive = next(r for r in wheel["results"] if r["method"] == "adaptive")
+        row = next(
+            line.split()
+            for line in text.split("All wheels")[1].splitlines()
+            if f" {wheel['side']} " in line and " Adaptive " in line
+        )
+        for key, digits in (("tread_hollow_mm", 2), ("flange_angle_deg", 1), ("rim_width_mm", 2)):
+            value = adaptive[key]
+            expected = "–" if value is None else f"{value:.{digits}f}"
+            assert expected in row, (key, row)
+            shown += value is not None
+    assert shown >= 4, "the clean pass measures its treads and flanks"
+    family = {"LMA": "LM", "S1002": "EN"}[adaptive["reference_profile"]]
+    axles = text.split("Axles")[1].split("Wheels")[0]
+    row = next(line for line in axles.splitlines() if "λe" in line)
+    conicity = {r["method"]: r["equivalent_conicity"] for r in wheels[0]["results"]}
+    assert conicity["adaptive"] is not None
+    assert f"{conicity['adaptive']:.3f}" in row and f"≤ 0.4 ({family})" in row
+    assert f"{0.4 - conicity['adaptive']:+.3f}" in row and "within limit" in row
+
+
 def test_margins_follow_the_limits_that_apply(client, auth, measured, tmp_path) -> None:
     pass_id = measured["pass_id"]
     wheel = client.get(f"/api/passes/{pass_id}/wheels", headers=auth("viewer")).json()[0]
@@ -117,7 +149,7 @@ def test_margins_follow_the_limits_that_apply(client, auth, measured, tmp_path) 
         summary = pdf_text(pdf).split("All wheels")[0].split("Wheels in alarm")[1]
         row = next(line for line in summary.splitlines() if " Sh " in f" {line} ")
         assert status in row and margin in row and f"({family})" in row
-        assert "awaiting review" in row
+        assert "open" in row
     client.put(f"/api/limits/default/{family}", json=limits, headers=auth("admin"))
 
 

@@ -3,6 +3,8 @@ fleet, dispositions with their audit, method disagreement, wear forecasts, vehic
 
 from __future__ import annotations
 
+import csv
+import io
 from datetime import datetime, timedelta
 
 import pytest
@@ -10,6 +12,7 @@ import pytest
 from backend.services.pass_wheels import get_or_create_wheel
 from backend.services.results import apply_alarms
 from db.models import AuditEvent, Measurement, Pass, PassWheel
+from tests.backend.pdf_checks import overlapping_words, pdf_pages, pdf_text
 from tests.backend.test_pass_list import open_pass
 
 EN_SH_BAND_MM = 36.0 - 27.5
@@ -229,3 +232,65 @@ def test_vehicles_are_found_by_part_of_their_id_with_their_history(client, auth,
     }
     missing = client.get("/api/vehicles/NOPE", headers=auth("viewer"))
     assert missing.status_code == 404 and "NOPE" in missing.json()["detail"]
+
+
+def pass_pdf_text(client, auth, pass_id: int, tmp_path, name: str) -> tuple[str, str]:
+    """The pass PDF's text (every page checked for text over text) and its ETag."""
+    response = client.get(f"/api/passes/{pass_id}/report.pdf", headers=auth("viewer"))
+    assert response.status_code == 200, response.text
+    pdf = tmp_path / f"{name}.pdf"
+    pdf.write_bytes(response.content)
+    assert all(overlapping_words(page) == [] for page in pdf_pages(pdf))
+    return pdf_text(pdf), response.headers["ETag"]
+
+
+def test_reports_show_each_wheels_disposition_and_a_new_one_changes_the_etag(
+    client, auth, depot, tmp_path
+) -> None:
+    before, etag = pass_pdf_text(client, auth, depot["new"], tmp_path, "before")
+    assert "Disposition: open" in before
+    made = dispose(client, auth, depot, "operator", kind="false_alarm", comment="wet rail")
+    assert made.status_code == 201, made.text
+    actor = made.json()["actor"]
+    held = client.get(
+        f"/api/passes/{depot['new']}/report.pdf",
+        headers={**auth("viewer"), "If-None-Match": etag},
+    )
+    assert held.status_code == 200 and held.headers["ETag"] != etag
+    after, _ = pass_pdf_text(client, auth, depot["new"], tmp_path, "after")
+    assert f"Disposition: false alarm: wet rail — by {actor}" in after
+    assert after.count("Disposition: open") == before.count("Disposition: open") - 1
+    rows = list(csv.DictReader(io.StringIO(
+        client.get(f"/api/passes/{depot['new']}/report.csv", headers=auth("viewer")).text
+    )))  # fmt: skip
+    by_wheel = {int(r["wheel_id"]): r for r in rows}
+    alarm = by_wheel[depot["alarm"]]
+    assert (alarm["disposition"], alarm["disposition_comment"]) == ("false alarm", "wet rail")
+    assert alarm["disposition_by"] == actor and alarm["disposition_at"].endswith("+00:00")
+    assert by_wheel[depot["near"]]["disposition"] == "open"
+    path = f"/api/passes/{depot['new']}/wheels/{depot['alarm']}/report"
+    wheel = client.get(f"{path}.json", headers=auth("viewer")).json()["wheels"][0]
+    assert wheel["disposition"]["kind"] == "false_alarm" and wheel["disposition"]["actor"] == actor
+    one = tmp_path / "wheel.pdf"
+    one.write_bytes(client.get(f"{path}.pdf", headers=auth("viewer")).content)
+    assert f"Disposition: false alarm: wet rail — by {actor}" in pdf_text(one)
+
+
+def test_report_margins_use_the_fleets_amber_band(client, auth, depot, tmp_path) -> None:
+    def summary_rows(text: str) -> list[str]:
+        table = text.split("All wheels")[0].split("Wheels in alarm and near a limit")[1]
+        return [line for line in table.splitlines() if "V003" in line]
+
+    default, _ = pass_pdf_text(client, auth, depot["new"], tmp_path, "default")
+    assert any("near limit" in row and "right" in row for row in summary_rows(default))
+    assert "the inner 10 %" in default
+    limits = next(
+        r for r in client.get("/api/limits", headers=auth("viewer")).json()
+        if r["fleet"] == "default" and r["wheel_profile"] == "EN"
+    )  # fmt: skip
+    body = {k: v for k, v in limits.items() if k.endswith("_mm") or k == "near_limit_fraction"}
+    body["near_limit_fraction"] = 0.02  # V003 right's Sh is 2.35 % of its band from 36 mm
+    assert client.put("/api/limits/default/EN", headers=auth("admin"), json=body).is_success
+    narrow, _ = pass_pdf_text(client, auth, depot["new"], tmp_path, "narrow")
+    assert [row for row in summary_rows(narrow) if "near limit" in row] == []
+    assert any("ALARM" in row for row in summary_rows(narrow)) and "the inner 2 %" in narrow

@@ -440,14 +440,14 @@ def test_defect_9_help_lists_every_key_closes_outside_and_leaves_exports_free(
     help_box.wait_for(state="visible")
     text = help_box.inner_text()
     assert "camera frame" in text and "double-click" in text and "drag" in text
-    exports = page.locator(".titlebar .exports.report").bounding_box()
-    box = help_box.bounding_box()
-    overlap_x = min(box["x"] + box["width"], exports["x"] + exports["width"]) - max(
-        box["x"], exports["x"]
+    rects = page.evaluate(
+        """() => ['#help', '.titlebar .exports.report']
+          .map((sel) => document.querySelector(sel).getBoundingClientRect().toJSON())"""
     )
-    overlap_y = min(box["y"] + box["height"], exports["y"] + exports["height"]) - max(
-        box["y"], exports["y"]
-    )
+    box, exports = rects
+    assert box["width"] > 0, "the help is not on screen"
+    overlap_x = min(box["right"], exports["right"]) - max(box["left"], exports["left"])
+    overlap_y = min(box["bottom"], exports["bottom"]) - max(box["top"], exports["top"])
     assert overlap_x <= 0 or overlap_y <= 0, "the help covers the export buttons"
     page.screenshot(path=str(screenshots / "30-help.png"))
     page.mouse.click(20, 300)

@@ -47,6 +47,15 @@ def test_flank_with_a_gap_is_not_measured():
         flange_angle(x[keep], z[keep], 28.0)
 
 
+def test_an_overhanging_flank_is_not_an_angle_past_90_degrees():
+    """Points whose x rises with z on the flank (junk, not the wheel) give no angle ≥ 90°."""
+    x, z = straight_flank_profile(70.0)
+    stretch = (z >= 4.0) & (z <= 14.0) & (x > 20)
+    x = np.where(stretch, 25.0 + 0.4 * (z - 4.0), x)  # dx/dz = +0.4: 111.8° if believed
+    with pytest.raises(TreadNotFoundError, match="overhangs"):
+        flange_angle(x, z, 28.0)
+
+
 def test_flat_tread_has_no_hollow_and_a_dip_its_depth():
     x = np.arange(20.0, 130.0, 0.1)
     assert tread_hollow(WheelCurve(x, -0.05 * (x - 70))) == pytest.approx(0.0, abs=1e-12)

@@ -22,8 +22,6 @@ FILES: dict[int | str, dict[str, Any]] = {
     200: {"content": {m: {} for m in MEDIA_TYPES.values()}},
     304: {"description": "the PDF the browser holds (If-None-Match) is current"},
 }
-DISPOSITIONS: dict[int, str] = {}
-"""Dispositions per wheel id shown in the PDF; none until wheels are reviewed."""
 
 
 def _response(report: RenderedReport) -> Response:
@@ -48,7 +46,7 @@ async def get_pass_report(
     """The pass report: every wheel with parameters per method, limits, margins, alarms."""
     report = await run_in_threadpool(
         render_report, session, settings.data_dir / "reports", train_pass, fmt, None,
-        request.headers.get("if-none-match"), DISPOSITIONS,
+        request.headers.get("if-none-match"),
     )  # fmt: skip
     return _response(report)
 
@@ -67,6 +65,6 @@ async def get_wheel_report(
     """The report of one wheel in a pass."""
     report = await run_in_threadpool(
         render_report, session, settings.data_dir / "reports", pass_wheel.train_pass, fmt,
-        pass_wheel, request.headers.get("if-none-match"), DISPOSITIONS,
+        pass_wheel, request.headers.get("if-none-match"),
     )  # fmt: skip
     return _response(report)

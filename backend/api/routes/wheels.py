@@ -6,10 +6,12 @@ Images are PNG (downscaled with `max_width`); centres and profiles are columnar 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Annotated, Any, Literal, cast
 
 import numpy as np
-from fastapi import APIRouter, Query, Request, Response
+from fastapi import APIRouter, Depends, Query, Request, Response
+from sqlalchemy.orm import Session
 
 from backend.api.deps import PassWheelDep, SessionDep, StoreDep, ViewerDep, WheelDep
 from backend.api.schemas import (
@@ -38,6 +40,8 @@ from backend.services.wheel_data import (
     wheel_profile,
 )
 from backend.storage.artefacts import FrameArtefacts
+from backend.storage.store import BlobStore
+from db.models import Frame, MeasurementFrame, PassWheel
 
 router = APIRouter(prefix="/api", tags=["wheels"], responses=ERROR_RESPONSES)
 
@@ -55,6 +59,44 @@ MaxWidth = Annotated[int | None, Query(ge=16, le=8192, description="downscale to
 REVALIDATE = {"Cache-Control": "private, no-cache"}
 """Browsers keep the layers and ask again with If-None-Match (a 304 costs one lookup)."""
 FrameIndex = Annotated[int, Query(ge=0, description="frame of this sensor for the wheel, 0-based")]
+
+
+@dataclass(frozen=True, slots=True)
+class FrameLayer:
+    """One frame's stored extraction, as the layer routes (mask, σ, centres) address it."""
+
+    position: Position
+    pass_wheel: PassWheel
+    session: Session
+    store: BlobStore
+    method: Method
+    index: int
+
+    def extraction(self) -> tuple[Frame, MeasurementFrame]:
+        """The frame row and its stored extraction row (404 when not measured)."""
+        return stored_extraction(
+            self.session, self.pass_wheel, self.method, self.position, self.index
+        )
+
+    def artefacts(self) -> tuple[Frame, FrameArtefacts]:
+        """The frame row and its decoded artefacts (centres, mask, σ map)."""
+        return stored_artefacts(
+            self.session, self.store, self.pass_wheel, self.method, self.position, self.index
+        )
+
+
+def _frame_layer(
+    position: Position,
+    pass_wheel: PassWheelDep,
+    session: SessionDep,
+    store: StoreDep,
+    method: Method = "adaptive",
+    index: FrameIndex = 0,
+) -> FrameLayer:
+    return FrameLayer(position, pass_wheel, session, store, method, index)
+
+
+FrameLayerDep = Annotated[FrameLayer, Depends(_frame_layer)]
 
 
 def _revalidated(request: Request, etag: str) -> Response | None:
@@ -103,25 +145,20 @@ def get_frame_png(
 @router.get(WHEEL + "/mask/{position}.png", response_class=Response, responses=PNG)
 def get_mask_png(
     request: Request,
-    position: Position,
-    pass_wheel: PassWheelDep,
-    session: SessionDep,
-    store: StoreDep,
+    layer: FrameLayerDep,
     _viewer: ViewerDep,
-    method: Method = "adaptive",
-    index: FrameIndex = 0,
     max_width: MaxWidth = None,
 ) -> Response:
     """The stripe mask the method searched centres in (255 = stripe, 96 = candidate centres
     the method rejected)."""
-    _frame_row, row = stored_extraction(session, pass_wheel, method, position, index)
+    _frame_row, row = layer.extraction()
     etag = f'"{row.artefact_sha256[:24]}-mask-{max_width}"'
     if (cached := _revalidated(request, etag)) is not None:
         return cached
     if max_width is None and row.mask_png_sha256 is not None:
-        data = store.get(row.mask_png_sha256, ".png")
+        data = layer.store.get(row.mask_png_sha256, ".png")
     else:
-        data = layer_png(store, row.artefact_sha256, "mask", max_width).png
+        data = layer_png(layer.store, row.artefact_sha256, "mask", max_width).png
     return Response(data, media_type="image/png", headers={"ETag": etag, **REVALIDATE})
 
 
@@ -134,33 +171,28 @@ def _sigma_map(artefacts: FrameArtefacts, method: str) -> np.ndarray:
 @router.get(WHEEL + "/sigma/{position}.png", response_class=Response, responses=PNG)
 def get_sigma_png(
     request: Request,
-    position: Position,
-    pass_wheel: PassWheelDep,
-    session: SessionDep,
-    store: StoreDep,
+    layer: FrameLayerDep,
     _viewer: ViewerDep,
-    method: Method = "adaptive",
-    index: FrameIndex = 0,
     max_width: MaxWidth = None,
 ) -> Response:
     """The σ map coloured (transparent where no scale was chosen). Its colour scale is in
     the headers X-Colormap, X-Sigma-Min-Px and X-Sigma-Max-Px (σ1 and σ3 of the configured
     width range, the same for every frame), the scales σ1, σ2, σ3 in X-Sigma-Scales-Px."""
-    _frame_row, row = stored_extraction(session, pass_wheel, method, position, index)
+    _frame_row, row = layer.extraction()
     etag = f'"{row.artefact_sha256[:24]}-sigma-{max_width}"'
     if max_width is None and row.sigma_png_sha256 is not None:
-        layer = LayerPng(
-            store.get(row.sigma_png_sha256, ".png"),
+        png = LayerPng(
+            layer.store.get(row.sigma_png_sha256, ".png"),
             row.sigma_min_px or 0.0,
             row.sigma_max_px or 0.0,
         )
     else:
-        _sigma_map(cached_artefacts(store, row.artefact_sha256), method)
-        layer = layer_png(store, row.artefact_sha256, "sigma", max_width)
+        _sigma_map(cached_artefacts(layer.store, row.artefact_sha256), layer.method)
+        png = layer_png(layer.store, row.artefact_sha256, "sigma", max_width)
     headers = {
         "X-Colormap": SIGMA_COLORMAP,
-        "X-Sigma-Min-Px": f"{layer.sigma_min_px}",
-        "X-Sigma-Max-Px": f"{layer.sigma_max_px}",
+        "X-Sigma-Min-Px": f"{png.sigma_min_px}",
+        "X-Sigma-Max-Px": f"{png.sigma_max_px}",
         "X-Sigma-Scales-Px": ",".join(f"{sigma:.4f}" for sigma in SIGMA_SCALES_PX),
         "ETag": etag,
         **REVALIDATE,
@@ -168,7 +200,7 @@ def get_sigma_png(
     if (cached := _revalidated(request, etag)) is not None:
         cached.headers.update(headers)
         return cached
-    return Response(layer.png, media_type="image/png", headers=headers)
+    return Response(png.png, media_type="image/png", headers=headers)
 
 
 @router.get(
@@ -177,18 +209,13 @@ def get_sigma_png(
     responses={200: {"content": {"application/octet-stream": {}}}},
 )
 def get_sigma_raw(
-    position: Position,
-    pass_wheel: PassWheelDep,
-    session: SessionDep,
-    store: StoreDep,
+    layer: FrameLayerDep,
     _viewer: ViewerDep,
-    method: Method = "adaptive",
-    index: FrameIndex = 0,
 ) -> Response:
     """The raw σ map [px]: row-major little-endian float32, 0 outside the mask; the size
     is in the headers X-Width-Px and X-Height-Px (a Float32Array in the browser)."""
-    _frame_row, artefacts = stored_artefacts(session, store, pass_wheel, method, position, index)
-    sigma_map = _sigma_map(artefacts, method)
+    _frame_row, artefacts = layer.artefacts()
+    sigma_map = _sigma_map(artefacts, layer.method)
     height_px, width_px = sigma_map.shape
     return Response(
         np.ascontiguousarray(sigma_map, "<f4").tobytes(),
@@ -199,19 +226,14 @@ def get_sigma_raw(
 
 @router.get(WHEEL + "/centres/{position}")
 def get_centres(
-    position: Position,
-    pass_wheel: PassWheelDep,
-    session: SessionDep,
-    store: StoreDep,
+    layer: FrameLayerDep,
     _viewer: ViewerDep,
-    method: Method = "adaptive",
-    index: FrameIndex = 0,
 ) -> CentresRead:
     """Centre points of one frame, columnar: x, y [px], sigma [px], strength, nx, ny."""
-    frame, artefacts = stored_artefacts(session, store, pass_wheel, method, position, index)
+    frame, artefacts = layer.artefacts()
     points = {name: np.round(values, 4).tolist() for name, values in artefacts.points.items()}
     return CentresRead(
-        method=method,
+        method=layer.method,
         sensor=cast(Sensor, frame.sensor),
         seq=frame.seq,
         width_px=frame.width_px,
