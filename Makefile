@@ -51,6 +51,7 @@ lint: $(STAMP) $(NODE_STAMP)
 	$(VENV)/bin/mypy
 	$(PY) scripts/api_types.py --check
 	node_modules/.bin/tsc -p tsconfig.json
+	node_modules/.bin/prettier --check frontend tests/frontend
 
 # Rewrites files in place: Python with ruff, the front end's JavaScript with prettier.
 format: $(STAMP) $(NODE_STAMP)

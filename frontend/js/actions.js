@@ -74,7 +74,9 @@ export function createActions(api, store) {
         }
         try {
           const [data, wheels, limits] = await Promise.all([
-            api.getPass(passId), api.listWheels(passId), store.get().limits ?? api.getLimits(),
+            api.getPass(passId),
+            api.listWheels(passId),
+            store.get().limits ?? api.getLimits(),
           ]);
           store.set({ pass: { id: passId, loading: false, data, wheels }, limits });
         } catch (err) {
@@ -82,7 +84,12 @@ export function createActions(api, store) {
           throw err;
         }
       }),
-    loadWheel: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {string|undefined} */ sensor, /** @type {number} */ index) =>
+    loadWheel: (
+      /** @type {string} */ passId,
+      /** @type {string} */ wheelId,
+      /** @type {string|undefined} */ sensor,
+      /** @type {number} */ index,
+    ) =>
       guard(`could not load wheel ${wheelId} of pass ${passId}`, async () => {
         try {
           await loadWheel(api, store, passId, wheelId, sensor, index);
@@ -105,15 +112,22 @@ export function createActions(api, store) {
         } catch (err) {
           if (!(err instanceof ApiError) || err.status !== 404) throw err;
           // not an exact id: offer the vehicles that contain it
-          store.set({ vehicle: { id: vehicleId, loading: false, history: null, matches: await api.searchVehicles(vehicleId) } });
+          store.set({
+            vehicle: { id: vehicleId, loading: false, history: null, matches: await api.searchVehicles(vehicleId) },
+          });
         }
       }),
-    addDisposition: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {{kind: string, comment?: string}} */ body) =>
+    addDisposition: (
+      /** @type {string} */ passId,
+      /** @type {string} */ wheelId,
+      /** @type {{kind: string, comment?: string}} */ body,
+    ) =>
       guard('could not record the disposition', async () => {
         await api.addDisposition(passId, wheelId, body);
         const [record, history] = await Promise.all([api.getWheel(passId, wheelId), api.dispositions(passId, wheelId)]);
         const w = store.get().wheel;
-        if (w?.passId === passId && w?.wheelId === wheelId) store.set({ wheel: { ...w, record, dispositions: history } });
+        if (w?.passId === passId && w?.wheelId === wheelId)
+          store.set({ wheel: { ...w, record, dispositions: history } });
       }),
     patchWheel: (/** @type {object} */ patch) => store.set({ wheel: { ...store.get().wheel, ...patch } }),
     openViewer: (/** @type {string} */ passId, /** @type {string} */ wheelId) =>
@@ -123,7 +137,8 @@ export function createActions(api, store) {
       }),
     exportReport: (/** @type {string} */ passId, /** @type {string|null} */ wheelId, /** @type {string} */ format) =>
       guard(`could not export the ${format.toUpperCase()} report`, async () =>
-        saveFile(await api.report(passId, wheelId, format))),
+        saveFile(await api.report(passId, wheelId, format)),
+      ),
     importReference: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {File} */ file) =>
       guard(`could not import ${file.name} as the handheld reference`, async () => {
         const reference = await api.importReference(wheelId, file);
@@ -131,14 +146,25 @@ export function createActions(api, store) {
         const w = store.get().wheel;
         if (!w || w.passId !== passId || w.wheelId !== wheelId) return;
         const shown = comparison.reference ?? reference;
-        store.set({ wheel: { ...w, comparison, profiles: { ...w.profiles, handheld: { x_mm: shown.x_mm, z_mm: shown.z_mm } } } });
+        store.set({
+          wheel: { ...w, comparison, profiles: { ...w.profiles, handheld: { x_mm: shown.x_mm, z_mm: shown.z_mm } } },
+        });
       }),
-    exportProfile: (/** @type {string} */ passId, /** @type {string} */ wheelId, /** @type {string} */ method, /** @type {string} */ format) =>
+    exportProfile: (
+      /** @type {string} */ passId,
+      /** @type {string} */ wheelId,
+      /** @type {string} */ method,
+      /** @type {string} */ format,
+    ) =>
       guard(`could not export the ${method} profile as ${format.toUpperCase()}`, async () =>
-        saveFile(await api.profileFile(passId, wheelId, method, format))),
+        saveFile(await api.profileFile(passId, wheelId, method, format)),
+      ),
     upload: (/** @type {File} */ file) => {
       if (!/\.zip$/i.test(file.name)) {
-        store.set({ upload: null, error: `${file.name} is not a pass archive: drop the .zip of a wheelscan-pass/1 archive` });
+        store.set({
+          upload: null,
+          error: `${file.name} is not a pass archive: drop the .zip of a wheelscan-pass/1 archive`,
+        });
         return Promise.resolve();
       }
       return uploadArchive(file);
@@ -161,10 +187,14 @@ export function createActions(api, store) {
         const job = await api.getJob(created.job_id);
         jobUpdate(store, { ...job, job_id: created.job_id, pass_id: created.pass_id });
         // the job's own socket reports every step up to and including the end
-        const stop = api.watch(`jobs/${created.job_id}`, (msg) => {
-          jobUpdate(store, msg);
-          if (JOB_ENDS.includes(msg.state)) stop();
-        }, () => {});
+        const stop = api.watch(
+          `jobs/${created.job_id}`,
+          (msg) => {
+            jobUpdate(store, msg);
+            if (JOB_ENDS.includes(msg.state)) stop();
+          },
+          () => {},
+        );
       } catch (err) {
         store.set({ upload: null });
         throw err;
@@ -204,14 +234,18 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
   // the pass's wheel list is fetched once per pass (for prev/next), never per wheel change
   const listed = store.get().pass?.id === passId && store.get().pass.wheels?.length ? store.get().pass.wheels : null;
   const recordLoad = api.getWheel(passId, wheelId);
-  const record = (listed ? byId(listed) : null) ?? await recordLoad;
+  const record = (listed ? byId(listed) : null) ?? (await recordLoad);
   const frames = framesOf(record);
   const frame = frames.find((f) => f.sensor === (sensor ?? frames[0]?.sensor) && f.index === index);
   if (!frame && frames.length) {
     const count = frames.filter((f) => f.sensor === sensor).length;
-    throw new ApiError(sensor && count === 0
-      ? `wheel ${wheelId} has no ${sensor} frames (it has ${[...new Set(frames.map((f) => f.sensor))].join(', ')})`
-      : `wheel ${wheelId} has ${count} ${sensor ?? frames[0].sensor} frame(s); frame ${index + 1} does not exist`, 404, 'no_frame');
+    throw new ApiError(
+      sensor && count === 0
+        ? `wheel ${wheelId} has no ${sensor} frames (it has ${[...new Set(frames.map((f) => f.sensor))].join(', ')})`
+        : `wheel ${wheelId} has ${count} ${sensor ?? frames[0].sensor} frame(s); frame ${index + 1} does not exist`,
+      404,
+      'no_frame',
+    );
   }
   if (!frame) throw new ApiError(`no frames are stored for wheel ${wheelId} of pass ${passId}`, 404, 'no_frames');
   const { sensor: s, index: i } = frame;
@@ -226,20 +260,32 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
     ...METHODS.map((m) => api.centres(passId, wheelId, s, i, m).catch((err) => ({ error: err.message }))),
   ]);
   const sideLayers = new AbortController();
-  const wheels = (listed ?? [fresh]).map((/** @type {any} */ w) => (String(w.wheel_id) === String(wheelId) ? fresh : w));
+  const wheels = (listed ?? [fresh]).map((/** @type {any} */ w) =>
+    String(w.wheel_id) === String(wheelId) ? fresh : w,
+  );
   store.set({
     limits,
     pass: { ...(store.get().pass?.id === passId ? store.get().pass : { id: passId, data: null }), wheels },
     wheel: {
       ...store.get().wheel,
-      passId, wheelId, frames, sensor: s, index: i, loading: false, record: fresh, sideLayers, dispositions,
-      layers: { image: image ?? await blankFrame(adaptive, steger), mask: null, sigma: null },
+      passId,
+      wheelId,
+      frames,
+      sensor: s,
+      index: i,
+      loading: false,
+      record: fresh,
+      sideLayers,
+      dispositions,
+      layers: { image: image ?? (await blankFrame(adaptive, steger)), mask: null, sigma: null },
       sigmaScale: null,
       centres: { adaptive, steger },
       profiles: {
-        adaptive: profiles[0], steger: profiles[1],
+        adaptive: profiles[0],
+        steger: profiles[1],
         ...('reference' in comparison && comparison.reference
-          ? { handheld: { x_mm: comparison.reference.x_mm, z_mm: comparison.reference.z_mm } } : {}),
+          ? { handheld: { x_mm: comparison.reference.x_mm, z_mm: comparison.reference.z_mm } }
+          : {}),
       },
       comparison,
       trend,
@@ -247,9 +293,12 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
     },
   });
   if (!listed) {
-    api.listWheels(passId).then((all) => {
-      if (store.get().pass?.id === passId) store.set({ pass: { ...store.get().pass, wheels: all } });
-    }).catch(() => {});
+    api
+      .listWheels(passId)
+      .then((all) => {
+        if (store.get().pass?.id === passId) store.set({ pass: { ...store.get().pass, wheels: all } });
+      })
+      .catch(() => {});
   }
   await loadSideLayers(api, store, passId, wheelId, s, i, sideLayers.signal);
 }
@@ -266,12 +315,17 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
  * @param {AbortSignal} signal aborted when another wheel or frame is opened
  */
 async function loadSideLayers(api, store, passId, wheelId, sensor, index, signal) {
-  const [mask, sigma] = /** @type {any[]} */ (await Promise.all([
-    api.maskImage(passId, wheelId, sensor, index, 'adaptive', signal).then(maskLayer)
-      .catch((/** @type {Error} */ err) => ({ error: err.message })),
-    api.sigmaImage(passId, wheelId, sensor, index, 'adaptive', signal)
-      .catch((/** @type {Error} */ err) => ({ error: err.message })),
-  ]));
+  const [mask, sigma] = /** @type {any[]} */ (
+    await Promise.all([
+      api
+        .maskImage(passId, wheelId, sensor, index, 'adaptive', signal)
+        .then(maskLayer)
+        .catch((/** @type {Error} */ err) => ({ error: err.message })),
+      api
+        .sigmaImage(passId, wheelId, sensor, index, 'adaptive', signal)
+        .catch((/** @type {Error} */ err) => ({ error: err.message })),
+    ])
+  );
   const w = store.get().wheel;
   if (!w || w.passId !== passId || w.wheelId !== wheelId || w.sensor !== sensor || w.index !== index) return;
   const sigmaOk = sigma && !('error' in sigma);
@@ -279,7 +333,9 @@ async function loadSideLayers(api, store, passId, wheelId, sensor, index, signal
     wheel: {
       ...w,
       layers: { ...w.layers, mask: 'error' in mask ? null : mask, sigma: sigmaOk ? sigma.bitmap : null },
-      sigmaScale: sigmaOk ? { sigma_min_px: sigma.sigma_min_px, sigma_max_px: sigma.sigma_max_px, scales_px: sigma.scales_px } : null,
+      sigmaScale: sigmaOk
+        ? { sigma_min_px: sigma.sigma_min_px, sigma_max_px: sigma.sigma_max_px, scales_px: sigma.scales_px }
+        : null,
       layerErrors: { mask: 'error' in mask ? mask.error : null, sigma: sigmaOk ? null : sigma.error },
     },
   });

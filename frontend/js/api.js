@@ -122,11 +122,16 @@ export function createApi(getToken, base = '') {
     centres: (p, w, sensor, index, method) => json(layerPath(p, w, 'centres', sensor, index, '', method)),
     profile: (p, w, method) => json(`${wheelPath(p, w)}/profile?method=${encodeURIComponent(method)}`),
     trend: (wheelId) => json(`/api/wheels/${wheelId}/trend`),
-    report: (p, w, format) => download(`${w === null ? `/api/passes/${p}` : wheelPath(p, w)}/report.${format}`,
-      `wheelscan-pass-${p}${w === null ? '' : `-wheel-${w}`}.${format}`),
+    report: (p, w, format) =>
+      download(
+        `${w === null ? `/api/passes/${p}` : wheelPath(p, w)}/report.${format}`,
+        `wheelscan-pass-${p}${w === null ? '' : `-wheel-${w}`}.${format}`,
+      ),
     profileFile: (p, w, method, format) =>
-      download(`${wheelPath(p, w)}/profile.${format}?method=${encodeURIComponent(method)}`,
-        `wheelscan-pass-${p}-wheel-${w}-${method}.${format}`),
+      download(
+        `${wheelPath(p, w)}/profile.${format}?method=${encodeURIComponent(method)}`,
+        `wheelscan-pass-${p}-wheel-${w}-${method}.${format}`,
+      ),
     referenceComparison: (p, w) => json(`${wheelPath(p, w)}/reference-comparison`),
     importReference: async (wheelId, file) => {
       const body = new FormData();
@@ -139,9 +144,14 @@ export function createApi(getToken, base = '') {
     searchVehicles: (text) => json(`/api/vehicles?${new URLSearchParams({ q: text })}`),
     vehicle: (vehicleId) => json(`/api/vehicles/${encodeURIComponent(vehicleId)}`),
     dispositions: (p, w) => json(`${wheelPath(p, w)}/dispositions`),
-    addDisposition: async (p, w, body) => (await request(`${wheelPath(p, w)}/dispositions`, {
-      method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify(body),
-    })).json(),
+    addDisposition: async (p, w, body) =>
+      (
+        await request(`${wheelPath(p, w)}/dispositions`, {
+          method: 'POST',
+          headers: { 'Content-Type': 'application/json' },
+          body: JSON.stringify(body),
+        })
+      ).json(),
     getJob: (jobId) => json(`/api/jobs/${jobId}`),
     uploadPass: (file, onProgress) => uploadWithProgress(base, getToken(), file, onProgress),
     watch: (path, onMessage, onState) => watchSocket(base, getToken, path, onMessage, onState),
@@ -163,9 +173,12 @@ async function errorFrom(response, path) {
   } catch {
     detail = response.statusText;
   }
-  const what = response.status === 401
-    ? 'the token was refused'
-    : response.status === 403 ? 'not allowed' : `${response.status} ${response.statusText}`;
+  const what =
+    response.status === 401
+      ? 'the token was refused'
+      : response.status === 403
+        ? 'not allowed'
+        : `${response.status} ${response.statusText}`;
   return new ApiError(`${what}: ${detail || 'no detail'} (${path.split('?')[0]})`, response.status, code);
 }
 
@@ -192,8 +205,14 @@ function uploadWithProgress(base, token, file, onProgress) {
         body = { detail: xhr.responseText };
       }
       if (xhr.status >= 200 && xhr.status < 300) resolve(/** @type {any} */ (body));
-      else reject(new ApiError(`upload refused (${xhr.status}): ${/** @type {any} */ (body).detail ?? 'no detail'}`,
-        xhr.status, /** @type {any} */ (body).code ?? `http_${xhr.status}`));
+      else
+        reject(
+          new ApiError(
+            `upload refused (${xhr.status}): ${/** @type {any} */ (body).detail ?? 'no detail'}`,
+            xhr.status,
+            /** @type {any} */ (body).code ?? `http_${xhr.status}`,
+          ),
+        );
     };
     const form = new FormData();
     form.append('file', file, file.name);

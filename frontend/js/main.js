@@ -29,10 +29,22 @@ const els = {
 
 const store = createStore({
   token: window.localStorage.getItem(TOKEN_KEY),
-  me: null, signingIn: false, route: parseHash(''), error: null, helpOpen: false,
-  passes: { items: [], filter: {}, loading: false }, selectedRow: 0, liveJobs: {}, socketOpen: false,
-  pass: null, wheel: null, upload: null, limits: null, layers: DEFAULT_LAYERS,
-  review: null, vehicle: null,
+  me: null,
+  signingIn: false,
+  route: parseHash(''),
+  error: null,
+  helpOpen: false,
+  passes: { items: [], filter: {}, loading: false },
+  selectedRow: 0,
+  liveJobs: {},
+  socketOpen: false,
+  pass: null,
+  wheel: null,
+  upload: null,
+  limits: null,
+  layers: DEFAULT_LAYERS,
+  review: null,
+  vehicle: null,
 });
 const api = createApi(() => store.get().token);
 const actions = createActions(api, store);
@@ -43,7 +55,9 @@ let stopWatching = null;
 let lastLoadKey = '';
 
 window.addEventListener('error', (e) => store.set({ error: `the page hit a bug: ${e.message}` }));
-window.addEventListener('unhandledrejection', (e) => store.set({ error: `the page hit a bug: ${String(e.reason?.message ?? e.reason)}` }));
+window.addEventListener('unhandledrejection', (e) =>
+  store.set({ error: `the page hit a bug: ${String(e.reason?.message ?? e.reason)}` }),
+);
 
 /** Follow the location hash: sign in from `#token=`, then load what the route shows. */
 async function onHashChange() {
@@ -55,8 +69,16 @@ async function onHashChange() {
     if (store.get().me) startWatching();
     else stopWatching?.();
   }
-  const layers = /** @type {typeof DEFAULT_LAYERS} */ (Object.fromEntries(LAYERS.map(([key]) => [key,
-    route.query[key] === undefined ? DEFAULT_LAYERS[/** @type {keyof typeof DEFAULT_LAYERS} */ (key)] : route.query[key] === '1'])));
+  const layers = /** @type {typeof DEFAULT_LAYERS} */ (
+    Object.fromEntries(
+      LAYERS.map(([key]) => [
+        key,
+        route.query[key] === undefined
+          ? DEFAULT_LAYERS[/** @type {keyof typeof DEFAULT_LAYERS} */ (key)]
+          : route.query[key] === '1',
+      ]),
+    )
+  );
   if (!store.get().me) {
     store.set({ route, layers });
     return;
@@ -70,9 +92,13 @@ async function onHashChange() {
   else if (route.name === 'pass') {
     await actions.loadPass(route.params.passId);
     followPassJob();
-  }
-  else if (route.name === 'wheel') {
-    await actions.loadWheel(route.params.passId, route.params.wheelId, route.query.sensor, Number(route.query.frame ?? 0));
+  } else if (route.name === 'wheel') {
+    await actions.loadWheel(
+      route.params.passId,
+      route.params.wheelId,
+      route.query.sensor,
+      Number(route.query.frame ?? 0),
+    );
   } else if (route.name === 'review') await actions.loadReview(route.query);
   else if (route.name === 'vehicle') await actions.loadVehicle(route.params.vehicleId);
 }
@@ -94,12 +120,16 @@ function loadKeyOf(route) {
 /** Listen for job progress of every pass; a finished job refreshes what is on screen. */
 function startWatching() {
   stopWatching?.();
-  stopWatching = api.watch('passes', (msg) => {
-    const before = store.get().liveJobs[msg.pass_id];
-    actions.jobUpdate(msg);
-    const finished = (msg.wheels_done !== before?.wheels_done) || msg.state !== before?.state;
-    if (finished) refreshOnProgress(msg);
-  }, (open) => store.set({ socketOpen: open }));
+  stopWatching = api.watch(
+    'passes',
+    (msg) => {
+      const before = store.get().liveJobs[msg.pass_id];
+      actions.jobUpdate(msg);
+      const finished = msg.wheels_done !== before?.wheels_done || msg.state !== before?.state;
+      if (finished) refreshOnProgress(msg);
+    },
+    (open) => store.set({ socketOpen: open }),
+  );
 }
 
 /** @type {(() => void)|null} */
@@ -114,11 +144,15 @@ function followPassJob() {
   stopFollowing = null;
   const job = store.get().pass?.data?.job;
   if (!job || job.state === 'done' || job.state === 'failed') return;
-  const stop = api.watch(`jobs/${job.job_id}`, (msg) => {
-    actions.jobUpdate(msg);
-    refreshOnProgress(msg);
-    if (msg.state === 'done' || msg.state === 'failed') stop();
-  }, () => {});
+  const stop = api.watch(
+    `jobs/${job.job_id}`,
+    (msg) => {
+      actions.jobUpdate(msg);
+      refreshOnProgress(msg);
+      if (msg.state === 'done' || msg.state === 'failed') stop();
+    },
+    () => {},
+  );
   stopFollowing = stop;
 }
 
@@ -133,7 +167,8 @@ function refreshOnProgress(msg) {
     refreshTimer = 0;
     const { route } = store.get();
     if (route.name === 'passes') actions.loadPasses(route.query);
-    else if (route.name === 'pass' && route.params.passId === String(msg.pass_id)) actions.loadPass(route.params.passId);
+    else if (route.name === 'pass' && route.params.passId === String(msg.pass_id))
+      actions.loadPass(route.params.passId);
   }, 500);
 }
 
@@ -153,7 +188,9 @@ function render() {
   renderShell(els, state, {
     dismissError: () => store.set({ error: null }),
     closeHelp: () => store.set({ helpOpen: false }),
-    findVehicle: (text) => { window.location.hash = buildHash(['vehicles', text]); },
+    findVehicle: (text) => {
+      window.location.hash = buildHash(['vehicles', text]);
+    },
     signOut: () => {
       window.localStorage.removeItem(TOKEN_KEY);
       stopWatching?.();
@@ -184,7 +221,9 @@ function render() {
   const { route } = state;
   if (route.name === 'passes') {
     renderPasses(els.view, state, {
-      applyFilter: (filter) => { window.location.hash = buildHash(['passes'], filter); },
+      applyFilter: (filter) => {
+        window.location.hash = buildHash(['passes'], filter);
+      },
       select: (index) => store.set({ selectedRow: index }),
     });
   } else if (route.name === 'pass') {
@@ -193,31 +232,49 @@ function render() {
       exportReport: (format) => actions.exportReport(route.params.passId, null, format),
     });
   } else if (route.name === 'review') {
-    renderReview(els.view, state, { applyFilter: (filter) => { window.location.hash = buildHash(['review'], filter); } });
+    renderReview(els.view, state, {
+      applyFilter: (filter) => {
+        window.location.hash = buildHash(['review'], filter);
+      },
+    });
   } else if (route.name === 'vehicle') {
     renderVehicle(els.view, state);
   } else if (route.name === 'wheel') {
     wheelView ??= new WheelView(els.view, {
       setQuery,
-      exportReport: (format) => actions.exportReport(store.get().route.params.passId, store.get().route.params.wheelId, format),
+      exportReport: (format) =>
+        actions.exportReport(store.get().route.params.passId, store.get().route.params.wheelId, format),
       importReference: (file) => {
         const { params } = store.get().route;
         return actions.importReference(params.passId, params.wheelId, file);
       },
       exportProfile: (format) => {
         const { params, query } = store.get().route;
-        return actions.exportProfile(params.passId, params.wheelId, query.method === 'steger' ? 'steger' : 'adaptive', format);
+        return actions.exportProfile(
+          params.passId,
+          params.wheelId,
+          query.method === 'steger' ? 'steger' : 'adaptive',
+          format,
+        );
       },
       openViewer: () => actions.openViewer(store.get().route.params.passId, store.get().route.params.wheelId),
       closeViewer: () => actions.patchWheel({ viewerUrl: null }),
-      addDisposition: (body) => actions.addDisposition(store.get().route.params.passId, store.get().route.params.wheelId, body),
+      addDisposition: (body) =>
+        actions.addDisposition(store.get().route.params.passId, store.get().route.params.wheelId, body),
     });
     wheelView.update(state);
   } else if (route.name === 'upload') {
     renderUpload(els.view, state, { upload: actions.upload });
   } else {
-    els.view.replaceChildren(h('p', { class: 'not-found' }, `Nothing lives at "${route.params.path}". `,
-      h('a', { href: '#/passes' }, 'Go back to the passes list'), '.'));
+    els.view.replaceChildren(
+      h(
+        'p',
+        { class: 'not-found' },
+        `Nothing lives at "${route.params.path}". `,
+        h('a', { href: '#/passes' }, 'Go back to the passes list'),
+        '.',
+      ),
+    );
   }
 }
 
@@ -244,7 +301,8 @@ function escape(state) {
   if (state.helpOpen) store.set({ helpOpen: false });
   else if (state.route.name === 'wheel' && state.wheel?.viewerUrl) actions.patchWheel({ viewerUrl: null });
   else if (state.route.name === 'wheel') window.location.hash = buildHash(['passes', state.route.params.passId]);
-  else if (state.route.name === 'pass' || state.route.name === 'review' || state.route.name === 'vehicle') window.location.hash = '#/passes';
+  else if (state.route.name === 'pass' || state.route.name === 'review' || state.route.name === 'vehicle')
+    window.location.hash = '#/passes';
 }
 
 /** @param {KeyboardEvent} e @param {any} state */
@@ -252,7 +310,8 @@ function passesKey(e, state) {
   const n = state.passes.items.length;
   if (e.key === 'j' || e.key === 'ArrowDown') store.set({ selectedRow: Math.min(n - 1, state.selectedRow + 1) });
   else if (e.key === 'k' || e.key === 'ArrowUp') store.set({ selectedRow: Math.max(0, state.selectedRow - 1) });
-  else if (e.key === 'Enter' && n > 0) window.location.hash = buildHash(['passes', state.passes.items[state.selectedRow].id]);
+  else if (e.key === 'Enter' && n > 0)
+    window.location.hash = buildHash(['passes', state.passes.items[state.selectedRow].id]);
 }
 
 /** @param {KeyboardEvent} e @param {any} state */
@@ -263,14 +322,21 @@ function wheelKey(e, state) {
   const step = 60;
   /** @type {Record<string, () => void>} */
   const moves = {
-    f: () => frame?.fit(), '+': () => frame?.zoom(1.5), '=': () => frame?.zoom(1.5), '-': () => frame?.zoom(1 / 1.5),
-    ArrowLeft: () => frame?.pan(step, 0), ArrowRight: () => frame?.pan(-step, 0),
-    ArrowUp: () => frame?.pan(0, step), ArrowDown: () => frame?.pan(0, -step),
+    f: () => frame?.fit(),
+    '+': () => frame?.zoom(1.5),
+    '=': () => frame?.zoom(1.5),
+    '-': () => frame?.zoom(1 / 1.5),
+    ArrowLeft: () => frame?.pan(step, 0),
+    ArrowRight: () => frame?.pan(-step, 0),
+    ArrowUp: () => frame?.pan(0, step),
+    ArrowDown: () => frame?.pan(0, -step),
     '[': () => /** @type {HTMLElement|null} */ (document.querySelector('a[rel=prev]'))?.click(),
     ']': () => /** @type {HTMLElement|null} */ (document.querySelector('a[rel=next]'))?.click(),
     i: () => {
       const frames = state.wheel?.frames ?? [];
-      const at = frames.findIndex((/** @type {any} */ f) => f.sensor === state.wheel.sensor && f.index === state.wheel.index);
+      const at = frames.findIndex(
+        (/** @type {any} */ f) => f.sensor === state.wheel.sensor && f.index === state.wheel.index,
+      );
       const next = frames[(at + 1) % frames.length];
       if (frames.length > 1) setQuery({ sensor: next.sensor, frame: String(next.index) });
     },

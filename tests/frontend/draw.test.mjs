@@ -18,8 +18,16 @@ test('drawFrame culls centres outside the view and draws each method in one fill
   const y = Array.from({ length: 5000 }, (_, i) => Math.floor(i / 100) * 24);
   const full = fitViewport(1600, 1200, 800, 600);
   const options = { viewport: full, widthPx: 800, heightPx: 600, pixelRatio: 1, show: SHOW_ALL };
-  const layers = { image: null, mask: null, sigma: null, highlight: null,
-    centres: [{ method: 'adaptive', x, y }, { method: 'steger', x, y }] };
+  const layers = {
+    image: null,
+    mask: null,
+    sigma: null,
+    highlight: null,
+    centres: [
+      { method: 'adaptive', x, y },
+      { method: 'steger', x, y },
+    ],
+  };
   assert.equal(drawFrame(ctx, layers, options), 10000);
   assert.equal(calls.filter(([name]) => name === 'fill').length, 2);
   const zoomed = zoomAt(full, 8, 0, 0);
@@ -29,23 +37,53 @@ test('drawFrame culls centres outside the view and draws each method in one fill
 
 test('drawFrame skips hidden methods', () => {
   const { ctx } = recordingContext();
-  const options = { viewport: fitViewport(100, 100, 100, 100), widthPx: 100, heightPx: 100, pixelRatio: 1,
-    show: { ...SHOW_ALL, steger: false } };
-  const layers = { image: null, mask: null, sigma: null, highlight: null,
-    centres: [{ method: 'adaptive', x: [1, 2], y: [1, 2] }, { method: 'steger', x: [3], y: [3] }] };
+  const options = {
+    viewport: fitViewport(100, 100, 100, 100),
+    widthPx: 100,
+    heightPx: 100,
+    pixelRatio: 1,
+    show: { ...SHOW_ALL, steger: false },
+  };
+  const layers = {
+    image: null,
+    mask: null,
+    sigma: null,
+    highlight: null,
+    centres: [
+      { method: 'adaptive', x: [1, 2], y: [1, 2] },
+      { method: 'steger', x: [3], y: [3] },
+    ],
+  };
   assert.equal(drawFrame(ctx, layers, options), 2);
 });
 
 test('drawFrame marks rejected candidates of shown methods only, apart from the centres', () => {
   const { ctx, calls } = recordingContext();
-  const options = { viewport: fitViewport(100, 100, 100, 100), widthPx: 100, heightPx: 100, pixelRatio: 1,
-    show: { ...SHOW_ALL, steger: false } };
-  const layers = { image: null, mask: null, sigma: null, highlight: null,
+  const options = {
+    viewport: fitViewport(100, 100, 100, 100),
+    widthPx: 100,
+    heightPx: 100,
+    pixelRatio: 1,
+    show: { ...SHOW_ALL, steger: false },
+  };
+  const layers = {
+    image: null,
+    mask: null,
+    sigma: null,
+    highlight: null,
     centres: [{ method: 'adaptive', x: [1, 2], y: [1, 2] }],
-    rejected: [{ method: 'adaptive', x: [5, 6, 7], y: [5, 6, 7] }, { method: 'steger', x: [8], y: [8] }] };
+    rejected: [
+      { method: 'adaptive', x: [5, 6, 7], y: [5, 6, 7] },
+      { method: 'steger', x: [8], y: [8] },
+    ],
+  };
   assert.equal(drawFrame(ctx, layers, options), 2, 'rejected points are not counted as centres');
   const styles = calls.filter(([name]) => name === 'set:fillStyle').map(([, [v]]) => v);
-  assert.equal(styles.filter((v) => v === '#f43f5e').length, 1, 'one fill for adaptive rejects, none for hidden Steger');
+  assert.equal(
+    styles.filter((v) => v === '#f43f5e').length,
+    1,
+    'one fill for adaptive rejects, none for hidden Steger',
+  );
   const rects = calls.filter(([name]) => name === 'rect').length;
   assert.equal(rects, 5);
 });
@@ -54,8 +92,11 @@ test('drawProfile strokes a multi-valued flange in API order, never sorted by x'
   const { ctx, calls } = recordingContext();
   // back face going up, then over the flange and down its flank: x goes 0 → 10 → 5 → 30
   const curve = { method: 'adaptive', x_mm: [0, 10, 5, 30], z_mm: [0, 28, 20, 0] };
-  drawProfile(ctx, { curves: [curve], reference: null, constructions: null, values: {} },
-    { widthPx: 400, heightPx: 300, pixelRatio: 1 });
+  drawProfile(
+    ctx,
+    { curves: [curve], reference: null, constructions: null, values: {} },
+    { widthPx: 400, heightPx: 300, pixelRatio: 1 },
+  );
   const path = calls.filter(([name]) => name === 'moveTo' || name === 'lineTo');
   // the curve is the last path before the key; find the 4-vertex run that ends with it
   const xs = path.map(([, [px]]) => px);
@@ -66,24 +107,34 @@ test('drawProfile strokes a multi-valued flange in API order, never sorted by x'
 test('drawProfile breaks the line at a gap (null)', () => {
   const { ctx, calls } = recordingContext();
   const curve = { method: 'steger', x_mm: [0, 1, null, 3, 4], z_mm: [0, 1, null, 1, 0] };
-  drawProfile(ctx, { curves: [curve], reference: null, constructions: null, values: {} },
-    { widthPx: 400, heightPx: 300, pixelRatio: 1 });
-  const ops = calls.filter(([n]) => n === 'moveTo' || n === 'lineTo').map(([n]) => n).slice(-4);
+  drawProfile(
+    ctx,
+    { curves: [curve], reference: null, constructions: null, values: {} },
+    { widthPx: 400, heightPx: 300, pixelRatio: 1 },
+  );
+  const ops = calls
+    .filter(([n]) => n === 'moveTo' || n === 'lineTo')
+    .map(([n]) => n)
+    .slice(-4);
   assert.deepEqual(ops, ['moveTo', 'lineTo', 'moveTo', 'lineTo']);
 });
 
 test('drawProfile labels the constructions with the service values', () => {
   const { ctx, calls } = recordingContext();
-  drawProfile(ctx, {
-    curves: [{ method: 'adaptive', x_mm: [0, 20, 70], z_mm: [0, 28, 0] }],
-    reference: { name: 'S1002', x_mm: [0, 70], z_mm: [0, 0] },
-    constructions: {
-      sh: { flange_top: [20, 28], tread_point: [70, 0] },
-      sd: { back_face_x_mm: 0, flank_point: [27, 12] },
-      qr: { upper_point: [25, 26], lower_point: [28, 10] },
+  drawProfile(
+    ctx,
+    {
+      curves: [{ method: 'adaptive', x_mm: [0, 20, 70], z_mm: [0, 28, 0] }],
+      reference: { name: 'S1002', x_mm: [0, 70], z_mm: [0, 0] },
+      constructions: {
+        sh: { flange_top: [20, 28], tread_point: [70, 0] },
+        sd: { back_face_x_mm: 0, flank_point: [27, 12] },
+        qr: { upper_point: [25, 26], lower_point: [28, 10] },
+      },
+      values: { sh: 28.0, sd: 27.0, qr: 3.0 },
     },
-    values: { sh: 28.0, sd: 27.0, qr: 3.0 },
-  }, { widthPx: 460, heightPx: 300, pixelRatio: 1 });
+    { widthPx: 460, heightPx: 300, pixelRatio: 1 },
+  );
   const texts = calls.filter(([n]) => n === 'fillText').map(([, [t]]) => t);
   for (const label of ['Sh 28.00 mm', 'Sd 27.00 mm', 'qR 3.00 mm', 'reference S1002']) {
     assert.ok(texts.includes(label), `${label} drawn; got ${texts.join(' | ')}`);
@@ -92,20 +143,38 @@ test('drawProfile labels the constructions with the service values', () => {
 
 test('drawProfile returns null when there is nothing to draw', () => {
   const { ctx } = recordingContext();
-  assert.equal(drawProfile(ctx, { curves: [], reference: null, constructions: null, values: {} },
-    { widthPx: 10, heightPx: 10, pixelRatio: 1 }), null);
+  assert.equal(
+    drawProfile(
+      ctx,
+      { curves: [], reference: null, constructions: null, values: {} },
+      { widthPx: 10, heightPx: 10, pixelRatio: 1 },
+    ),
+    null,
+  );
 });
 
 test('drawColourLegend writes its unit label and round ticks', () => {
   const { ctx, calls } = recordingContext();
-  drawColourLegend(ctx, { lut: VIRIDIS, min: 2.89, max: 12.12, label: 'σ (px)' }, { widthPx: 300, heightPx: 44, pixelRatio: 1 });
+  drawColourLegend(
+    ctx,
+    { lut: VIRIDIS, min: 2.89, max: 12.12, label: 'σ (px)' },
+    { widthPx: 300, heightPx: 44, pixelRatio: 1 },
+  );
   const texts = calls.filter(([n]) => n === 'fillText').map(([, [t]]) => t);
   assert.deepEqual(texts, ['σ (px)', '4', '6', '8', '10', '12']);
 });
 
 test('drawDifference reports false for an empty comparison', () => {
   const { ctx } = recordingContext();
-  const empty = { alongPx: new Float64Array(0), diffPx: new Float64Array(0), x: new Float64Array(0),
-    y: new Float64Array(0), unmatched: 3, meanPx: NaN, rmsPx: NaN, maxAbsPx: NaN };
+  const empty = {
+    alongPx: new Float64Array(0),
+    diffPx: new Float64Array(0),
+    x: new Float64Array(0),
+    y: new Float64Array(0),
+    unmatched: 3,
+    meanPx: NaN,
+    rmsPx: NaN,
+    maxAbsPx: NaN,
+  };
   assert.equal(drawDifference(ctx, empty, { widthPx: 300, heightPx: 150, pixelRatio: 1 }), false);
 });

@@ -15,7 +15,7 @@ import { fitRegion, fitViewport, imageToScreen, screenToImage, zoomAt } from '..
 /** Deterministic pseudo-random numbers in [0, 1) (fixed seed). */
 function lcg(seed) {
   let s = seed >>> 0;
-  return () => ((s = (1664525 * s + 1013904223) >>> 0) / 2 ** 32);
+  return () => (s = (1664525 * s + 1013904223) >>> 0) / 2 ** 32;
 }
 
 test('parseHash reads the sign-in token make run prints', () => {
@@ -71,7 +71,10 @@ test('nearestPoint agrees with a brute-force search', () => {
     let bestD2 = 25 * 25;
     for (let i = 0; i < x.length; i += 1) {
       const d2 = (x[i] - qx) ** 2 + (y[i] - qy) ** 2;
-      if (d2 <= bestD2) { bestD2 = d2; best = i; }
+      if (d2 <= bestD2) {
+        bestD2 = d2;
+        best = i;
+      }
     }
     const found = nearestPoint(index, qx, qy, 25);
     if (best < 0) assert.equal(found, -1);
@@ -89,10 +92,14 @@ test('differenceAlongStripe measures a known offset with one sign despite flippe
   for (let i = 0; i < 400; i += 1) {
     const t = i * 0.8;
     const flip = i % 2 ? -1 : 1;
-    adaptive.x.push(100 + t * ux); adaptive.y.push(50 + t * uy);
-    adaptive.nx.push(flip * nx); adaptive.ny.push(flip * ny);
-    steger.x.push(100 + t * ux - 0.3 * nx); steger.y.push(50 + t * uy - 0.3 * ny);
-    steger.nx.push(nx); steger.ny.push(ny);
+    adaptive.x.push(100 + t * ux);
+    adaptive.y.push(50 + t * uy);
+    adaptive.nx.push(flip * nx);
+    adaptive.ny.push(flip * ny);
+    steger.x.push(100 + t * ux - 0.3 * nx);
+    steger.y.push(50 + t * uy - 0.3 * ny);
+    steger.nx.push(nx);
+    steger.ny.push(ny);
   }
   const diff = differenceAlongStripe(adaptive, steger, 2);
   assert.equal(diff.diffPx.length, 400);
@@ -100,7 +107,8 @@ test('differenceAlongStripe measures a known offset with one sign despite flippe
   for (const d of diff.diffPx) assert.ok(Math.abs(Math.abs(d) - 0.3) < 1e-9);
   assert.ok(Math.abs(Math.abs(diff.meanPx) - 0.3) < 1e-9, 'all offsets carry the same sign');
   // the position along the stripe is the path length: 0.8 px per centre here
-  for (let i = 1; i < diff.alongPx.length; i += 1) assert.ok(Math.abs(diff.alongPx[i] - diff.alongPx[i - 1] - 0.8) < 1e-9);
+  for (let i = 1; i < diff.alongPx.length; i += 1)
+    assert.ok(Math.abs(diff.alongPx[i] - diff.alongPx[i - 1] - 0.8) < 1e-9);
 });
 
 test('differenceAlongStripe keeps its sign around a bend of the stripe', () => {
@@ -109,8 +117,14 @@ test('differenceAlongStripe keeps its sign around a bend of the stripe', () => {
   const s = { x: [], y: [], nx: [], ny: [] };
   // left of travel (cross(t, n) > 0): going down it is −x, going right it is +y
   const add = (x, y, nx, ny, leftX, leftY) => {
-    a.x.push(x); a.y.push(y); a.nx.push(nx); a.ny.push(ny);
-    s.x.push(x - 0.25 * leftX); s.y.push(y - 0.25 * leftY); s.nx.push(nx); s.ny.push(ny);
+    a.x.push(x);
+    a.y.push(y);
+    a.nx.push(nx);
+    a.ny.push(ny);
+    s.x.push(x - 0.25 * leftX);
+    s.y.push(y - 0.25 * leftY);
+    s.nx.push(nx);
+    s.ny.push(ny);
   };
   for (let i = 0; i < 100; i += 1) add(10, i, i % 2 ? -1 : 1, 0, -1, 0);
   for (let i = 1; i < 100; i += 1) add(10 + i, 99, 0, i % 2 ? -1 : 1, 0, 1);
@@ -140,7 +154,10 @@ test('boundsOf skips null and NaN', () => {
 
 test('makePlotScale with equalAspect gives one mm the same length on both axes', () => {
   const s = makePlotScale([0, 140], [-5, 35], {
-    widthPx: 460, heightPx: 300, margin: { left: 44, right: 12, top: 10, bottom: 34 }, equalAspect: true,
+    widthPx: 460,
+    heightPx: 300,
+    margin: { left: 44, right: 12, top: 10, bottom: 34 },
+    equalAspect: true,
   });
   const xUnit = s.toX(1) - s.toX(0);
   const yUnit = s.toY(0) - s.toY(1);
@@ -159,10 +176,7 @@ test('VIRIDIS matches matplotlib at both ends and lutIndex clamps', () => {
 
 test('tintMask colours mask pixels and rejected centres, and leaves the rest transparent', () => {
   const mask = new Uint8ClampedArray([255, 255, 255, 255, 0, 0, 0, 255, 96, 96, 96, 255]);
-  assert.deepEqual(
-    [...tintMask(mask, [1, 2, 3, 4], [5, 6, 7, 8])],
-    [1, 2, 3, 4, 0, 0, 0, 0, 5, 6, 7, 8],
-  );
+  assert.deepEqual([...tintMask(mask, [1, 2, 3, 4], [5, 6, 7, 8])], [1, 2, 3, 4, 0, 0, 0, 0, 5, 6, 7, 8]);
 });
 
 test('formatters show missing values as a dash and times in UTC', () => {
@@ -182,7 +196,10 @@ test('fitRegion centres a region and fits its larger side', () => {
 
 test('nearestOnScreen finds the drawn point under the pointer and skips gaps', () => {
   const s = makePlotScale([0, 100], [0, 50], {
-    widthPx: 200, heightPx: 100, margin: { left: 0, right: 0, top: 0, bottom: 0 }, padFraction: 0,
+    widthPx: 200,
+    heightPx: 100,
+    margin: { left: 0, right: 0, top: 0, bottom: 0 },
+    padFraction: 0,
   });
   const xs = [0, 50, null, 100];
   const zs = [0, 25, null, 50];

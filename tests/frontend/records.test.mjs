@@ -4,14 +4,32 @@ import { test } from 'node:test';
 
 import { fmtDisposition } from '../../frontend/js/lib/format.js';
 import {
-  REVIEW_PAGE_ROWS, familyOf, framesRemovedNote, hasAlarmOn, limitStem, limitsFor, marginOf, passFilterQuery,
-  passStatus, resultOf, reviewQuery, trendColumns,
+  REVIEW_PAGE_ROWS,
+  familyOf,
+  framesRemovedNote,
+  hasAlarmOn,
+  limitStem,
+  limitsFor,
+  marginOf,
+  passFilterQuery,
+  passStatus,
+  resultOf,
+  reviewQuery,
+  trendColumns,
 } from '../../frontend/js/lib/records.js';
 
-const LIMITS = [{ wheel_profile: 'EN', flange_height_min_mm: 27.5 }, { wheel_profile: 'LM', flange_height_min_mm: 25 }];
+const LIMITS = [
+  { wheel_profile: 'EN', flange_height_min_mm: 27.5 },
+  { wheel_profile: 'LM', flange_height_min_mm: 25 },
+];
 
 test('resultOf picks the method from the results list', () => {
-  const wheel = { results: [{ method: 'steger', qr_mm: 1 }, { method: 'adaptive', qr_mm: 2 }] };
+  const wheel = {
+    results: [
+      { method: 'steger', qr_mm: 1 },
+      { method: 'adaptive', qr_mm: 2 },
+    ],
+  };
   assert.equal(resultOf(wheel, 'adaptive').qr_mm, 2);
   assert.equal(resultOf(wheel, 'classic'), null);
   assert.equal(resultOf(undefined, 'adaptive'), null);
@@ -42,17 +60,22 @@ test('passStatus prefers live job progress', () => {
 
 test('passFilterQuery turns dates into UTC day bounds with an exclusive end', () => {
   assert.deepEqual(passFilterQuery({ site: 'A', since: '2026-11-01', until: '2026-11-30', alarm: 'true' }), {
-    site: 'A', started_from: '2026-11-01T00:00:00Z', started_to: '2026-12-01T00:00:00Z', alarm: 'true',
+    site: 'A',
+    started_from: '2026-11-01T00:00:00Z',
+    started_to: '2026-12-01T00:00:00Z',
+    alarm: 'true',
   });
   assert.deepEqual(passFilterQuery({ site: '', vehicle: '' }), {});
 });
 
 test('trendColumns aligns both methods on pass time, ascending', () => {
-  const trend = { points: [
-    { pass_id: 2, started_at: '2026-11-02T00:00:00Z', method: 'adaptive', flange_height_mm: 29 },
-    { pass_id: 1, started_at: '2026-11-01T00:00:00Z', method: 'steger', flange_height_mm: 28.5 },
-    { pass_id: 1, started_at: '2026-11-01T00:00:00Z', method: 'adaptive', flange_height_mm: 28.4 },
-  ] };
+  const trend = {
+    points: [
+      { pass_id: 2, started_at: '2026-11-02T00:00:00Z', method: 'adaptive', flange_height_mm: 29 },
+      { pass_id: 1, started_at: '2026-11-01T00:00:00Z', method: 'steger', flange_height_mm: 28.5 },
+      { pass_id: 1, started_at: '2026-11-01T00:00:00Z', method: 'adaptive', flange_height_mm: 28.4 },
+    ],
+  };
   const { x, columns } = trendColumns(trend, ['adaptive', 'steger'], ['flange_height_mm']);
   assert.deepEqual(x, [Date.parse('2026-11-01T00:00:00Z') / 1000, Date.parse('2026-11-02T00:00:00Z') / 1000]);
   assert.deepEqual(columns['adaptive:flange_height_mm'], [28.4, 29]);
@@ -70,8 +93,13 @@ test('framesRemovedNote says when retention removed the frames, and nothing othe
 
 test('reviewQuery maps the worst-wheels form to the API, a page to its offset', () => {
   assert.deepEqual(reviewQuery({ site: 'bas', parameter: 'qr_mm', open: '1', history: '1', pass: '7', page: '3' }), {
-    site: 'bas', parameter: 'qr_mm', open_only: 'true', latest_only: 'false', pass_id: '7',
-    offset: String(2 * REVIEW_PAGE_ROWS), limit: String(REVIEW_PAGE_ROWS),
+    site: 'bas',
+    parameter: 'qr_mm',
+    open_only: 'true',
+    latest_only: 'false',
+    pass_id: '7',
+    offset: String(2 * REVIEW_PAGE_ROWS),
+    limit: String(REVIEW_PAGE_ROWS),
   });
   assert.deepEqual(reviewQuery({ page: 'x' }), { limit: String(REVIEW_PAGE_ROWS) });
 });

@@ -47,8 +47,12 @@ export function drawFrame(ctx, layers, options) {
   // image pixel [r, c] covers x ∈ [c − 0.5, c + 0.5]: draw images shifted by half a pixel
   ctx.save();
   ctx.setTransform(
-    pixelRatio * vp.scale, 0, 0, pixelRatio * vp.scale,
-    pixelRatio * (vp.offsetX - 0.5 * vp.scale), pixelRatio * (vp.offsetY - 0.5 * vp.scale),
+    pixelRatio * vp.scale,
+    0,
+    0,
+    pixelRatio * vp.scale,
+    pixelRatio * (vp.offsetX - 0.5 * vp.scale),
+    pixelRatio * (vp.offsetY - 0.5 * vp.scale),
   );
   ctx.imageSmoothingEnabled = vp.scale < 2;
   if (show.image && layers.image) ctx.drawImage(layers.image, 0, 0);
@@ -61,7 +65,8 @@ export function drawFrame(ctx, layers, options) {
   }
   ctx.restore();
   for (const set of layers.rejected ?? []) {
-    if (show[/** @type {'adaptive'|'steger'} */ (set.method)]) drawPoints(ctx, set.x, set.y, REJECTED_COLOUR, 0.8, options);
+    if (show[/** @type {'adaptive'|'steger'} */ (set.method)])
+      drawPoints(ctx, set.x, set.y, REJECTED_COLOUR, 0.8, options);
   }
   let drawn = 0;
   for (const set of layers.centres) {

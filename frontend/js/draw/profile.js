@@ -157,7 +157,10 @@ function arrow(ctx, s, x0, y0, x1, y1) {
   ctx.beginPath();
   ctx.moveTo(ax, ay);
   ctx.lineTo(bx, by);
-  for (const [px, py, a] of [[ax, ay, angle], [bx, by, angle + Math.PI]]) {
+  for (const [px, py, a] of [
+    [ax, ay, angle],
+    [bx, by, angle + Math.PI],
+  ]) {
     ctx.moveTo(px + 7 * Math.cos(a - 0.4), py + 7 * Math.sin(a - 0.4));
     ctx.lineTo(px, py);
     ctx.lineTo(px + 7 * Math.cos(a + 0.4), py + 7 * Math.sin(a + 0.4));

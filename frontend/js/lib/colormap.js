@@ -12,9 +12,8 @@ const VIRIDIS_HEX =
   '7937b87838b9773aba763bbb753dbc743fbc7340bd7242be7144bf7046c06f48c16e4ac16d4cc26c4ec36b50c46a52c56954c56856c66758c7655ac8645cc8635ec96260ca6063cb5f65cb5e67cc5c69cd5b6ccd5a6ece5870cf5773d05675d05477d1537ad1517cd2507fd34e81d34d84d44b86d54989d5488bd6468ed64590d74393d74195d84098d83e9bd93c9dd93ba0da39a2da37a5db36a8db34aadc32addc30b0dd2fb2dd2db5de2bb8de29bade28bddf26c0df25c2df23c5e021c8e020cae11fcde11dd0e11cd2e21bd5e21ad8e219dae319dde318dfe318e2e418e5e419e7e419eae51aece51befe51cf1e51df4e61ef6e620f8e621fbe723fde725';
 
 /** 256 RGB triplets of viridis, [r0, g0, b0, r1, ...], 0..255. */
-export const VIRIDIS = Uint8ClampedArray.from(
-  { length: 768 },
-  (_, i) => parseInt(VIRIDIS_HEX.slice(2 * i, 2 * i + 2), 16),
+export const VIRIDIS = Uint8ClampedArray.from({ length: 768 }, (_, i) =>
+  parseInt(VIRIDIS_HEX.slice(2 * i, 2 * i + 2), 16),
 );
 
 /**

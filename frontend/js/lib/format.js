@@ -10,42 +10,142 @@
  * service's GET /api/parameters for the checked ones).
  */
 export const PARAMETERS = [
-  { key: 'flange_height_mm', label: 'Sh', title: 'Flange height', unit: 'mm', digits: 2, families: ['EN', 'LM'], card: true, colour: '#f59e0b',
-    definition: 'Highest point of the flange above the tread reference point (70 mm from the back face).' },
-  { key: 'flange_thickness_mm', label: 'Sd', title: 'Flange thickness at 12 mm', unit: 'mm', digits: 2, families: ['LM'], card: true, colour: '#a78bfa',
-    definition: 'Back face to the flange flank, 12 mm above the tread reference point (LM wheels).' },
-  { key: 'flange_thickness_en_mm', label: 'Sd EN', title: 'Flange thickness at 10 mm (EN)', unit: 'mm', digits: 2, families: ['EN'], card: true, colour: '#c084fc',
-    definition: 'Back face to the flange flank, 10 mm above the tread reference point (EN 15313).' },
-  { key: 'qr_mm', label: 'qR', title: 'Flange slope qR', unit: 'mm', digits: 2, families: ['EN', 'LM'], card: true, colour: '#34d399',
-    definition: 'Horizontal distance between the flank at 10 mm and 2 mm below the flange top.' },
-  { key: 'back_to_back_mm', label: 'B2B', title: 'Back-to-back distance', unit: 'mm', digits: 2, families: ['EN', 'LM'], card: false, colour: '#60a5fa',
-    definition: 'Distance between the back faces of the axle\'s two wheels.' },
-  { key: 'tread_hollow_mm', label: 'Hollow', title: 'Tread hollow', unit: 'mm', digits: 2, families: [], card: false, colour: '#f472b6',
-    definition: 'Largest depth of the tread below a straight edge through the profile at 60 and 120 mm from the back face (new LMA 0.05 mm, S1002 0.12 mm).' },
-  { key: 'flange_angle_deg', label: 'δ', title: 'Flange angle', unit: '°', digits: 1, families: [], card: false, colour: '#fb7185',
-    definition: 'Steepest angle of the flange flank to the horizontal, from lines over 6 mm of flank height between 3 mm and Sh − 3 mm; it sets Nadal\'s derailment limit Y/Q = (tan δ − μ)/(1 + μ tan δ). Not measured where the flank\'s points leave a gap.' },
-  { key: 'rim_width_mm', label: 'Rim', title: 'Rim width', unit: 'mm', digits: 2, families: [], card: false, colour: '#94a3b8',
-    definition: 'Back face to field-side face, where the outer sensor sees that face.' },
-  { key: 'equivalent_conicity', label: 'λe', title: 'Equivalent conicity (axle)', unit: '', digits: 3, families: ['EN', 'LM'], card: false, colour: '#facc15', limitMax: 'conicity_max',
-    definition: 'The axle\'s equivalent conicity at 3 mm amplitude (EN 15302, nonlinear method): from the rolling-radius difference Δr(y) of both measured wheels at their back-to-back distance on the site\'s rails (60E1 at 1:40, gauge 1435 mm by default), wheel radii taken equal. Above the fleet\'s limit (0.4 by default) the axle may hunt.' },
+  {
+    key: 'flange_height_mm',
+    label: 'Sh',
+    title: 'Flange height',
+    unit: 'mm',
+    digits: 2,
+    families: ['EN', 'LM'],
+    card: true,
+    colour: '#f59e0b',
+    definition: 'Highest point of the flange above the tread reference point (70 mm from the back face).',
+  },
+  {
+    key: 'flange_thickness_mm',
+    label: 'Sd',
+    title: 'Flange thickness at 12 mm',
+    unit: 'mm',
+    digits: 2,
+    families: ['LM'],
+    card: true,
+    colour: '#a78bfa',
+    definition: 'Back face to the flange flank, 12 mm above the tread reference point (LM wheels).',
+  },
+  {
+    key: 'flange_thickness_en_mm',
+    label: 'Sd EN',
+    title: 'Flange thickness at 10 mm (EN)',
+    unit: 'mm',
+    digits: 2,
+    families: ['EN'],
+    card: true,
+    colour: '#c084fc',
+    definition: 'Back face to the flange flank, 10 mm above the tread reference point (EN 15313).',
+  },
+  {
+    key: 'qr_mm',
+    label: 'qR',
+    title: 'Flange slope qR',
+    unit: 'mm',
+    digits: 2,
+    families: ['EN', 'LM'],
+    card: true,
+    colour: '#34d399',
+    definition: 'Horizontal distance between the flank at 10 mm and 2 mm below the flange top.',
+  },
+  {
+    key: 'back_to_back_mm',
+    label: 'B2B',
+    title: 'Back-to-back distance',
+    unit: 'mm',
+    digits: 2,
+    families: ['EN', 'LM'],
+    card: false,
+    colour: '#60a5fa',
+    definition: "Distance between the back faces of the axle's two wheels.",
+  },
+  {
+    key: 'tread_hollow_mm',
+    label: 'Hollow',
+    title: 'Tread hollow',
+    unit: 'mm',
+    digits: 2,
+    families: [],
+    card: false,
+    colour: '#f472b6',
+    definition:
+      'Largest depth of the tread below a straight edge through the profile at 60 and 120 mm from the back face (new LMA 0.05 mm, S1002 0.12 mm).',
+  },
+  {
+    key: 'flange_angle_deg',
+    label: 'δ',
+    title: 'Flange angle',
+    unit: '°',
+    digits: 1,
+    families: [],
+    card: false,
+    colour: '#fb7185',
+    definition:
+      "Steepest angle of the flange flank to the horizontal, from lines over 6 mm of flank height between 3 mm and Sh − 3 mm; it sets Nadal's derailment limit Y/Q = (tan δ − μ)/(1 + μ tan δ). Not measured where the flank's points leave a gap.",
+  },
+  {
+    key: 'rim_width_mm',
+    label: 'Rim',
+    title: 'Rim width',
+    unit: 'mm',
+    digits: 2,
+    families: [],
+    card: false,
+    colour: '#94a3b8',
+    definition: 'Back face to field-side face, where the outer sensor sees that face.',
+  },
+  {
+    key: 'equivalent_conicity',
+    label: 'λe',
+    title: 'Equivalent conicity (axle)',
+    unit: '',
+    digits: 3,
+    families: ['EN', 'LM'],
+    card: false,
+    colour: '#facc15',
+    limitMax: 'conicity_max',
+    definition:
+      "The axle's equivalent conicity at 3 mm amplitude (EN 15302, nonlinear method): from the rolling-radius difference Δr(y) of both measured wheels at their back-to-back distance on the site's rails (60E1 at 1:40, gauge 1435 mm by default), wheel radii taken equal. Above the fleet's limit (0.4 by default) the axle may hunt.",
+  },
 ];
 
 /** Why the wheel diameter is not among the parameters (shown on the wheel page). */
-export const DIAMETER_NOTE = 'Wheel diameter is not measured: each sensor\'s single laser plane cuts the wheel in one cross-section, which fixes the profile but not the radius. A second laser plane per sensor at a known offset along the rail, calibrated into the same track frame and triggered so both planes cross the tread reference circle, would give the radius from the two sections\' heights and the rail top.';
+export const DIAMETER_NOTE =
+  "Wheel diameter is not measured: each sensor's single laser plane cuts the wheel in one cross-section, which fixes the profile but not the radius. A second laser plane per sensor at a known offset along the rail, calibrated into the same track frame and triggered so both planes cross the tread reference circle, would give the radius from the two sections' heights and the rail top.";
 
 /**
  * The parameter with `key`, or a stand-in naming the key (a parameter this page predates).
  * @param {string} key
  */
 export function parameterOf(key) {
-  return PARAMETERS.find((p) => p.key === key)
-    ?? { key, label: key, title: key, unit: 'mm', digits: 2, definition: '', families: [], card: false, colour: '#d6dce4' };
+  return (
+    PARAMETERS.find((p) => p.key === key) ?? {
+      key,
+      label: key,
+      title: key,
+      unit: 'mm',
+      digits: 2,
+      definition: '',
+      families: [],
+      card: false,
+      colour: '#d6dce4',
+    }
+  );
 }
 
 /** Dispositions an operator can record, with their labels. */
 export const DISPOSITIONS = [
-  ['re_profile', 'Re-profile'], ['monitor', 'Monitor'], ['false_alarm', 'False alarm'],
-  ['measurement_doubtful', 'Measurement doubtful'], ['comment', 'Comment'],
+  ['re_profile', 'Re-profile'],
+  ['monitor', 'Monitor'],
+  ['false_alarm', 'False alarm'],
+  ['measurement_doubtful', 'Measurement doubtful'],
+  ['comment', 'Comment'],
 ];
 
 /**
@@ -69,9 +169,7 @@ export const METHODS = ['adaptive', 'steger'];
  * @returns {string}
  */
 export function fmtNumber(value, digits = 2) {
-  return value === null || value === undefined || !Number.isFinite(value)
-    ? '–'
-    : value.toFixed(digits);
+  return value === null || value === undefined || !Number.isFinite(value) ? '–' : value.toFixed(digits);
 }
 
 /**

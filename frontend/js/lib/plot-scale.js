@@ -42,7 +42,10 @@ export function makePlotScale(xRange, yRange, options) {
   const sx = (right - left) / (x1 - x0);
   const sy = (bottom - top) / (y1 - y0);
   return {
-    left, top, right, bottom,
+    left,
+    top,
+    right,
+    bottom,
     xRange: [x0, x1],
     yRange: [y0, y1],
     toX: (x) => left + (x - x0) * sx,

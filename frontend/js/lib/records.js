@@ -42,7 +42,9 @@ export function limitStem(key, family) {
  */
 export function hasAlarmOn(result, key, family) {
   const stem = limitStem(key, family);
-  return stem !== null && (result?.alarms ?? []).some((/** @type {any} */ a) => a.parameter.replace(/_mm$/, '') === stem);
+  return (
+    stem !== null && (result?.alarms ?? []).some((/** @type {any} */ a) => a.parameter.replace(/_mm$/, '') === stem)
+  );
 }
 
 /**
@@ -51,7 +53,9 @@ export function hasAlarmOn(result, key, family) {
  * @returns {'EN'|'LM'}
  */
 export function familyOf(result) {
-  return /** @type {'EN'|'LM'} */ (PROFILE_FAMILY[/** @type {'S1002'} */ ((result?.reference_profile ?? '').toUpperCase())] ?? 'EN');
+  return /** @type {'EN'|'LM'} */ (
+    PROFILE_FAMILY[/** @type {'S1002'} */ ((result?.reference_profile ?? '').toUpperCase())] ?? 'EN'
+  );
 }
 
 /**
@@ -156,6 +160,8 @@ export function trendColumns(trend, methods, keys) {
 export function framesRemovedNote(wheel) {
   const removedAt = wheel?.frames_removed_at;
   if (!removedAt) return null;
-  return `camera frames removed by retention on ${String(removedAt).slice(0, 10)}; `
-    + 'results, centres, mask and σ map are kept';
+  return (
+    `camera frames removed by retention on ${String(removedAt).slice(0, 10)}; ` +
+    'results, centres, mask and σ map are kept'
+  );
 }

@@ -40,9 +40,7 @@ export function parseHash(hash) {
   for (const pattern of PATTERNS) {
     const match = pattern.re.exec(path);
     if (match) {
-      const params = Object.fromEntries(
-        pattern.keys.map((key, i) => [key, decodeURIComponent(match[i + 1])]),
-      );
+      const params = Object.fromEntries(pattern.keys.map((key, i) => [key, decodeURIComponent(match[i + 1])]));
       return { name: /** @type {Route['name']} */ (pattern.name), params, query, token: null };
     }
   }

@@ -35,19 +35,34 @@ export class FrameView {
    * @param {HTMLElement} root element to fill
    */
   constructor(root) {
-    this.canvas = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'frame-canvas', tabindex: 0, 'aria-label': 'camera frame' }));
+    this.canvas = /** @type {HTMLCanvasElement} */ (
+      h('canvas', { class: 'frame-canvas', tabindex: 0, 'aria-label': 'camera frame' })
+    );
     this.readout = h('div', { class: 'readout mono' }, 'hover a centre point');
     this.legend = /** @type {HTMLCanvasElement} */ (h('canvas', { class: 'legend' }));
     /** opacity of the σ map over the frame, 0..1 (at 85 % it hid the stripe) */
     this.sigmaAlpha = SIGMA_ALPHA;
-    this.opacity = /** @type {HTMLInputElement} */ (h('input', {
-      type: 'range', min: 10, max: 100, step: 5, value: String(SIGMA_ALPHA * 100), class: 'sigma-opacity',
-      'aria-label': 'σ map opacity', title: 'σ map opacity',
-      oninput: () => { this.sigmaAlpha = Number(this.opacity.value) / 100; this.request(); },
-    }));
+    this.opacity = /** @type {HTMLInputElement} */ (
+      h('input', {
+        type: 'range',
+        min: 10,
+        max: 100,
+        step: 5,
+        value: String(SIGMA_ALPHA * 100),
+        class: 'sigma-opacity',
+        'aria-label': 'σ map opacity',
+        title: 'σ map opacity',
+        oninput: () => {
+          this.sigmaAlpha = Number(this.opacity.value) / 100;
+          this.request();
+        },
+      })
+    );
     this.opacityLabel = h('label', { class: 'opacity', hidden: true }, 'σ opacity ', this.opacity);
-    root.replaceChildren(h('div', { class: 'frame-wrap' }, this.canvas),
-      h('div', { class: 'frame-foot' }, this.readout, this.opacityLabel, this.legend));
+    root.replaceChildren(
+      h('div', { class: 'frame-wrap' }, this.canvas),
+      h('div', { class: 'frame-foot' }, this.readout, this.opacityLabel, this.legend),
+    );
     /** @type {FrameData|null} */
     this.data = null;
     this.show = { image: true, mask: false, sigma: false, adaptive: true, steger: true };
@@ -129,8 +144,14 @@ export class FrameView {
     const xs = boundsOf(sets.map((c) => c.x));
     const ys = boundsOf(sets.map((c) => c.y));
     if (this.fitTo === 'frame' || !xs || !ys) return fitViewport(image.width, image.height, widthPx, heightPx);
-    return fitRegion(xs[0] - STRIPE_MARGIN_PX, ys[0] - STRIPE_MARGIN_PX,
-      xs[1] + STRIPE_MARGIN_PX, ys[1] + STRIPE_MARGIN_PX, widthPx, heightPx);
+    return fitRegion(
+      xs[0] - STRIPE_MARGIN_PX,
+      ys[0] - STRIPE_MARGIN_PX,
+      xs[1] + STRIPE_MARGIN_PX,
+      ys[1] + STRIPE_MARGIN_PX,
+      widthPx,
+      heightPx,
+    );
   }
 
   /**
@@ -189,9 +210,18 @@ export class FrameView {
     const rejected = Object.entries(this.data.centres)
       .filter(([, c]) => c && Array.isArray(c.rejected_x) && c.rejected_x.length)
       .map(([method, c]) => ({ method, x: c.rejected_x, y: c.rejected_y }));
-    this.pointsDrawn = drawFrame(ctx, { ...this.data, centres, rejected, highlight: this.highlight }, {
-      viewport: this.viewport, widthPx, heightPx, pixelRatio, show: this.show, sigmaAlpha: this.sigmaAlpha,
-    });
+    this.pointsDrawn = drawFrame(
+      ctx,
+      { ...this.data, centres, rejected, highlight: this.highlight },
+      {
+        viewport: this.viewport,
+        widthPx,
+        heightPx,
+        pixelRatio,
+        show: this.show,
+        sigmaAlpha: this.sigmaAlpha,
+      },
+    );
     const ended = performance.now();
     this.lastDrawMs = ended - started;
     performance.measure('frame-draw', { start: started, end: ended });
@@ -206,19 +236,32 @@ export class FrameView {
     this.opacityLabel.hidden = this.legend.hidden;
     if (this.legend.hidden || !scale) return;
     const { ctx, widthPx, heightPx, pixelRatio } = fitCanvas(this.legend);
-    drawColourLegend(ctx, { lut: VIRIDIS, min: scale.sigma_min_px, max: scale.sigma_max_px, marks: scale.scales_px,
-      label: 'σ map, chosen scale σ (px); ticks: σ1 σ2 σ3' }, { widthPx, heightPx, pixelRatio });
+    drawColourLegend(
+      ctx,
+      {
+        lut: VIRIDIS,
+        min: scale.sigma_min_px,
+        max: scale.sigma_max_px,
+        marks: scale.scales_px,
+        label: 'σ map, chosen scale σ (px); ticks: σ1 σ2 σ3',
+      },
+      { widthPx, heightPx, pixelRatio },
+    );
   }
 
   bindEvents() {
     const c = this.canvas;
     let drag = /** @type {{x: number, y: number}|null} */ (null);
-    c.addEventListener('wheel', (e) => {
-      e.preventDefault();
-      if (!this.viewport) return;
-      this.viewport = zoomAt(this.viewport, Math.exp(-e.deltaY / 400), e.offsetX, e.offsetY);
-      this.request();
-    }, { passive: false });
+    c.addEventListener(
+      'wheel',
+      (e) => {
+        e.preventDefault();
+        if (!this.viewport) return;
+        this.viewport = zoomAt(this.viewport, Math.exp(-e.deltaY / 400), e.offsetX, e.offsetY);
+        this.request();
+      },
+      { passive: false },
+    );
     c.addEventListener('dblclick', (e) => {
       if (!this.viewport) return;
       this.viewport = zoomAt(this.viewport, e.shiftKey ? 0.5 : 2, e.offsetX, e.offsetY);
@@ -228,7 +271,9 @@ export class FrameView {
       drag = { x: e.clientX, y: e.clientY };
       c.setPointerCapture(e.pointerId);
     });
-    c.addEventListener('pointerup', () => { drag = null; });
+    c.addEventListener('pointerup', () => {
+      drag = null;
+    });
     c.addEventListener('pointermove', (e) => {
       if (drag) {
         this.pan(e.clientX - drag.x, e.clientY - drag.y);
@@ -262,7 +307,10 @@ export class FrameView {
     }
     if (!best) {
       this.readout.textContent = `pixel x ${fmtNumber(ix, 1)}, y ${fmtNumber(iy, 1)} · no centre within ${HOVER_RADIUS_CSS_PX} screen px`;
-      if (this.highlight) { this.highlight = null; this.request(); }
+      if (this.highlight) {
+        this.highlight = null;
+        this.request();
+      }
       return;
     }
     const c = this.data.centres[best.method];

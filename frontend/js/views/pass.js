@@ -20,30 +20,52 @@ export function renderPass(root, state, handlers) {
   if (!pass || pass.loading || !pass.data) {
     const text = pass?.failed
       ? `Pass ${pass.id} could not be shown (the reason is above). `
-      : pass?.loading ? `Loading pass ${pass.id}…` : 'No pass loaded.';
-    root.replaceChildren(h('p', { class: 'loading' }, text, pass?.failed ? h('a', { href: '#/passes' }, 'Back to the passes') : ''));
+      : pass?.loading
+        ? `Loading pass ${pass.id}…`
+        : 'No pass loaded.';
+    root.replaceChildren(
+      h('p', { class: 'loading' }, text, pass?.failed ? h('a', { href: '#/passes' }, 'Back to the passes') : ''),
+    );
     return;
   }
   const mode = state.route.query.mode ?? 'adaptive';
   const p = pass.data;
   const status = passStatus(p, state.liveJobs?.[p.id]);
   root.replaceChildren(
-    h('section', { class: 'pass' },
-      h('div', { class: 'titlebar' },
+    h(
+      'section',
+      { class: 'pass' },
+      h(
+        'div',
+        { class: 'titlebar' },
         h('h1', {}, h('a', { href: '#/passes' }, 'Passes'), ' › ', `Pass #${p.id}`),
-        h('span', { class: 'meta' }, `${p.site ?? ''} · ${fmtTime(p.started_at)} · ${p.direction ?? '–'} · ${fmtNumber(p.speed_kmh, 1)} km/h`),
-        h('span', { class: `status status-${status.state}` }, status.state,
-          status.running && status.progress != null ? ` ${Math.round(status.progress * 100)} %` : null),
-        h('span', { class: 'meta' }, `${p.wheels_measured} / ${p.wheels_total} wheels measured · ${p.wheels_not_measured} not measured · `,
-          h('span', { class: p.alarm_count ? 'alarm-text' : null }, `${p.alarm_count} in alarm`), ' · ',
-          h('span', { class: p.near_limit_count ? 'near-text' : null }, `${p.near_limit_count ?? 0} near a limit`)),
+        h(
+          'span',
+          { class: 'meta' },
+          `${p.site ?? ''} · ${fmtTime(p.started_at)} · ${p.direction ?? '–'} · ${fmtNumber(p.speed_kmh, 1)} km/h`,
+        ),
+        h(
+          'span',
+          { class: `status status-${status.state}` },
+          status.state,
+          status.running && status.progress != null ? ` ${Math.round(status.progress * 100)} %` : null,
+        ),
+        h(
+          'span',
+          { class: 'meta' },
+          `${p.wheels_measured} / ${p.wheels_total} wheels measured · ${p.wheels_not_measured} not measured · `,
+          h('span', { class: p.alarm_count ? 'alarm-text' : null }, `${p.alarm_count} in alarm`),
+          ' · ',
+          h('span', { class: p.near_limit_count ? 'near-text' : null }, `${p.near_limit_count ?? 0} near a limit`),
+        ),
         h('a', { class: 'button', href: buildHash(['review'], { pass: p.id }) }, 'Worst wheels of this pass'),
         h('span', { class: 'spacer' }),
         modeSwitch(mode, handlers.setMode),
         exportButtons(handlers.exportReport),
       ),
       (p.alarm_values ?? []).length
-        ? h('p', { class: 'alarm-values' }, h('strong', {}, 'In alarm: '), p.alarm_values.join(' · ')) : null,
+        ? h('p', { class: 'alarm-values' }, h('strong', {}, 'In alarm: '), p.alarm_values.join(' · '))
+        : null,
       train(pass.wheels, mode, String(p.id)),
     ),
   );
@@ -55,9 +77,21 @@ export function renderPass(root, state, handlers) {
  * @returns {HTMLElement}
  */
 function modeSwitch(mode, setMode) {
-  return h('div', { class: 'segmented', role: 'group', 'aria-label': 'method' },
-    [['adaptive', 'Adaptive'], ['steger', 'Steger'], ['difference', 'Δ adaptive − Steger']].map(([key, label]) =>
-      h('button', { class: mode === key ? 'on' : null, 'aria-pressed': String(mode === key), onclick: () => setMode(key) }, label)));
+  return h(
+    'div',
+    { class: 'segmented', role: 'group', 'aria-label': 'method' },
+    [
+      ['adaptive', 'Adaptive'],
+      ['steger', 'Steger'],
+      ['difference', 'Δ adaptive − Steger'],
+    ].map(([key, label]) =>
+      h(
+        'button',
+        { class: mode === key ? 'on' : null, 'aria-pressed': String(mode === key), onclick: () => setMode(key) },
+        label,
+      ),
+    ),
+  );
 }
 
 /**
@@ -70,8 +104,12 @@ function modeSwitch(mode, setMode) {
 export function exportButtons(exportFile, kind = 'report') {
   const formats = kind === 'report' ? ['pdf', 'csv', 'json'] : ['csv', 'dxf', 'whl'];
   const text = h('span', {});
-  const status = h('span', { class: 'export-progress', hidden: true, role: 'status' },
-    h('progress', { 'aria-label': 'preparing the file' }), text);
+  const status = h(
+    'span',
+    { class: 'export-progress', hidden: true, role: 'status' },
+    h('progress', { 'aria-label': 'preparing the file' }),
+    text,
+  );
   const run = async (/** @type {HTMLButtonElement} */ button, /** @type {string} */ format) => {
     const started = performance.now();
     const tick = () => {
@@ -89,13 +127,26 @@ export function exportButtons(exportFile, kind = 'report') {
       status.hidden = true;
     }
   };
-  return h('div', { class: `exports ${kind}` }, kind === 'report' ? 'Export ' : 'Profile ',
-    formats.map((f) => h('button', {
-      dataset: kind === 'report' ? { export: f } : { exportProfile: f },
-      title: kind === 'profile' ? `the selected method's profile as ${f === 'whl' ? 'MiniProf-style .whl' : f.toUpperCase()}` : null,
-      onclick: (/** @type {MouseEvent} */ e) => run(/** @type {HTMLButtonElement} */ (e.currentTarget), f),
-    }, f === 'whl' ? '.whl' : f.toUpperCase())),
-    status);
+  return h(
+    'div',
+    { class: `exports ${kind}` },
+    kind === 'report' ? 'Export ' : 'Profile ',
+    formats.map((f) =>
+      h(
+        'button',
+        {
+          dataset: kind === 'report' ? { export: f } : { exportProfile: f },
+          title:
+            kind === 'profile'
+              ? `the selected method's profile as ${f === 'whl' ? 'MiniProf-style .whl' : f.toUpperCase()}`
+              : null,
+          onclick: (/** @type {MouseEvent} */ e) => run(/** @type {HTMLButtonElement} */ (e.currentTarget), f),
+        },
+        f === 'whl' ? '.whl' : f.toUpperCase(),
+      ),
+    ),
+    status,
+  );
 }
 
 /**
@@ -112,16 +163,35 @@ function train(wheels, mode, passId) {
     const axles = /** @type {Map<number, any>} */ (vehicles.get(w.vehicle_id));
     axles.set(w.axle, { ...(axles.get(w.axle) ?? {}), [w.side]: w });
   }
-  if (vehicles.size === 0) return h('p', { class: 'empty' }, 'No wheels yet: frames are still arriving or being measured.');
-  return h('div', { class: 'train' }, [...vehicles].map(([vehicleId, axles]) =>
-    h('div', { class: 'vehicle' },
-      h('h2', {}, `Vehicle ${vehicleId}`),
-      [...axles].sort((a, b) => a[0] - b[0]).map(([axle, pair]) =>
-        h('div', { class: 'axle' },
-          wheelCard(pair.left, 'left', mode, passId),
-          h('div', { class: 'axle-info' }, h('div', {}, `axle ${axle}`),
-            h('div', { class: 'mono', title: 'back-to-back distance' }, `B2B ${backToBack(pair, mode)}`)),
-          wheelCard(pair.right, 'right', mode, passId))))));
+  if (vehicles.size === 0)
+    return h('p', { class: 'empty' }, 'No wheels yet: frames are still arriving or being measured.');
+  return h(
+    'div',
+    { class: 'train' },
+    [...vehicles].map(([vehicleId, axles]) =>
+      h(
+        'div',
+        { class: 'vehicle' },
+        h('h2', {}, `Vehicle ${vehicleId}`),
+        [...axles]
+          .sort((a, b) => a[0] - b[0])
+          .map(([axle, pair]) =>
+            h(
+              'div',
+              { class: 'axle' },
+              wheelCard(pair.left, 'left', mode, passId),
+              h(
+                'div',
+                { class: 'axle-info' },
+                h('div', {}, `axle ${axle}`),
+                h('div', { class: 'mono', title: 'back-to-back distance' }, `B2B ${backToBack(pair, mode)}`),
+              ),
+              wheelCard(pair.right, 'right', mode, passId),
+            ),
+          ),
+      ),
+    ),
+  );
 }
 
 /**
@@ -156,27 +226,53 @@ function wheelCard(wheel, side, mode, passId) {
   const family = familyOf(adaptive ?? steger);
   const alarms = (shown?.alarms ?? []).map((/** @type {any} */ a) => a.message).join('; ');
   const reason = reasonShown(wheel, mode === 'difference' ? undefined : shown);
-  const disagreement = (wheel.method_disagreement ?? []).map((/** @type {any} */ d) =>
-    `${parameterOf(d.parameter).label} ${fmtSigned(d.difference_mm, 1)} mm`).join(', ');
-  return h('a', {
-    class: `wheel-card ${cls} state-${wheel.state}`,
-    href: buildHash(['passes', passId, 'wheels', wheel.wheel_id], mode === 'difference' ? {} : { method: mode }),
-    title: alarms || wheel.reason || '',
-    dataset: { wheelId: String(wheel.wheel_id), side, level: cls },
-  },
-  h('div', { class: 'card-head' }, h('span', {}, side),
-    h('span', { class: 'limit-set', title: `checked against the ${family} limits` }, `${family} limits`),
-    h('span', { class: 'state' }, wheel.state.replace('_', ' '))),
-  reason
-    ? h('div', { class: 'reason' }, reason)
-    : h('table', {}, PARAMETERS.filter((p) => p.card && p.families.includes(family)).map((p) => h('tr', { dataset: { parameter: p.key } },
-      h('th', { title: p.title }, p.label),
-      h('td', { class: `num ${mode === 'difference' ? '' : valueLevel(wheel, shown, p.key, family, mode)}` }, mode === 'difference'
-        ? fmtSigned(diff(adaptive?.[p.key], steger?.[p.key]), p.digits)
-        : fmtNumber(shown?.[p.key], p.digits)),
-      h('td', { class: 'unit' }, p.unit)))),
-  disagreement ? h('div', { class: 'flag disagreement', title: 'adaptive − Steger beyond the fleet\'s threshold: check the frame' }, `methods differ: ${disagreement}`) : null,
-  h('div', { class: `disposition ${wheel.disposition ? 'set' : 'open'}` }, fmtDisposition(wheel.disposition)),
+  const disagreement = (wheel.method_disagreement ?? [])
+    .map((/** @type {any} */ d) => `${parameterOf(d.parameter).label} ${fmtSigned(d.difference_mm, 1)} mm`)
+    .join(', ');
+  return h(
+    'a',
+    {
+      class: `wheel-card ${cls} state-${wheel.state}`,
+      href: buildHash(['passes', passId, 'wheels', wheel.wheel_id], mode === 'difference' ? {} : { method: mode }),
+      title: alarms || wheel.reason || '',
+      dataset: { wheelId: String(wheel.wheel_id), side, level: cls },
+    },
+    h(
+      'div',
+      { class: 'card-head' },
+      h('span', {}, side),
+      h('span', { class: 'limit-set', title: `checked against the ${family} limits` }, `${family} limits`),
+      h('span', { class: 'state' }, wheel.state.replace('_', ' ')),
+    ),
+    reason
+      ? h('div', { class: 'reason' }, reason)
+      : h(
+          'table',
+          {},
+          PARAMETERS.filter((p) => p.card && p.families.includes(family)).map((p) =>
+            h(
+              'tr',
+              { dataset: { parameter: p.key } },
+              h('th', { title: p.title }, p.label),
+              h(
+                'td',
+                { class: `num ${mode === 'difference' ? '' : valueLevel(wheel, shown, p.key, family, mode)}` },
+                mode === 'difference'
+                  ? fmtSigned(diff(adaptive?.[p.key], steger?.[p.key]), p.digits)
+                  : fmtNumber(shown?.[p.key], p.digits),
+              ),
+              h('td', { class: 'unit' }, p.unit),
+            ),
+          ),
+        ),
+    disagreement
+      ? h(
+          'div',
+          { class: 'flag disagreement', title: "adaptive − Steger beyond the fleet's threshold: check the frame" },
+          `methods differ: ${disagreement}`,
+        )
+      : null,
+    h('div', { class: `disposition ${wheel.disposition ? 'set' : 'open'}` }, fmtDisposition(wheel.disposition)),
   );
 }
 

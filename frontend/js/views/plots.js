@@ -29,14 +29,18 @@ export function renderProfile(canvas, profiles, methods, marker = null) {
   }
   const first = profiles[usable[0]];
   const values = first.parameters ?? {};
-  const scale = drawProfile(ctx, {
-    curves: usable.map((m) => ({ method: m, x_mm: profiles[m].x_mm, z_mm: profiles[m].z_mm })),
-    reference: first.reference_x_mm?.length
-      ? { name: first.reference_profile ?? 'reference', x_mm: first.reference_x_mm, z_mm: first.reference_z_mm }
-      : null,
-    constructions: first.construction ?? null,
-    values: { sh: values.flange_height_mm, sd: values.flange_thickness_mm, qr: values.qr_mm },
-  }, { widthPx, heightPx, pixelRatio });
+  const scale = drawProfile(
+    ctx,
+    {
+      curves: usable.map((m) => ({ method: m, x_mm: profiles[m].x_mm, z_mm: profiles[m].z_mm })),
+      reference: first.reference_x_mm?.length
+        ? { name: first.reference_profile ?? 'reference', x_mm: first.reference_x_mm, z_mm: first.reference_z_mm }
+        : null,
+      constructions: first.construction ?? null,
+      values: { sh: values.flange_height_mm, sd: values.flange_thickness_mm, qr: values.qr_mm },
+    },
+    { widthPx, heightPx, pixelRatio },
+  );
   if (scale && marker) {
     ctx.strokeStyle = '#ffffff';
     ctx.lineWidth = 1.5;
@@ -96,23 +100,42 @@ export function renderDeltaR(root, profiles, methods, previous) {
   for (const method of [...usable].reverse()) {
     const c = profiles[method].conicity;
     if (c.y_mm.length !== first.y_mm.length) continue;
-    series.push({ label: `Δr ${method}`, stroke: METHOD_COLOURS[/** @type {'adaptive'|'steger'} */ (method)], width: 1.5,
-      value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v, 3) });
+    series.push({
+      label: `Δr ${method}`,
+      stroke: METHOD_COLOURS[/** @type {'adaptive'|'steger'} */ (method)],
+      width: 1.5,
+      value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v, 3),
+    });
     data.push(c.delta_r_mm);
   }
   // the tread's part of Δr sets the scale; flange contact (beyond ±6 mm) leaves the plot
-  const tread = first.delta_r_mm.filter((/** @type {number} */ _d, /** @type {number} */ i) => Math.abs(first.y_mm[i]) <= 6);
+  const tread = first.delta_r_mm.filter(
+    (/** @type {number} */ _d, /** @type {number} */ i) => Math.abs(first.y_mm[i]) <= 6,
+  );
   const reach = Math.max(0.5, 1.3 * Math.max(...tread.map(Math.abs)));
   const width = Math.max(280, root.clientWidth);
-  const plot = new uPlot({
-    width, height: 170, series,
-    scales: { x: { time: false }, y: { range: [-reach, reach] } },
-    axes: [{ stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: 'lateral shift y (mm)' },
-      { stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: 'Δr (mm)', size: 48 }],
-    legend: { live: true },
-  }, /** @type {any} */ (data), root);
-  root.append(h('p', { class: 'note' },
-    `${notes.join(' · ')} · rails ${first.rail} at ${first.inclination}, gauge ${fmtNumber(first.gauge_mm, 0)} mm`));
+  const plot = new uPlot(
+    {
+      width,
+      height: 170,
+      series,
+      scales: { x: { time: false }, y: { range: [-reach, reach] } },
+      axes: [
+        { stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: 'lateral shift y (mm)' },
+        { stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: 'Δr (mm)', size: 48 },
+      ],
+      legend: { live: true },
+    },
+    /** @type {any} */ (data),
+    root,
+  );
+  root.append(
+    h(
+      'p',
+      { class: 'note' },
+      `${notes.join(' · ')} · rails ${first.rail} at ${first.inclination}, gauge ${fmtNumber(first.gauge_mm, 0)} mm`,
+    ),
+  );
   return plot;
 }
 
@@ -136,11 +159,21 @@ export function renderTrend(root, trend, previous) {
   root.replaceChildren();
   const family = trend?.limits?.wheel_profile ?? 'EN';
   const shown = PARAMETERS.filter((p) => p.card && p.families.includes(family));
-  const { x, columns } = trendColumns(trend, METHODS, shown.map((p) => p.key));
+  const { x, columns } = trendColumns(
+    trend,
+    METHODS,
+    shown.map((p) => p.key),
+  );
   if (x.length < 2) {
-    root.append(h('p', { class: 'empty' },
-      x.length ? 'This is the only pass of this wheel so far: the trend starts with the next one.'
-        : 'No measured passes of this wheel yet.'));
+    root.append(
+      h(
+        'p',
+        { class: 'empty' },
+        x.length
+          ? 'This is the only pass of this wheel so far: the trend starts with the next one.'
+          : 'No measured passes of this wheel yet.',
+      ),
+    );
     return null;
   }
   const plots = shown.map((p) => {
@@ -166,34 +199,71 @@ function parameterPlot(box, p, x, columns, forecast, limits) {
   const lowMm = limits?.limits_mm?.[`${limitStemOf(p.key)}_min_mm`] ?? null;
   const highMm = limits?.limits_mm?.[`${limitStemOf(p.key)}_max_mm`] ?? null;
   const band = lowMm != null && highMm != null ? (highMm - lowMm) * (limits?.near_limit_fraction ?? 0.1) : null;
-  const series = [{},
-    { label: `${p.label} adaptive`, stroke: p.colour, width: 1.8, points: { show: true, size: 5 }, value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v) },
-    { label: `${p.label} Steger`, stroke: p.colour, dash: [5, 4], width: 1, points: { show: true, size: 3 }, value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v) },
-    { label: 'fit', stroke: '#e5e7eb', dash: [2, 3], width: 1, points: { show: false }, value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v) }];
+  const series = [
+    {},
+    {
+      label: `${p.label} adaptive`,
+      stroke: p.colour,
+      width: 1.8,
+      points: { show: true, size: 5 },
+      value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v),
+    },
+    {
+      label: `${p.label} Steger`,
+      stroke: p.colour,
+      dash: [5, 4],
+      width: 1,
+      points: { show: true, size: 3 },
+      value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v),
+    },
+    {
+      label: 'fit',
+      stroke: '#e5e7eb',
+      dash: [2, 3],
+      width: 1,
+      points: { show: false },
+      value: (/** @type {any} */ _u, /** @type {number|null} */ v) => fmtNumber(v),
+    },
+  ];
   const values = [...columns[`adaptive:${p.key}`], ...columns[`steger:${p.key}`]].filter((v) => v != null);
   const yMin = Math.min(...values, ...(lowMm != null ? [lowMm] : []));
   const yMax = Math.max(...values, ...(highMm != null ? [highMm] : []));
   const pad = Math.max(0.2, 0.08 * (yMax - yMin));
-  return new uPlot({
-    width: Math.max(280, box.clientWidth || 420), height: TREND_HEIGHT_PX, series,
-    scales: {
-      x: { time: true, range: (/** @type {any} */ _u, /** @type {number} */ lo, /** @type {number} */ hi) => (hi - lo < 1
-        ? [lo - SINGLE_INSTANT_HALF_RANGE_S, hi + SINGLE_INSTANT_HALF_RANGE_S] : [lo - 0.03 * (hi - lo), hi + 0.03 * (hi - lo)]) },
-      y: { range: () => [yMin - pad, yMax + pad] },
+  return new uPlot(
+    {
+      width: Math.max(280, box.clientWidth || 420),
+      height: TREND_HEIGHT_PX,
+      series,
+      scales: {
+        x: {
+          time: true,
+          range: (/** @type {any} */ _u, /** @type {number} */ lo, /** @type {number} */ hi) =>
+            hi - lo < 1
+              ? [lo - SINGLE_INSTANT_HALF_RANGE_S, hi + SINGLE_INSTANT_HALF_RANGE_S]
+              : [lo - 0.03 * (hi - lo), hi + 0.03 * (hi - lo)],
+        },
+        y: { range: () => [yMin - pad, yMax + pad] },
+      },
+      // pass times in UTC, like every other time the application shows
+      tzDate: (/** @type {number} */ ts) => uPlot.tzDate(new Date(ts * 1000), 'Etc/UTC'),
+      axes: [
+        { stroke: '#c9d1db', grid: { stroke: '#262d37' }, space: 90, values: utcDays },
+        { stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: `${p.label} (${p.unit})`, size: 50 },
+      ],
+      legend: { live: true },
+      hooks: {
+        drawClear: [(/** @type {uPlot} */ u) => drawLimits(u, lowMm, highMm, band)],
+        // the x range on the element, in s (UTC), for whoever checks what the axis spans
+        setScale: [
+          (/** @type {uPlot} */ u, /** @type {string} */ key) => {
+            if (key === 'x') Object.assign(box.dataset, { xMin: String(u.scales.x.min), xMax: String(u.scales.x.max) });
+          },
+        ],
+      },
     },
-    // pass times in UTC, like every other time the application shows
-    tzDate: (/** @type {number} */ ts) => uPlot.tzDate(new Date(ts * 1000), 'Etc/UTC'),
-    axes: [{ stroke: '#c9d1db', grid: { stroke: '#262d37' }, space: 90, values: utcDays },
-      { stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: `${p.label} (${p.unit})`, size: 50 }],
-    legend: { live: true },
-    hooks: {
-      drawClear: [(/** @type {uPlot} */ u) => drawLimits(u, lowMm, highMm, band)],
-      // the x range on the element, in s (UTC), for whoever checks what the axis spans
-      setScale: [(/** @type {uPlot} */ u, /** @type {string} */ key) => {
-        if (key === 'x') Object.assign(box.dataset, { xMin: String(u.scales.x.min), xMax: String(u.scales.x.max) });
-      }],
-    },
-  }, /** @type {any} */ ([x, columns[`adaptive:${p.key}`], columns[`steger:${p.key}`], fit]), box);
+    /** @type {any} */ ([x, columns[`adaptive:${p.key}`], columns[`steger:${p.key}`], fit]),
+    box,
+  );
 }
 
 /**
@@ -226,7 +296,7 @@ function limitStemOf(key) {
  */
 function fitValue(forecast, t) {
   if (forecast.intercept_mm == null || !forecast.fit_from) return null;
-  return forecast.intercept_mm + forecast.rate_mm * (t - Date.parse(forecast.fit_from) / 1000) / 86400;
+  return forecast.intercept_mm + (forecast.rate_mm * (t - Date.parse(forecast.fit_from) / 1000)) / 86400;
 }
 
 /**
@@ -239,7 +309,10 @@ function drawLimits(u, lowMm, highMm, bandMm) {
   const { left, width } = u.bbox;
   const y = (/** @type {number} */ v) => u.valToPos(v, 'y', true);
   ctx.save();
-  for (const [limit, inward] of [[lowMm, 1], [highMm, -1]]) {
+  for (const [limit, inward] of [
+    [lowMm, 1],
+    [highMm, -1],
+  ]) {
     if (limit == null) continue;
     if (bandMm != null) {
       ctx.fillStyle = 'rgba(245, 158, 11, 0.18)';
@@ -270,6 +343,8 @@ function forecastText(p, forecast) {
   const rate = `${fmtSigned(forecast.rate_mm, 3)} mm/${per} (${fmtSigned(forecast.rate_low_mm, 3)} to ${fmtSigned(forecast.rate_high_mm, 3)})`;
   if (!forecast.reached_at) return `${p.label}: ${rate}; ${forecast.note}`;
   const day = (/** @type {string|null} */ iso) => (iso ? iso.slice(0, 10) : 'later');
-  return `${p.label}: ${rate}; reaches ${forecast.bound === 'max' ? '≤' : '≥'} ${fmtNumber(forecast.limit_mm, 1)} mm `
-    + `on ${day(forecast.reached_at)} UTC (90 %: ${day(forecast.reached_earliest)} – ${day(forecast.reached_latest)})`;
+  return (
+    `${p.label}: ${rate}; reaches ${forecast.bound === 'max' ? '≤' : '≥'} ${fmtNumber(forecast.limit_mm, 1)} mm ` +
+    `on ${day(forecast.reached_at)} UTC (90 %: ${day(forecast.reached_earliest)} – ${day(forecast.reached_latest)})`
+  );
 }

@@ -10,11 +10,27 @@ import { buildHash } from '../lib/route.js';
 import { h } from './dom.js';
 
 const FILTERS = [
-  { key: 'site', label: 'Site' }, { key: 'fleet', label: 'Fleet' }, { key: 'vehicle', label: 'Vehicle' },
+  { key: 'site', label: 'Site' },
+  { key: 'fleet', label: 'Fleet' },
+  { key: 'vehicle', label: 'Vehicle' },
 ];
-const COLUMNS = [['#', 'num'], ['Level', null], ['Vehicle', null], ['Axle', 'num'], ['Side', null],
-  ['Parameter', null], ['Value', 'num'], ['Limit', 'num'], ['Margin mm', 'num'], ['Margin % of band', 'num'],
-  ['Limits', null], ['Disposition', null], ['Pass', null], ['Time', null], ['Site', null]];
+const COLUMNS = [
+  ['#', 'num'],
+  ['Level', null],
+  ['Vehicle', null],
+  ['Axle', 'num'],
+  ['Side', null],
+  ['Parameter', null],
+  ['Value', 'num'],
+  ['Limit', 'num'],
+  ['Margin mm', 'num'],
+  ['Margin % of band', 'num'],
+  ['Limits', null],
+  ['Disposition', null],
+  ['Pass', null],
+  ['Time', null],
+  ['Site', null],
+];
 const LEVEL_WORDS = { alarm: 'ALARM', near: 'near limit', ok: 'ok' };
 
 /**
@@ -26,42 +42,128 @@ const LEVEL_WORDS = { alarm: 'ALARM', near: 'near limit', ok: 'ok' };
 export function renderReview(root, state, handlers) {
   const review = state.review ?? { page: null, filter: {}, loading: true };
   const filter = review.filter ?? {};
-  const form = /** @type {HTMLFormElement} */ (h('form', {
-    class: 'filters',
-    onsubmit: (/** @type {Event} */ e) => {
-      e.preventDefault();
-      const next = /** @type {Record<string, string>} */ ({});
-      for (const [k, v] of new FormData(/** @type {HTMLFormElement} */ (e.target)).entries()) if (String(v)) next[k] = String(v);
-      handlers.applyFilter(next);
-    },
-  },
-  FILTERS.map((f) => h('label', {}, f.label, ' ', h('input', { name: f.key, size: 10, placeholder: 'any part', value: filter[f.key] ?? '' }))),
-  h('label', {}, 'Parameter ', h('select', { name: 'parameter' },
-    h('option', { value: '' }, 'nearest limit'),
-    PARAMETERS.filter((p) => p.families.length > 0).map((p) => h('option', { value: p.key, selected: filter.parameter === p.key ? true : null }, `${p.label} (${p.title})`)))),
-  h('label', {}, h('input', { type: 'checkbox', name: 'open', value: '1', checked: filter.open === '1' }), ' open only'),
-  h('label', { title: 'every pass of each wheel, not only its newest' },
-    h('input', { type: 'checkbox', name: 'history', value: '1', checked: filter.history === '1' }), ' all passes'),
-  filter.pass ? h('input', { type: 'hidden', name: 'pass', value: filter.pass }) : null,
-  h('button', { type: 'submit' }, 'Apply'),
-  h('button', { type: 'button', 'data-action': 'clear-filters', disabled: Object.keys(filter).length === 0,
-    onclick: () => handlers.applyFilter({}) }, 'Clear filters'),
-  h('span', { class: 'count' }, review.loading ? 'loading…' : `${review.page?.total ?? 0} wheels`)));
+  const form = /** @type {HTMLFormElement} */ (
+    h(
+      'form',
+      {
+        class: 'filters',
+        onsubmit: (/** @type {Event} */ e) => {
+          e.preventDefault();
+          const next = /** @type {Record<string, string>} */ ({});
+          for (const [k, v] of new FormData(/** @type {HTMLFormElement} */ (e.target)).entries())
+            if (String(v)) next[k] = String(v);
+          handlers.applyFilter(next);
+        },
+      },
+      FILTERS.map((f) =>
+        h(
+          'label',
+          {},
+          f.label,
+          ' ',
+          h('input', { name: f.key, size: 10, placeholder: 'any part', value: filter[f.key] ?? '' }),
+        ),
+      ),
+      h(
+        'label',
+        {},
+        'Parameter ',
+        h(
+          'select',
+          { name: 'parameter' },
+          h('option', { value: '' }, 'nearest limit'),
+          PARAMETERS.filter((p) => p.families.length > 0).map((p) =>
+            h(
+              'option',
+              { value: p.key, selected: filter.parameter === p.key ? true : null },
+              `${p.label} (${p.title})`,
+            ),
+          ),
+        ),
+      ),
+      h(
+        'label',
+        {},
+        h('input', { type: 'checkbox', name: 'open', value: '1', checked: filter.open === '1' }),
+        ' open only',
+      ),
+      h(
+        'label',
+        { title: 'every pass of each wheel, not only its newest' },
+        h('input', { type: 'checkbox', name: 'history', value: '1', checked: filter.history === '1' }),
+        ' all passes',
+      ),
+      filter.pass ? h('input', { type: 'hidden', name: 'pass', value: filter.pass }) : null,
+      h('button', { type: 'submit' }, 'Apply'),
+      h(
+        'button',
+        {
+          type: 'button',
+          'data-action': 'clear-filters',
+          disabled: Object.keys(filter).length === 0,
+          onclick: () => handlers.applyFilter({}),
+        },
+        'Clear filters',
+      ),
+      h('span', { class: 'count' }, review.loading ? 'loading…' : `${review.page?.total ?? 0} wheels`),
+    )
+  );
   const items = review.page?.items ?? [];
-  root.replaceChildren(h('section', { class: 'review' },
-    h('h1', {}, filter.pass ? [h('a', { href: buildHash(['passes', filter.pass]) }, `Pass #${filter.pass}`), ' › worst wheels']
-      : 'Worst wheels'),
-    h('p', { class: 'note' }, 'Each wheel at its nearest limit (or the chosen parameter), smallest margin first: ',
-      h('span', { class: 'alarm-text' }, 'red'), ' beyond a limit, ', h('span', { class: 'near-text' }, 'amber'),
-      ' within the fleet\'s near-limit band (default the inner 10 % of each limit band). ',
-      filter.pass ? '' : filter.history === '1' ? 'Every pass of each wheel.' : 'Each wheel\'s newest pass.'),
-    form,
-    h('table', { class: 'grid worst' },
-      h('thead', {}, h('tr', {}, COLUMNS.map(([t, cls]) => h('th', { class: cls }, t)))),
-      h('tbody', {}, items.length ? items.map((/** @type {any} */ item, /** @type {number} */ i) => row(item, (review.page?.offset ?? 0) + i + 1))
-        : h('tr', {}, h('td', { colspan: COLUMNS.length, class: 'empty' }, review.loading ? 'Loading…' : 'No measured wheels match.')))),
-    pager(review.page, filter, handlers.applyFilter),
-  ));
+  root.replaceChildren(
+    h(
+      'section',
+      { class: 'review' },
+      h(
+        'h1',
+        {},
+        filter.pass
+          ? [h('a', { href: buildHash(['passes', filter.pass]) }, `Pass #${filter.pass}`), ' › worst wheels']
+          : 'Worst wheels',
+      ),
+      h(
+        'p',
+        { class: 'note' },
+        'Each wheel at its nearest limit (or the chosen parameter), smallest margin first: ',
+        h('span', { class: 'alarm-text' }, 'red'),
+        ' beyond a limit, ',
+        h('span', { class: 'near-text' }, 'amber'),
+        " within the fleet's near-limit band (default the inner 10 % of each limit band). ",
+        filter.pass ? '' : filter.history === '1' ? 'Every pass of each wheel.' : "Each wheel's newest pass.",
+      ),
+      form,
+      h(
+        'table',
+        { class: 'grid worst' },
+        h(
+          'thead',
+          {},
+          h(
+            'tr',
+            {},
+            COLUMNS.map(([t, cls]) => h('th', { class: cls }, t)),
+          ),
+        ),
+        h(
+          'tbody',
+          {},
+          items.length
+            ? items.map((/** @type {any} */ item, /** @type {number} */ i) =>
+                row(item, (review.page?.offset ?? 0) + i + 1),
+              )
+            : h(
+                'tr',
+                {},
+                h(
+                  'td',
+                  { colspan: COLUMNS.length, class: 'empty' },
+                  review.loading ? 'Loading…' : 'No measured wheels match.',
+                ),
+              ),
+        ),
+      ),
+      pager(review.page, filter, handlers.applyFilter),
+    ),
+  );
 }
 
 /**
@@ -73,25 +175,30 @@ function row(item, rank) {
   const m = item.margin;
   const p = parameterOf(m.parameter);
   const href = buildHash(['passes', item.pass_id, 'wheels', item.wheel_id]);
-  return h('tr', {
-    class: `level-${m.level}`, dataset: { wheelId: String(item.wheel_id), passId: String(item.pass_id), level: m.level },
-    onclick: (/** @type {MouseEvent} */ e) => { if (!(/** @type {HTMLElement} */ (e.target)).closest('a')) window.location.hash = href; },
-  },
-  h('td', { class: 'num' }, rank),
-  h('td', {}, h('span', { class: `badge ${m.level}` }, LEVEL_WORDS[/** @type {'ok'} */ (m.level)] ?? m.level)),
-  h('td', {}, h('a', { href: buildHash(['vehicles', item.vehicle_id]) }, item.vehicle_id)),
-  h('td', { class: 'num' }, item.axle),
-  h('td', {}, item.side),
-  h('td', { title: p.title }, p.label),
-  h('td', { class: `num ${m.level === 'ok' ? '' : m.level}` }, `${fmtNumber(m.value_mm)} ${p.unit}`),
-  h('td', { class: 'num' }, `${m.bound === 'min' ? '≥' : '≤'} ${fmtNumber(m.limit_mm, 1)}`),
-  h('td', { class: 'num' }, fmtNumber(m.margin_mm)),
-  h('td', { class: 'num', title: `of a ${fmtNumber(m.band_mm)} mm band` }, fmtNumber(100 * m.margin_fraction, 1)),
-  h('td', {}, item.wheel_profile),
-  h('td', { class: `disposition ${item.disposition ? 'set' : 'open'}` }, fmtDisposition(item.disposition)),
-  h('td', {}, h('a', { href }, `#${item.pass_id} wheel`)),
-  h('td', { class: 'mono' }, fmtTime(item.started_at)),
-  h('td', {}, item.site),
+  return h(
+    'tr',
+    {
+      class: `level-${m.level}`,
+      dataset: { wheelId: String(item.wheel_id), passId: String(item.pass_id), level: m.level },
+      onclick: (/** @type {MouseEvent} */ e) => {
+        if (!(/** @type {HTMLElement} */ (e.target).closest('a'))) window.location.hash = href;
+      },
+    },
+    h('td', { class: 'num' }, rank),
+    h('td', {}, h('span', { class: `badge ${m.level}` }, LEVEL_WORDS[/** @type {'ok'} */ (m.level)] ?? m.level)),
+    h('td', {}, h('a', { href: buildHash(['vehicles', item.vehicle_id]) }, item.vehicle_id)),
+    h('td', { class: 'num' }, item.axle),
+    h('td', {}, item.side),
+    h('td', { title: p.title }, p.label),
+    h('td', { class: `num ${m.level === 'ok' ? '' : m.level}` }, `${fmtNumber(m.value_mm)} ${p.unit}`),
+    h('td', { class: 'num' }, `${m.bound === 'min' ? '≥' : '≤'} ${fmtNumber(m.limit_mm, 1)}`),
+    h('td', { class: 'num' }, fmtNumber(m.margin_mm)),
+    h('td', { class: 'num', title: `of a ${fmtNumber(m.band_mm)} mm band` }, fmtNumber(100 * m.margin_fraction, 1)),
+    h('td', {}, item.wheel_profile),
+    h('td', { class: `disposition ${item.disposition ? 'set' : 'open'}` }, fmtDisposition(item.disposition)),
+    h('td', {}, h('a', { href }, `#${item.pass_id} wheel`)),
+    h('td', { class: 'mono' }, fmtTime(item.started_at)),
+    h('td', {}, item.site),
   );
 }
 
@@ -107,8 +214,11 @@ function pager(page, filter, applyFilter) {
   const at = Math.floor(page.offset / REVIEW_PAGE_ROWS) + 1;
   const pages = Math.ceil(page.total / REVIEW_PAGE_ROWS);
   const go = (/** @type {number} */ n) => applyFilter({ ...filter, page: String(n) });
-  return h('div', { class: 'pager' },
+  return h(
+    'div',
+    { class: 'pager' },
     h('button', { disabled: at <= 1, onclick: () => go(at - 1), 'data-action': 'previous-page' }, '‹ previous'),
     ` page ${at} of ${pages} `,
-    h('button', { disabled: at >= pages, onclick: () => go(at + 1), 'data-action': 'next-page' }, 'next ›'));
+    h('button', { disabled: at >= pages, onclick: () => go(at + 1), 'data-action': 'next-page' }, 'next ›'),
+  );
 }

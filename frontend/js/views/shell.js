@@ -7,12 +7,24 @@ import { h } from './dom.js';
 
 /** Keyboard shortcuts shown by "?" (the wheel page's are listed there too). */
 export const SHORTCUTS = [
-  ['g p', 'passes'], ['g w', 'worst wheels'], ['g u', 'upload'], ['j / k', 'next / previous row'], ['Enter', 'open row'],
-  ['a / s', 'adaptive / Steger centres'], ['m / o', 'stripe mask / σ map'], ['x', 'camera frame on / off'],
-  ['f', 'fit stripe / whole frame'], ['+ / −', 'zoom'], ['scroll', 'zoom at the pointer'],
-  ['double-click', 'zoom in there (with ⇧: out)'], ['drag', 'pan the frame'], ['← ↑ → ↓', 'pan'],
-  ['[ / ]', 'previous / next wheel'], ['i', 'next sensor'],
-  ['Esc', 'close 3D or help, else up one level'], ['?', 'this help (a click outside closes it)'],
+  ['g p', 'passes'],
+  ['g w', 'worst wheels'],
+  ['g u', 'upload'],
+  ['j / k', 'next / previous row'],
+  ['Enter', 'open row'],
+  ['a / s', 'adaptive / Steger centres'],
+  ['m / o', 'stripe mask / σ map'],
+  ['x', 'camera frame on / off'],
+  ['f', 'fit stripe / whole frame'],
+  ['+ / −', 'zoom'],
+  ['scroll', 'zoom at the pointer'],
+  ['double-click', 'zoom in there (with ⇧: out)'],
+  ['drag', 'pan the frame'],
+  ['← ↑ → ↓', 'pan'],
+  ['[ / ]', 'previous / next wheel'],
+  ['i', 'next sensor'],
+  ['Esc', 'close 3D or help, else up one level'],
+  ['?', 'this help (a click outside closes it)'],
 ];
 
 /**
@@ -26,8 +38,14 @@ export function renderShell(els, state, handlers) {
   const name = state.route?.name;
   const parts = [
     h('a', { class: 'brand', href: '#/passes' }, 'wheelscan'),
-    h('nav', {},
-      h('a', { href: '#/passes', class: name === 'passes' || name === 'pass' || name === 'wheel' ? 'active' : null }, 'Passes'),
+    h(
+      'nav',
+      {},
+      h(
+        'a',
+        { href: '#/passes', class: name === 'passes' || name === 'pass' || name === 'wheel' ? 'active' : null },
+        'Passes',
+      ),
       h('a', { href: '#/review', class: name === 'review' ? 'active' : null }, 'Worst wheels'),
       role && role !== 'viewer'
         ? h('a', { href: '#/upload', class: name === 'upload' ? 'active' : null }, 'Upload')
@@ -35,8 +53,11 @@ export function renderShell(els, state, handlers) {
     ),
     role ? vehicleSearch(state, handlers.findVehicle) : null,
     h('span', { class: 'spacer' }),
-    h('span', { class: `live ${state.socketOpen ? 'on' : 'off'}`, title: 'live updates (WebSocket)' },
-      state.socketOpen ? '● live' : '○ offline'),
+    h(
+      'span',
+      { class: `live ${state.socketOpen ? 'on' : 'off'}`, title: 'live updates (WebSocket)' },
+      state.socketOpen ? '● live' : '○ offline',
+    ),
     role ? h('span', { class: `role role-${role}`, title: state.me?.name ?? '' }, role) : null,
     role ? h('button', { class: 'link', onclick: handlers.signOut }, 'sign out') : null,
     h('span', { class: 'hint' }, 'press ? for keys'),
@@ -44,9 +65,15 @@ export function renderShell(els, state, handlers) {
   els.header.replaceChildren(...parts.filter((part) => part !== null));
   els.banner.replaceChildren(
     ...(state.error
-      ? [h('div', { class: 'error', role: 'alert' },
-          h('strong', {}, 'Error. '), state.error,
-          h('button', { class: 'link', onclick: handlers.dismissError, 'aria-label': 'dismiss' }, 'dismiss'))]
+      ? [
+          h(
+            'div',
+            { class: 'error', role: 'alert' },
+            h('strong', {}, 'Error. '),
+            state.error,
+            h('button', { class: 'link', onclick: handlers.dismissError, 'aria-label': 'dismiss' }, 'dismiss'),
+          ),
+        ]
       : []),
   );
   els.help.hidden = !state.helpOpen;
@@ -54,7 +81,11 @@ export function renderShell(els, state, handlers) {
     els.help.append(
       h('button', { class: 'link close', onclick: handlers.closeHelp, 'aria-label': 'close help' }, '×'),
       h('h2', {}, 'Keyboard and mouse'),
-      h('table', {}, SHORTCUTS.map(([key, what]) => h('tr', {}, h('td', {}, h('kbd', {}, key)), h('td', {}, what)))),
+      h(
+        'table',
+        {},
+        SHORTCUTS.map(([key, what]) => h('tr', {}, h('td', {}, h('kbd', {}, key)), h('td', {}, what))),
+      ),
     );
   }
 }
@@ -69,17 +100,28 @@ export function renderShell(els, state, handlers) {
 function vehicleSearch(state, findVehicle) {
   const existing = /** @type {HTMLFormElement|null} */ (document.querySelector('header form.vehicle-search'));
   if (existing) return existing;
-  const input = /** @type {HTMLInputElement} */ (h('input', {
-    type: 'search', name: 'vehicle', placeholder: 'vehicle id…', size: 14, 'aria-label': 'find a vehicle',
-    value: state.route?.name === 'vehicle' ? state.route.params.vehicleId : '',
-  }));
-  return h('form', {
-    class: 'vehicle-search', role: 'search',
-    onsubmit: (/** @type {Event} */ e) => {
-      e.preventDefault();
-      if (input.value.trim()) findVehicle(input.value.trim());
+  const input = /** @type {HTMLInputElement} */ (
+    h('input', {
+      type: 'search',
+      name: 'vehicle',
+      placeholder: 'vehicle id…',
+      size: 14,
+      'aria-label': 'find a vehicle',
+      value: state.route?.name === 'vehicle' ? state.route.params.vehicleId : '',
+    })
+  );
+  return h(
+    'form',
+    {
+      class: 'vehicle-search',
+      role: 'search',
+      onsubmit: (/** @type {Event} */ e) => {
+        e.preventDefault();
+        if (input.value.trim()) findVehicle(input.value.trim());
+      },
     },
-  }, input);
+    input,
+  );
 }
 
 /**
@@ -88,20 +130,41 @@ function vehicleSearch(state, findVehicle) {
  * @param {(token: string) => void} onSubmit
  */
 export function renderSignIn(root, onSubmit) {
-  const input = /** @type {HTMLInputElement} */ (h('input', {
-    type: 'password', name: 'token', placeholder: 'wst_…', autocomplete: 'off', size: 48,
-  }));
+  const input = /** @type {HTMLInputElement} */ (
+    h('input', {
+      type: 'password',
+      name: 'token',
+      placeholder: 'wst_…',
+      autocomplete: 'off',
+      size: 48,
+    })
+  );
   root.replaceChildren(
-    h('section', { class: 'sign-in' },
+    h(
+      'section',
+      { class: 'sign-in' },
       h('h1', {}, 'Sign in'),
-      h('p', {}, 'Open the link that ', h('code', {}, 'make run'), ' printed, or paste an API token (',
-        h('code', {}, 'wheelscan token create --role viewer'), ').'),
-      h('form', {
-        onsubmit: (/** @type {Event} */ e) => {
-          e.preventDefault();
-          if (input.value.trim()) onSubmit(input.value.trim());
+      h(
+        'p',
+        {},
+        'Open the link that ',
+        h('code', {}, 'make run'),
+        ' printed, or paste an API token (',
+        h('code', {}, 'wheelscan token create --role viewer'),
+        ').',
+      ),
+      h(
+        'form',
+        {
+          onsubmit: (/** @type {Event} */ e) => {
+            e.preventDefault();
+            if (input.value.trim()) onSubmit(input.value.trim());
+          },
         },
-      }, input, ' ', h('button', { type: 'submit' }, 'Sign in')),
+        input,
+        ' ',
+        h('button', { type: 'submit' }, 'Sign in'),
+      ),
     ),
   );
   input.focus();
