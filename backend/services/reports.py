@@ -17,6 +17,7 @@ import json
 import os
 import tempfile
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
 from datetime import UTC
 from pathlib import Path
@@ -238,15 +239,27 @@ def prune_report_cache(cache_dir: Path, keep: int) -> int:
     files went. PDFs are keyed by content, so a removed one is rendered again if asked."""
     now = time.time()
     removed = 0
-    for stale in cache_dir.glob("*.part"):
-        if now - stale.stat().st_mtime > STALE_PART_S:
+    for stale, mtime in _modified(cache_dir.glob("*.part")):
+        if now - mtime > STALE_PART_S:
             stale.unlink(missing_ok=True)
             removed += 1
-    pdfs = sorted(cache_dir.glob("*.pdf"), key=lambda p: p.stat().st_mtime, reverse=True)
-    for old in pdfs[keep:]:
+    pdfs = sorted(_modified(cache_dir.glob("*.pdf")), key=lambda item: item[1], reverse=True)
+    for old, _mtime in pdfs[keep:]:
         old.unlink(missing_ok=True)
         removed += 1
     return removed
+
+
+def _modified(paths: Iterable[Path]) -> list[tuple[Path, float]]:
+    """Each path that still exists with its modification time [s]: a concurrent request may
+    rename its half-written file or prune a PDF between the listing and the look."""
+    found = []
+    for path in paths:
+        try:
+            found.append((path, path.stat().st_mtime))
+        except FileNotFoundError:
+            continue
+    return found
 
 
 @dataclass(frozen=True, slots=True)

@@ -8,13 +8,14 @@ from __future__ import annotations
 
 import io
 import os
+import threading
 import time
 from pathlib import Path
 
 import pytest
 from reportlab.pdfgen.canvas import Canvas
 
-from backend.services.reports import prune_report_cache
+from backend.services.reports import _write_atomically, prune_report_cache
 from pipeline.version import PIPELINE_VERSION
 from tests.backend.pdf_checks import (
     overlapping_words,
@@ -188,3 +189,25 @@ def test_the_report_cache_keeps_the_newest_pdfs_and_drops_stale_parts(tmp_path) 
         os.utime(path, (stamp, stamp))
     assert prune_report_cache(tmp_path, keep=2) == 2
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fresh.part", "mid.pdf", "new.pdf"]
+
+
+def test_concurrent_renders_and_prunes_of_the_cache_never_fail(tmp_path) -> None:
+    """Requests write and prune the cache at once: a file one lists, another renames or
+    removes (this raised FileNotFoundError, a 500, under the load test)."""
+    errors: list[BaseException] = []
+
+    def work(n: int) -> None:
+        try:
+            for i in range(60):
+                _write_atomically(tmp_path / f"{n}-{i}.pdf", b"%PDF-1.4\n" * 100)
+                prune_report_cache(tmp_path, keep=1)
+        except BaseException as error:  # collected for the assertion
+            errors.append(error)
+
+    threads = [threading.Thread(target=work, args=(n,)) for n in range(8)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert errors == []
+    assert len(list(tmp_path.glob("*.pdf"))) >= 1

@@ -464,6 +464,11 @@ def test_defect_10_filters_match_parts_clear_and_wheel_changes_skip_the_wheel_li
     page.locator(f"tr[data-pass-id='{depot.newest}']").wait_for()
     page.locator("[data-action=clear-filters]").click()
     page.wait_for_url("**#/passes")
+    # The list re-renders after the route changes: wait for the cleared form, not the URL.
+    page.wait_for_function(
+        "() => document.querySelector('form.filters input[name=site]')?.value === ''",
+        timeout=5000,
+    )
     assert page.locator("form.filters input[name=site]").input_value() == ""
     first, second = (w["wheel_id"] for w in wheels(service, depot.newest)[:2])
     open_wheel(page, service, depot.newest, first)
