@@ -54,3 +54,26 @@ export function alarmClass(result) {
   if (!result || result.status === 'not_measured' || result.flange_height_mm == null) return 'none';
   return result.alarms && result.alarms.length > 0 ? 'alarm' : 'ok';
 }
+
+/**
+ * The Apply and Clear-filters buttons of a filter form (the pass list's and the worst
+ * wheels'); clearing applies the empty filter.
+ * @param {Record<string, string>} filter the filter in force
+ * @param {(filter: Record<string, string>) => void} applyFilter
+ * @returns {HTMLElement[]}
+ */
+export function filterButtons(filter, applyFilter) {
+  return [
+    h('button', { type: 'submit' }, 'Apply'),
+    h(
+      'button',
+      {
+        type: 'button',
+        'data-action': 'clear-filters',
+        disabled: Object.keys(filter).length === 0,
+        onclick: () => applyFilter({}),
+      },
+      'Clear filters',
+    ),
+  ];
+}

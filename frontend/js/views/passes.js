@@ -6,7 +6,7 @@
 import { fmtNumber, fmtPercent, fmtTime } from '../lib/format.js';
 import { passStatus } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
-import { h } from './dom.js';
+import { filterButtons, h } from './dom.js';
 
 /** Table columns: title and class (numbers align right under their heading). */
 const COLUMNS = [
@@ -84,17 +84,7 @@ export function renderPasses(root, state, handlers) {
               h('input', { type: 'checkbox', name: 'alarm', value: 'true', checked: filter.alarm === 'true' }),
               ' alarms only',
             ),
-            h('button', { type: 'submit' }, 'Apply'),
-            h(
-              'button',
-              {
-                type: 'button',
-                'data-action': 'clear-filters',
-                disabled: Object.keys(filter).length === 0,
-                onclick: () => handlers.applyFilter({}),
-              },
-              'Clear filters',
-            ),
+            ...filterButtons(filter, handlers.applyFilter),
             h('span', { class: 'count' }),
           )
         );

@@ -7,7 +7,7 @@
 import { fmtDisposition, fmtNumber, fmtTime, PARAMETERS, parameterOf } from '../lib/format.js';
 import { REVIEW_PAGE_ROWS } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
-import { h } from './dom.js';
+import { filterButtons, h } from './dom.js';
 
 const FILTERS = [
   { key: 'site', label: 'Site' },
@@ -94,17 +94,7 @@ export function renderReview(root, state, handlers) {
         ' all passes',
       ),
       filter.pass ? h('input', { type: 'hidden', name: 'pass', value: filter.pass }) : null,
-      h('button', { type: 'submit' }, 'Apply'),
-      h(
-        'button',
-        {
-          type: 'button',
-          'data-action': 'clear-filters',
-          disabled: Object.keys(filter).length === 0,
-          onclick: () => handlers.applyFilter({}),
-        },
-        'Clear filters',
-      ),
+      ...filterButtons(filter, handlers.applyFilter),
       h('span', { class: 'count' }, review.loading ? 'loading…' : `${review.page?.total ?? 0} wheels`),
     )
   );
