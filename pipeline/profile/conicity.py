@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.errors import PipelineError
-from pipeline.imaging import GEOMETRY_FLOAT
+from pipeline.imaging import GEOMETRY_FLOAT, freeze_geometry
 
 NOMINAL_AMPLITUDE_MM = 3.0
 """EN 15302: the equivalent conicity is quoted for a wheelset amplitude ŷ = 3 mm."""
@@ -58,8 +58,8 @@ class RollingRadiusDifference:
     delta_r_mm: np.ndarray
 
     def __post_init__(self) -> None:
-        y = np.array(self.y_mm, dtype=GEOMETRY_FLOAT)
-        d = np.array(self.delta_r_mm, dtype=GEOMETRY_FLOAT)
+        freeze_geometry(self, "y_mm", "delta_r_mm")
+        y, d = self.y_mm, self.delta_r_mm
         if y.ndim != 1 or y.shape != d.shape or y.size < 2:
             raise ValueError(
                 f"y_mm and delta_r_mm must be 1-D of equal length ≥ 2, got {y.shape}, {d.shape}"
@@ -68,9 +68,6 @@ class RollingRadiusDifference:
             raise ValueError("y_mm and delta_r_mm must be finite")
         if np.any(np.diff(y) <= 0):
             raise ValueError("y_mm must be strictly increasing")
-        for name, array in (("y_mm", y), ("delta_r_mm", d)):
-            array.flags.writeable = False
-            object.__setattr__(self, name, array)
 
 
 @dataclass(frozen=True, slots=True, eq=False)

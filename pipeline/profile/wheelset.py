@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pipeline.errors import PipelineError
-from pipeline.imaging import GEOMETRY_FLOAT
+from pipeline.imaging import freeze_geometry
 from pipeline.profile.conicity import (
     CURVE_AMPLITUDES_MM,
     NOMINAL_AMPLITUDE_MM,
@@ -82,13 +82,10 @@ class WheelCurve:
     z_mm: np.ndarray
 
     def __post_init__(self) -> None:
-        x = np.array(self.x_mm, dtype=GEOMETRY_FLOAT)
-        z = np.array(self.z_mm, dtype=GEOMETRY_FLOAT)
+        freeze_geometry(self, "x_mm", "z_mm")
+        x, z = self.x_mm, self.z_mm
         if x.ndim != 1 or x.shape != z.shape or x.size < 2 or np.any(np.diff(x) <= 0):
             raise ValueError("a wheel curve needs ≥ 2 points with x strictly increasing")
-        for name, array in (("x_mm", x), ("z_mm", z)):
-            array.flags.writeable = False
-            object.__setattr__(self, name, array)
 
 
 @dataclass(frozen=True, slots=True, eq=False)
