@@ -29,6 +29,7 @@ BENCH_MODULES: list[str] = [
     "benchmarks.hardening",
     "benchmarks.reports",
     "benchmarks.review",
+    "benchmarks.browser",
 ]
 
 OUTPUT = Path(__file__).resolve().parent.parent / "BENCHMARKS.md"

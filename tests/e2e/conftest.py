@@ -134,7 +134,12 @@ def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
 @pytest.fixture(scope="session")
 def pass_archive(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A simulated pass (1 vehicle, 2 axles: 4 wheels, 1600×1200 frames) zipped for upload."""
-    out = tmp_path_factory.mktemp("e2e-pass")
+    return simulated_pass_archive(tmp_path_factory.mktemp("e2e-pass"))
+
+
+def simulated_pass_archive(out: Path) -> Path:
+    """Simulate the browser tests' pass (1 vehicle, 2 axles: 4 wheels, 1600×1200 frames,
+    seed 6) in `out` and zip it for upload (also used by benchmarks/browser.py)."""
     folder = out / "pass"
     result = subprocess.run(
         [
