@@ -26,6 +26,7 @@ from sqlalchemy import create_engine, update
 
 from db.models import Pass
 from tests.e2e.conftest import ROOT, WHEELSCAN, Service, zip_pass
+from tests.e2e.marks import drawn_after
 from tests.e2e.test_retention_page import wait_for_job
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
@@ -500,55 +501,27 @@ def test_defect_11_a_report_being_made_shows_progress_and_disables_its_button(
     assert page.locator("button[data-export=pdf]").is_enabled()
 
 
-DRAWN_AFTER_JS = """([t0, wheel]) => {
-  const data = performance.getEntriesByName('frame-data')
-    .find((e) => e.startTime > t0 && e.detail === wheel);
-  if (!data) return undefined;
-  return performance.getEntriesByName('frame-draw')
-    .filter((e) => e.startTime >= data.startTime).map((e) => e.startTime + e.duration)[0];
-}"""
-
-
-def drawn_after(page: Any, started_ms: float, pass_id: int, wheel_id: int) -> float:
-    """Time from `started_ms` to the first draw of this wheel's frame and centres [ms]
-    (not a redraw of the wheel before it)."""
-    arg = [started_ms, f"{pass_id}/{wheel_id}"]
-    page.wait_for_function(f"(a) => ({DRAWN_AFTER_JS})(a) !== undefined", arg=arg)
-    return float(page.evaluate(DRAWN_AFTER_JS, arg) - started_ms)
-
-
-def test_wheel_page_and_next_wheel_times_are_recorded(
-    viewer: Any, service: Service, depot: Depot, screenshots: Path
+def test_a_card_click_and_the_next_wheel_key_draw_each_wheel_of_the_pass(
+    viewer: Any, service: Service, depot: Depot
 ) -> None:
-    """The bars (≤ 500 ms from a click to frame and overlays drawn, ≤ 300 ms to the next
-    wheel) are measured here and kept in measurements.json; the machine is shared, so the
-    test fails only far beyond them."""
+    """Every wheel card opens its wheel and `]` walks to the next wheel in the pass's order,
+    frame and centres drawn each time (how fast: benchmarks/browser.py, BENCHMARKS.md)."""
     page = viewer
     ids = [w["wheel_id"] for w in wheels(service, depot.newest)]
-    page.goto(f"{service.url}/#/passes/{depot.newest}")
-    page.locator("a.wheel-card").first.wait_for()
-    opened, nexts = [], []
     for wheel_id in ids:
         page.goto(f"{service.url}/#/passes/{depot.newest}")
         card = page.locator(f"a.wheel-card[data-wheel-id='{wheel_id}']")
         card.wait_for()
         started = page.evaluate("() => performance.now()")
         card.click()
-        opened.append(drawn_after(page, started, depot.newest, wheel_id))
+        drawn_after(page, started, depot.newest, wheel_id)
+        assert int(page.locator(".frame-canvas").get_attribute("data-points-drawn")) > 0
     open_wheel(page, service, depot.newest, ids[0])
     for wheel_id in ids[1:]:
+        page.locator("a[rel=next]").wait_for()  # the pass's wheel list is in
         started = page.evaluate("() => performance.now()")
         page.locator(".frame-canvas").focus()
         page.keyboard.press("]")
-        nexts.append(drawn_after(page, started, depot.newest, wheel_id))
-    figures = {
-        "click_to_drawn_ms": [round(v) for v in opened],
-        "click_to_drawn_median_ms": round(sorted(opened)[len(opened) // 2]),
-        "next_wheel_ms": [round(v) for v in nexts],
-        "next_wheel_median_ms": round(sorted(nexts)[len(nexts) // 2]),
-    }
-    path = screenshots / "measurements.json"
-    data = json.loads(path.read_text()) if path.exists() else {}
-    path.write_text(json.dumps({**data, "depot_wheel_page": figures}, indent=2))
-    assert figures["click_to_drawn_median_ms"] < 3 * 500, figures
-    assert figures["next_wheel_median_ms"] < 3 * 300, figures
+        drawn_after(page, started, depot.newest, wheel_id)
+        page.locator(f".wheel[data-loaded-wheel='{depot.newest}/{wheel_id}']").wait_for()
+        assert int(page.locator(".frame-canvas").get_attribute("data-points-drawn")) > 0

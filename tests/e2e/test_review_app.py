@@ -2,7 +2,8 @@
 
 One simulated pass (1 vehicle, 2 axles) is dropped on the upload page by an operator and
 measured live; the other tests review it as a viewer. Screenshots of every view land in
-tests/e2e/screenshots/, with measurements.json (wheel page load, pan/zoom redraw times).
+tests/e2e/screenshots/, with measurements.json (pan/zoom redraw times). How fast the pages
+load and draw is measured by benchmarks/browser.py (BENCHMARKS.md), not here.
 """
 
 from __future__ import annotations
@@ -19,14 +20,13 @@ import pytest
 
 from pipeline.profile.exchange import parse_profile_file
 from tests.e2e.conftest import Service
+from tests.e2e.marks import drawn_after
 from tests.pipeline.test_profile_exchange import contour_samples, gauge_file
 
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
 MEASURE_TIMEOUT_MS = 240_000
 VIEWPORT = {"width": 1600, "height": 1000}
-LOAD_BUDGET_MS = 1000.0
-"""The bar: the wheel page of a 1600×1200 frame with both methods' centres loads in < 1 s."""
 
 NEXT_FRAME_JS = "() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))"
 DROP_FILE_JS = """async ([b64, name]) => {
@@ -137,21 +137,15 @@ def test_pass_view_shows_every_wheel_with_both_methods_and_their_difference(
     page.screenshot(path=str(screenshots / "05-pass-difference.png"))
 
 
-def open_wheel(page: Any, service: Service, pass_id: int, wheel_id: int) -> float:
-    """Open a wheel page as a click on a link would (hash change); returns the time in the
-    page from the navigation to the end of the first draw of its frame and centres [ms]."""
+def open_wheel(page: Any, service: Service, pass_id: int, wheel_id: int) -> None:
+    """Open a wheel page as a click on a link would (hash change) and wait until its frame
+    and centres are drawn."""
     started_ms = page.evaluate(
         "(hash) => { const t = performance.now(); location.hash = hash; return t; }",
         f"#/passes/{pass_id}/wheels/{wheel_id}",
     )
     page.locator(f".wheel[data-loaded-wheel='{pass_id}/{wheel_id}']").wait_for()
-    page.evaluate(NEXT_FRAME_JS)
-    drawn_ms = page.evaluate(
-        """(t0) => performance.getEntriesByName('frame-draw')
-          .filter((e) => e.startTime > t0).map((e) => e.startTime + e.duration)[0]""",
-        started_ms,
-    )
-    return float(drawn_ms - started_ms)
+    drawn_after(page, started_ms, pass_id, wheel_id)
 
 
 def measured_wheels(service: Service, pass_id: int) -> list[int]:
@@ -164,29 +158,17 @@ def measured_wheel(service: Service, pass_id: int) -> int:
     return measured_wheels(service, pass_id)[0]
 
 
-def test_wheel_page_loads_within_budget_and_toggles_every_overlay(
+def test_wheel_page_draws_both_methods_centres_and_toggles_every_overlay(
     viewer_page: Any, service: Service, measured_pass: int, screenshots: Path
 ) -> None:
     page = viewer_page
-    warm_id, wheel_id = measured_wheels(service, measured_pass)[:2]
-    open_wheel(page, service, measured_pass, warm_id)  # warm: modules, fonts, connections
+    wheel_id = measured_wheels(service, measured_pass)[1]
     page.goto(f"{service.url}/#/passes")
     page.locator("tr[data-pass-id]").first.wait_for()
-    wall_ms = open_wheel(page, service, measured_pass, wheel_id)
-    app_ms = float(page.locator("[data-load-ms]").get_attribute("data-load-ms"))
-    with open("/proc/loadavg") as loadavg:
-        load_1min = float(loadavg.read().split()[0])
+    open_wheel(page, service, measured_pass, wheel_id)
     points = int(page.locator(".frame-canvas").get_attribute("data-points-drawn"))
-    figures = {
-        "navigation_to_drawn_ms": round(wall_ms),
-        "api_to_state_ms": app_ms,
-        "centres_drawn": points,
-        "machine_load_1min": load_1min,
-    }
-    record(screenshots, "wheel_page_load", figures)
     assert points > 1000, f"both methods' centres drawn, got {points}"
-    # the bar is 1 s; the machine is shared, so fail only far beyond it (figures recorded)
-    assert wall_ms < 3 * LOAD_BUDGET_MS, f"wheel page: {figures} (bar: < 1000 ms)"
+    assert float(page.locator("[data-load-ms]").get_attribute("data-load-ms")) > 0
     page.screenshot(path=str(screenshots / "06-wheel-default.png"))
     for key, layer in (("m", "mask"), ("o", "sigma"), ("a", "adaptive"), ("s", "steger")):
         page.locator(".frame-canvas").focus()

@@ -158,7 +158,7 @@ export class WheelView {
       this.renderDispositions(w, state.me?.role);
     if (changed('toolbar', JSON.stringify(show))) this.renderToolbar(show);
     if (changed('layers', w.layers)) {
-      // when this wheel's frame data reached the canvas (the browser tests time from here)
+      // this wheel's frame data reached the canvas (the browser tests wait for it, benchmarks/browser.py times from it)
       performance.mark('frame-data', { detail: `${w.passId}/${w.wheelId}` });
       this.frame.setData({ ...w.layers, sigmaScale: w.sigmaScale, centres: w.centres });
       this.difference = pairDifference(w.centres);
