@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 
@@ -19,7 +20,12 @@ from pipeline.extraction.band_analysis import analyse_band, analyse_fixed_scale
 from pipeline.extraction.blocks import all_blocks
 from pipeline.extraction.classic import segment_classic
 from pipeline.extraction.components import band_pixels
-from pipeline.extraction.curvature import local_curvature, remove_curvature_bias, smooth_along
+from pipeline.extraction.curvature import (
+    centre_scatter,
+    local_curvature,
+    remove_curvature_bias,
+    smooth_along,
+)
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
 from pipeline.extraction.line_test import is_line, line_profiles
 from pipeline.extraction.linking import link_points
@@ -39,6 +45,11 @@ ALONG_SUPPORT = 0.7
 the stripe's width (w/√3): on the exact-truth wheel stripe 0.7 keeps the clean RMS at
 0.003 px (1.0: 0.006 px, the quadratic fit's error where the curvature changes), and the
 scatter-chosen support widens it up to 3× where the centres scatter."""
+
+KERNEL_FACTORS = (1.0, 2.0)
+"""Matched-kernel scales tried across the stripe, in units of the profile's s: 1 is the
+matched filter (additive noise), 2 ≈ the σ = w/√3 of the scale choice, which weights the
+flanks (noise proportional to the stripe: texture, speckle)."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -210,9 +221,10 @@ def _select_fixed(scale: LevelResponse, mask: np.ndarray, blocks: np.ndarray) ->
     )
 
 
-def _remove_asymmetry(x, y, nx, ny, sigma, widths, polylines, levels):
-    """Centres moved by their asymmetry bias, measured against the next smaller scale (the
-    next larger one for the smallest)."""
+def _asymmetry(x, y, nx, ny, sigma, widths, polylines, levels, bias_sigma):
+    """Asymmetry bias along n [px] of a maximum at scale `bias_sigma` (K,), measured from
+    the move of the centres' maxima to the next smaller scale (the next larger one for the
+    smallest)."""
     sigmas = np.array([level.sigma_px for level in levels])
     moves = np.full(x.size, np.nan)
     second = np.full(x.size, np.nan)
@@ -232,26 +244,43 @@ def _remove_asymmetry(x, y, nx, ny, sigma, widths, polylines, levels):
     for chain in polylines:
         kappa = local_curvature(x[chain], y[chain], nx[chain], ny[chain], sigma[chain])
         moves[chain] -= 0.5 * (second[chain] ** 2 - sigma[chain] ** 2) * kappa
-    bias = asymmetry_bias(moves, sigma, second, widths, polylines)
-    return x - bias * nx, y - bias * ny
+    return asymmetry_bias(moves, sigma, second, widths, polylines, bias_sigma)
 
 
-def _refine_on_normals(image, x, y, nx, ny, sigma, widths, polylines):
+def _matched_sigma(sigma: np.ndarray, widths: np.ndarray) -> np.ndarray:
+    """s of the matched kernel [px]: a quarter of the measured width (√3σ/4, the width σ
+    matches, where none was measured)."""
+    known = np.isfinite(widths) & (widths > 0)
+    return np.where(known, widths / 4, math.sqrt(3) / 4 * sigma)
+
+
+def _refine_on_normals(image, x, y, nx, ny, sigma, widths, polylines, asymmetry):
     """Centres refined by the matched profile fit (`normal_fit`), then smoothed along their
     polylines over the scatter-chosen support (`curvature.smooth_along`).
 
     The points are first freed of their curvature bias, so that a point whose matched fit
-    fails keeps an unbiased Steger centre. The matched kernel's s is a quarter of the
-    measured width (√3σ/4, the width σ matches, where none was measured); the base support
-    along the stripe is ALONG_SUPPORT × the scale matching that width, at least σ.
+    fails keeps an unbiased Steger centre. Each polyline takes the kernel of
+    KERNEL_FACTORS × s whose centres scatter least along it (σl, `centre_scatter`): s where
+    the noise is additive, wider where texture or speckle multiplies the stripe (its noise
+    is largest at the peak, and a wider kernel weights the flanks). `asymmetry(scale)`
+    gives the asymmetry bias along n [px] of a maximum at that kernel scale (None: none).
+    The base support along the stripe is ALONG_SUPPORT × the scale matching the width, at
+    least σ.
     """
-    known = np.isfinite(widths) & (widths > 0)
-    s = np.where(known, widths / 4, math.sqrt(3) / 4 * sigma)
+    s = _matched_sigma(sigma, widths)
     x, y = remove_curvature_bias(x, y, nx, ny, sigma, polylines)
-    t = matched_offsets(image, x, y, nx, ny, s)
-    t = np.where(np.isfinite(t), t, 0.0)
     support = ALONG_SUPPORT * np.maximum(sigma, 4 * s / math.sqrt(3))
-    return smooth_along(x + t * nx, y + t * ny, nx, ny, support, polylines)
+    best = np.zeros(x.size)
+    least = np.full(x.size, np.inf)
+    for factor in KERNEL_FACTORS:
+        t = matched_offsets(image, x, y, nx, ny, factor * s)
+        if asymmetry is not None:
+            t = t - asymmetry(factor * s)
+        t = np.where(np.isfinite(t), t, 0.0)
+        scatter = centre_scatter(x + t * nx, y + t * ny, nx, ny, support, polylines)
+        better = scatter < least
+        best[better], least[better] = t[better], scatter[better]
+    return smooth_along(x + best * nx, y + best * ny, nx, ny, support, polylines)
 
 
 def _orient_normals(nx: np.ndarray, ny: np.ndarray, chains: list[np.ndarray]) -> None:
@@ -359,16 +388,22 @@ def _assemble(
     )
     sigma = selected.sigma[order].astype(GEOMETRY_FLOAT)
     x, y = x[order], y[order]
+    asymmetry = None
     if second_levels:
-        x, y = _remove_asymmetry(
-            x, y, nx[order], ny[order], sigma, widths, polylines, second_levels
-        )
+        args = (x, y, nx[order], ny[order], sigma, widths, polylines, second_levels)
+        asymmetry = functools.partial(_asymmetry, *args)
     if normal_fit:
-        x, y = _refine_on_normals(image, x, y, nx[order], ny[order], sigma, widths, polylines)
-    elif curvature_correction or scatter_support:
-        x, y = remove_curvature_bias(
-            x, y, nx[order], ny[order], sigma, polylines, scatter_support=scatter_support
+        x, y = _refine_on_normals(
+            image, x, y, nx[order], ny[order], sigma, widths, polylines, asymmetry
         )
+    else:
+        if asymmetry is not None:
+            bias = asymmetry(sigma)
+            x, y = x - bias * nx[order], y - bias * ny[order]
+        if curvature_correction or scatter_support:
+            x, y = remove_curvature_bias(
+                x, y, nx[order], ny[order], sigma, polylines, scatter_support=scatter_support
+            )
     return Centres(
         x=x,
         y=y,

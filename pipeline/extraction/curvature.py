@@ -193,10 +193,7 @@ def _scatter_windows(x, y, nx, ny, sigma, bounds, correlation_px=None) -> np.nda
         kappa, offset, count = (np.empty(x.size) for _ in range(3))
         _fit_curvatures(x, y, nx, ny, sigma * factor, bounds, kappa, offset, count)
         fits.append((offset, np.maximum(count, 1.0)))
-    scatter = np.empty(x.size)
-    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
-        a = fits[0][0][lo:hi]
-        scatter[lo:hi] = 1.4826 * np.median(np.abs(a - np.median(a)))
+    scatter = _spread(fits[0][0], bounds)
     chosen = np.full(x.size, SUPPORT_FACTORS[0])
     admissible = np.ones(x.size, bool)
     correlation = 2.0 * sigma if correlation_px is None else correlation_px
@@ -265,6 +262,33 @@ def remove_curvature_bias(
         cx, cy = cx + offset * fnx, cy + offset * fny
     x_out[order], y_out[order] = cx, cy
     return x_out, y_out
+
+
+def _spread(offsets: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+    """Per point, 1.4826 × the median absolute deviation of its polyline's `offsets`."""
+    scatter = np.empty(offsets.size)
+    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+        a = offsets[lo:hi]
+        scatter[lo:hi] = 1.4826 * np.median(np.abs(a - np.median(a)))
+    return scatter
+
+
+def centre_scatter(x, y, nx, ny, support_px, polylines: tuple[np.ndarray, ...]) -> np.ndarray:
+    """σl per point [px]: the robust spread (1.4826 × MAD) of its polyline's centres about
+    their local quadratic fits (Gaussian weight of std `support_px` along the stripe).
+
+    Points in no polyline get NaN.
+    """
+    out = np.full(np.size(x), np.nan)
+    if not polylines:
+        return out
+    order = np.concatenate(polylines)
+    bounds = np.cumsum([0] + [chain.size for chain in polylines])
+    fx, fy, fnx, fny, fs = (
+        np.ascontiguousarray(a[order], np.float64) for a in (x, y, nx, ny, support_px)
+    )
+    out[order] = _spread(_fitted_offsets(fx, fy, fnx, fny, fs, bounds), bounds)
+    return out
 
 
 def _fitted_offsets(x, y, nx, ny, window, bounds) -> np.ndarray:
