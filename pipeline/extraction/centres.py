@@ -272,8 +272,8 @@ def _refine_on_normals(image, x, y, nx, ny, sigma, widths, polylines, asymmetry)
     support = ALONG_SUPPORT * np.maximum(sigma, 4 * s / math.sqrt(3))
     best = np.zeros(x.size)
     least = np.full(x.size, np.inf)
-    for factor in KERNEL_FACTORS:
-        t = matched_offsets(image, x, y, nx, ny, factor * s)
+    offsets = matched_offsets(image, x, y, nx, ny, s, KERNEL_FACTORS)
+    for factor, t in zip(KERNEL_FACTORS, offsets, strict=True):
         if asymmetry is not None:
             t = t - asymmetry(factor * s)
         t = np.where(np.isfinite(t), t, 0.0)
