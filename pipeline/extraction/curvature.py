@@ -249,11 +249,7 @@ def remove_curvature_bias(
     y_out = y.astype(np.float64, copy=True)
     if not polylines:
         return x_out, y_out
-    order = np.concatenate(polylines)
-    bounds = np.cumsum([0] + [chain.size for chain in polylines])
-    fx, fy, fnx, fny, fsigma = (
-        np.ascontiguousarray(a[order], np.float64) for a in (x, y, nx, ny, sigma)
-    )
+    order, bounds, fx, fy, fnx, fny, fsigma = _chained(polylines, x, y, nx, ny, sigma)
     window = _scatter_windows(fx, fy, fnx, fny, fsigma, bounds) if scatter_support else fsigma
     cx, cy = fx.copy(), fy.copy()
     _remove_bias(fx, fy, fnx, fny, fsigma, window, bounds, cx, cy)
@@ -262,6 +258,14 @@ def remove_curvature_bias(
         cx, cy = cx + offset * fnx, cy + offset * fny
     x_out[order], y_out[order] = cx, cy
     return x_out, y_out
+
+
+def _chained(polylines: tuple[np.ndarray, ...], *arrays) -> tuple:
+    """The polylines' points in order: their index, the chains' bounds in it, and each array
+    taken in that order (contiguous float64)."""
+    order = np.concatenate(polylines)
+    bounds = np.cumsum([0] + [chain.size for chain in polylines])
+    return order, bounds, *(np.ascontiguousarray(a[order], np.float64) for a in arrays)
 
 
 def _spread(offsets: np.ndarray, bounds: np.ndarray) -> np.ndarray:
@@ -282,11 +286,7 @@ def centre_scatter(x, y, nx, ny, support_px, polylines: tuple[np.ndarray, ...]) 
     out = np.full(np.size(x), np.nan)
     if not polylines:
         return out
-    order = np.concatenate(polylines)
-    bounds = np.cumsum([0] + [chain.size for chain in polylines])
-    fx, fy, fnx, fny, fs = (
-        np.ascontiguousarray(a[order], np.float64) for a in (x, y, nx, ny, support_px)
-    )
+    order, bounds, fx, fy, fnx, fny, fs = _chained(polylines, x, y, nx, ny, support_px)
     out[order] = _spread(_fitted_offsets(fx, fy, fnx, fny, fs, bounds), bounds)
     return out
 
@@ -337,11 +337,7 @@ def smooth_along(
     y_out = y.astype(np.float64, copy=True)
     if not polylines:
         return x_out, y_out
-    order = np.concatenate(polylines)
-    bounds = np.cumsum([0] + [chain.size for chain in polylines])
-    fx, fy, fnx, fny, fs = (
-        np.ascontiguousarray(a[order], np.float64) for a in (x, y, nx, ny, support_px)
-    )
+    order, bounds, fx, fy, fnx, fny, fs = _chained(polylines, x, y, nx, ny, support_px)
     window = _scatter_windows(
         fx, fy, fnx, fny, fs, bounds, np.full(fx.size, MATCHED_CORRELATION_PX)
     )

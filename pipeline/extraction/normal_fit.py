@@ -111,9 +111,9 @@ def matched_offsets(
     Parameters
     ----------
     image : ndarray of shape (M, N), uint8, uint16 or float
-        The frame [grey levels].
+        Grey frame, read by Keys cubic interpolation with a reflect border.
     x, y, nx, ny : ndarray of shape (K,)
-        Centres [px] and unit normals.
+        Starting centres [px] and their unit normals.
     profile_sigma_px : ndarray of shape (K,)
         Standard deviation s of each cross-section [px] (a quarter of its 1/e² width), at
         least MIN_PROFILE_SIGMA_PX.
