@@ -460,7 +460,8 @@ def extract_centres(
         Move each point by σ²κ/2 away from its centre of curvature (κ fitted along its
         polyline), removing the bias Gaussian smoothing gives curved stripes (0.28 px at
         σ = 7.5 px, R = 100 px). Default: on for "adaptive", off for "steger" and "classic",
-        which stay the paper's baselines.
+        which stay the paper's baselines. With `normal_fit` the matched centres have no
+        curvature bias, and this switch is not used.
     asymmetry_correction : bool
         Move each point by the bias an asymmetric cross-section gives it, estimated from
         how far the maximum moves at the nearest other scale of the analysis
