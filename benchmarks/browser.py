@@ -186,7 +186,11 @@ def _measure(url: str, token: str, pass_id: int, wheels: list[int]) -> Times:
                 context.add_init_script(script=INPUT_TIMES_JS)
                 page = context.new_page()
                 errors: list[Error] = []
-                page.on("pageerror", errors.append)
+
+                def keep(exc: Error, errors: list[Error] = errors) -> None:
+                    errors.append(exc)
+
+                page.on("pageerror", keep)
                 page.goto(f"{url}/#token={token}")
                 page.locator("tr[data-pass-id]").first.wait_for()
                 walked = Times()
