@@ -222,8 +222,8 @@ def outline_running_surface(x_mm: np.ndarray, z_mm: np.ndarray) -> WheelCurve:
 
 
 def _gaps(wheel_x, wheel_z, rail_x, rail_z, shifts, phi, axis_z):
-    """Smallest wheel − rail distance along the wheel's vertical, at every shift (S,), and
-    the wheelset-frame X where it occurs.
+    """Smallest wheel − rail distance along the wheel's vertical, at every shift (S,), the
+    wheelset-frame X where it occurs and the distance's derivative by the roll [mm/rad].
 
     The rails are carried into the wheelset frame (shift y, roll φ about the axle, whose
     height `axis_z` above the rails is the wheel radius: its few-mm error moves X by φ·mm),
@@ -244,7 +244,14 @@ def _gaps(wheel_x, wheel_z, rail_x, rail_z, shifts, phi, axis_z):
         t = np.where(np.isfinite(a + e) & (a - 2 * b + e > 0), 0.5 * (a - e) / (a - 2 * b + e), 0.0)
     t = np.clip(t, -1.0, 1.0)
     neighbour = np.where(t > 0, x[rows, k + 1], x[rows, k - 1])
-    return b - 0.25 * (a - e) * t, x[rows, k] + np.abs(t) * (neighbour - x[rows, k])
+    at = x[rows, k] + np.abs(t) * (neighbour - x[rows, k])
+    smallest = b - 0.25 * (a - e) * t
+    # d(gap)/dφ at the contact: the rail point turns by (z, −x) per radian, so the gap
+    # w(x) − z changes by w'(x)·z + x (the lever X and, on a steep flank, the axis height).
+    piece = np.clip(np.searchsorted(wheel_x, at) - 1, 0, wheel_x.size - 2)
+    slope = np.diff(wheel_z)[piece] / np.diff(wheel_x)[piece]
+    height = np.interp(at, wheel_x, wheel_z) - smallest
+    return smallest, at, slope * height + at
 
 
 def rolling_radius_difference(
@@ -300,21 +307,21 @@ def rolling_radius_difference(
     for x, z in ((rails.left_x_mm, rails.left_z_mm), (rails.right_x_mm, rails.right_z_mm)):
         rails_xz.append((x[z > -20.0], z[z > -20.0]))
     # The roll φ per shift: both wheels touch when their gaps are equal. The right gap minus
-    # the left rises with φ (by X_right − X_left per radian): Newton steps inside a
-    # shrinking bracket.
+    # the left rises with φ (by the difference of the gaps' derivatives): Newton steps
+    # inside a shrinking bracket.
     phi = np.zeros(shifts.size)
     low, high = np.full(shifts.size, -ROLL_BRACKET_RAD), np.full(shifts.size, ROLL_BRACKET_RAD)
     x_l, x_r = np.zeros(shifts.size), np.zeros(shifts.size)
     active = np.arange(shifts.size)
     for iteration in range(ROLL_ITERATIONS):
-        (gap_l, x_l[active]), (gap_r, x_r[active]) = (
+        (gap_l, x_l[active], rate_l), (gap_r, x_r[active], rate_r) = (
             _gaps(*wheel, *rail, shifts[active], phi[active], radius_mm)
             for wheel, rail in zip(wheels, rails_xz, strict=True)
         )
         difference = gap_r - gap_l
         high[active] = np.where(difference > 0, phi[active], high[active])
         low[active] = np.where(difference < 0, phi[active], low[active])
-        step = phi[active] - difference / (x_r[active] - x_l[active])
+        step = phi[active] - difference / (rate_r - rate_l)
         done = (np.abs(difference) < ROLL_TOLERANCE_MM) | (np.abs(step - phi[active]) < 1e-10)
         done |= high[active] - low[active] < 1e-10
         # After six steps every third one bisects, so a steep kink (a contact jumping
