@@ -49,12 +49,13 @@ FLANK_SMOOTH_MM = 1.0
 FLANK_FOOT_MM = 0.5
 """Flank windows: z ± 5 mm, centred every 0.25 mm from 6 mm to Sh − 6 mm, on x(z) resampled
 every 0.25 mm by local quadratics over ±1 mm of the flank's points above z = 0.5 mm (below,
-the tread). Centres from 5, 6 or 7 mm, points above 0.5 or 1 mm: the same figures. On 9 simulated passes (seed 2026; 8 wheels,
-worn flanks with a steep step) the largest per-wheel Std, the largest error against the
-truth and the values not measured (of 72): this 0.198°, 0.35°, 22; z ± 4 mm 0.201°, 0.63°,
-22; z ± 3 mm 0.253°, 0.79°, 22; lines on the raw points over z ± 3 mm with gaps ≤ 1 mm
-(the definition before) 0.250°, 0.49°, 28; one line over a fixed band Sh − 17…Sh − 11 mm
-1.73°, 4.9°, 2 (a band that holds the worn step in some passes and not in others)."""
+the tread). Centres from 5, 6 or 7 mm, points above 0.5 or 1 mm: the same figures. On 9
+simulated passes (seed 2026; 8 wheels, worn flanks with a steep step) the largest per-wheel
+Std, the largest error against the truth and the values not measured (of 72): this 0.198°,
+0.35°, 22; z ± 4 mm 0.201°, 0.63°, 22; z ± 3 mm 0.253°, 0.79°, 22; lines on the raw points
+over z ± 3 mm with gaps ≤ 1 mm (the definition before) 0.250°, 0.49°, 28; one line over a
+fixed band Sh − 17…Sh − 11 mm 1.73°, 4.9°, 2 (a band that holds the worn step in some
+passes and not in others)."""
 MIN_FACE_POINTS = 20
 FACE_BAND_MM = 1.5
 
@@ -128,8 +129,8 @@ def flange_angle(x_mm: np.ndarray, z_mm: np.ndarray, flange_height_mm: float) ->
 
     Notes
     -----
-    The flank's points (field side of the flange top, above z = 0.5 mm) are first resampled as x(z) every
-    0.25 mm of height by robust local quadratics over z ± 1 mm (`local_quadratics`), and
+    The flank's points (field side of the flange top, above z = 0.5 mm) are resampled as
+    x(z) every 0.25 mm of height by robust local quadratics over z ± 1 mm (`local_quadratics`), and
     heights without points are bridged linearly up to `MAX_FLANK_GAP_MM` (the bridging of
     the flank by the flange parameters); the least-squares slope of that uniform x(z) over
     each window z ± 5 mm is then one correlation, and δ = atan(−dz/dx) of the steepest.

@@ -57,7 +57,8 @@ def test_a_flank_gap_up_to_its_bridge_keeps_the_angle(gap):
 
 def test_the_steepest_part_of_a_curved_flank_over_ten_millimetres():
     """A flank of two straight pieces (60° below z = 14 mm, 75° above): the steepest 10 mm
-    window lies in the 75° piece (the ±1 mm smoothing of the kink adds < 0.02°); noise of 0.02 mm moves it by < 0.2°."""
+    window lies in the 75° piece (the ±1 mm smoothing of the kink adds < 0.02°); noise of
+    0.02 mm moves it by < 0.2°."""
     z = np.arange(0.5, 28.0, 0.01)
     x = 20 + np.where(
         z > 14,
