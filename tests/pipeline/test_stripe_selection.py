@@ -34,7 +34,7 @@ def _test(image: np.ndarray, sigma_px: float, width_min_px: float = 5.0) -> bool
     y = np.array([ROW])
     normal = (np.zeros(1), np.ones(1))
     profiles = line_profiles(image, x, y, *normal, np.array([sigma_px]), width_min_px=width_min_px)
-    assert profiles.shape == (4, 1)
+    assert profiles.shape == (5, 1)
     return bool(is_line(profiles)[0])
 
 
@@ -46,6 +46,26 @@ def test_a_bright_line_is_a_line(width_px, sigma_px) -> None:
 def test_a_line_on_a_lit_ramp_and_beside_a_dim_step_is_a_line() -> None:
     ramp = _frame(lambda d: _line(7)(d) + 1.5 * d + _step(-9, 25)(d))
     assert _test(ramp, 2.887)
+
+
+def _glow(offset_px: float, peak: float, sigma_px: float = 4.0):
+    """A specular glow of `peak` grey levels, Gaussian of std sigma_px, offset_px off d = 0."""
+    return lambda d: peak * np.exp(-0.5 * ((d - offset_px) / sigma_px) ** 2)
+
+
+def test_a_dim_line_on_the_flank_of_a_glow_is_a_line() -> None:
+    # A dim flange tip (peak 40, w 8 px, on a background of 6) with a specular glow (50 grey
+    # levels) 6 px to one side: the side read at d lies on the glow, no darker than the line;
+    # the background beyond it, at 2d, is dark.
+    tip = _frame(lambda d: _line(8, 40)(d) + _glow(6, 50)(d) - 6)
+    assert _test(tip, 2.887)
+
+
+def test_a_texture_ridge_on_the_flank_of_a_brighter_grain_is_not() -> None:
+    # The same shapes on a lit surface (level 60) at a reflectance texture's contrast (a ridge
+    # of 20, a grain of 25): the background beyond is not far below the ridge.
+    grain = _frame(lambda d: 48 + _line(8, 20)(d) + _glow(6, 25)(d))
+    assert not _test(grain, 2.887)
 
 
 def test_the_bright_side_of_a_step_edge_is_not() -> None:
