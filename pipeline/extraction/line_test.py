@@ -145,7 +145,9 @@ def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, out) -> None:
         minus = _smoothed_at(image, xk, yk, nxk, nyk, s, -reach, weights, inside)
         stronger = centre - min(plus, minus)
         if not _side_passes(centre - plus, stronger):
-            plus = _background_level(image, xk, yk, nxk, nyk, s, reach, centre, plus, weights, inside)
+            plus = _background_level(
+                image, xk, yk, nxk, nyk, s, reach, centre, plus, weights, inside
+            )
         if not _side_passes(centre - minus, stronger):
             minus = _background_level(
                 image, xk, yk, nxk, nyk, s, -reach, centre, minus, weights, inside
