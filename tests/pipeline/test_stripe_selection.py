@@ -8,6 +8,7 @@ from scipy.special import erfc
 
 from pipeline import extract_centres
 from pipeline.extraction.line_test import is_line, line_profiles
+from pipeline.imaging import PixelRegion
 
 SHAPE = (80, 120)
 ROW = 40.3
@@ -124,3 +125,19 @@ def test_a_stripe_dimmed_to_a_third_of_the_frames_strongest_is_kept_and_a_ghost_
     assert ((np.abs(centres.y - 200.6) < 0.1) & (centres.x > 50) & (centres.x < 590)).sum() > 500
     assert ((np.abs(centres.y - 60.3) < 0.1) & (centres.x > 30) & (centres.x < 330)).sum() > 290
     assert not (np.abs(centres.y - 110.2) < 3).any()
+
+
+def test_inside_a_search_region_a_short_bright_piece_is_kept() -> None:
+    # The flange's glare piece (60 px, saturated) far from the tread's stripe and another
+    # part's long stripe: shorter than 0.3 of the longest, so the whole frame drops it; inside
+    # the region the calibration bounds every strong piece is kept (measurement's window
+    # rejects what lies off the wheel).
+    rows, cols = np.mgrid[0:300, 0:640].astype(np.float64)
+    image = 12 + _segment(rows, cols, 60.3, 20, 620, 170)  # another part's stripe, 600 px
+    image += _segment(rows, cols, 150.4, 200, 420, 170)  # the tread, 220 px
+    image += _segment(rows, cols, 240.7, 300, 360, 243, width_px=5)  # the glare piece
+    frame = np.rint(image).astype(np.uint8)
+    glare = lambda c: ((np.abs(c.y - 240.7) < 0.1) & (c.x > 310) & (c.x < 350)).sum()  # noqa: E731
+    assert glare(extract_centres(frame, width_min=5, width_max=21)) == 0
+    inside = extract_centres(frame, width_min=5, width_max=21, region=PixelRegion(0, 300, 0, 640))
+    assert glare(inside) > 35
