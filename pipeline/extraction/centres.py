@@ -540,25 +540,13 @@ def extract_centres(
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     _check_widths(width_min, width_max)
     _check_sigma(sigma, method)
+    frame = image
     if region is not None:
         region.validate(image.shape)
         crop = image[region.row_start : region.row_stop, region.col_start : region.col_stop]
-        found = _extract(
-            np.ascontiguousarray(crop),
-            method,
-            width_min,
-            width_max,
-            sigma,
-            curvature_correction=curvature_correction,
-            asymmetry_correction=asymmetry_correction,
-            scatter_support=scatter_support,
-            normal_fit=normal_fit,
-            full_frame=full_frame,
-            every_strong=True,
-        )
-        return _in_frame(found, region, image.shape)
-    return _extract(
-        image,
+        frame = np.ascontiguousarray(crop)
+    found = _extract(
+        frame,
         method,
         width_min,
         width_max,
@@ -566,9 +554,11 @@ def extract_centres(
         curvature_correction=curvature_correction,
         asymmetry_correction=asymmetry_correction,
         scatter_support=scatter_support,
+        normal_fit=normal_fit,
         full_frame=full_frame,
-        every_strong=False,
+        every_strong=region is not None,
     )
+    return found if region is None else _in_frame(found, region, image.shape)
 
 
 def _extract(
@@ -581,6 +571,7 @@ def _extract(
     curvature_correction: bool | None,
     asymmetry_correction: bool,
     scatter_support: bool,
+    normal_fit: bool | None,
     full_frame: bool,
     every_strong: bool,
 ) -> Centres:
