@@ -154,4 +154,8 @@ def test_every_wheel_of_two_clean_one_axle_passes_of_seed_9_is_measured(
     paths = write_synthetic_passes(folder, seed=9, axles_per_vehicle=1, repeat=2)
     for path in paths:
         for result in measure_pass(read_pass_archive(path), methods=("adaptive",)):
-            assert result.measurement.status == MEASURED, result.measurement.reason
+            m = result.measurement
+            assert m.status == MEASURED, m.reason
+            assert m.parameters is not None and m.parameters.qr_mm is not None, (
+                m.parameters and m.parameters.qr_reason
+            )
