@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.extraction.components import band_pixels
+from pipeline.extraction.blocks import BLOCK_PX, block_runs, run_starts
 from pipeline.extraction.scalespace import (
     ScaleLevel,
     blend,
@@ -101,38 +101,53 @@ def choose_scales(
 
 
 @kernel
-def _best_scale(peak, hints, stride, i, rows, cols, best, chosen, hinted) -> None:
-    """Fold scale i into the running best ridge-peak C, its index and the hints at the
-    pixels (rows, cols); C bilinear (`blend`) on a coarser level."""
-    width = hints.shape[1]
-    if stride > 1:
-        u0, u1, fu = column_taps((peak,), (stride,), width)
-        last_row = -1
-        v0, v1, fv = 0, 0, 0.0
-    for k in range(rows.size):
-        r, c = rows[k], cols[k]
-        if stride == 1:
-            value = peak[r, c]
-        else:
-            if r != last_row:
-                v0, v1, fv = linear_tap(r, stride, peak.shape[0])
-                last_row = r
-            value = np.float32(blend(peak, v0, v1, fv, u0[0, c], u1[0, c], fu[0, c]))
-        if value > best[k]:
-            best[k] = value
-            chosen[k] = i
-        hinted[k] |= hints[r, c]
-
-
-@kernel
-def _chosen_pixels(rows, cols, chosen, hinted, sigmas, sigma_map):
-    """σB into the σ map at the pixels with a chosen scale; the hinted pixels' rows,
-    columns and scale index."""
-    for k in range(rows.size):
-        if chosen[k] >= 0:
-            sigma_map[rows[k], cols[k]] = sigmas[chosen[k]]
-    at = np.flatnonzero(hinted)
-    return rows[at], cols[at], chosen[at]
+def _choose_in_band(mask, hints, peaks, strides, sigmas, blocks):
+    height, width = mask.shape
+    levels = len(peaks)
+    sigma_map = np.zeros((height, width), np.float32)
+    most = int(blocks.sum()) * BLOCK_PX * BLOCK_PX
+    rows = np.empty(most, np.int64)
+    cols = np.empty(most, np.int64)
+    index = np.empty(most, np.int64)
+    count = 0
+    runs = block_runs(blocks)
+    starts = run_starts(runs, blocks.shape[0])
+    # The bilinear taps of `bilinear_at`, once per column and per row instead of per pixel.
+    u0, u1, fu = column_taps(peaks, strides, width)
+    v0 = np.zeros(levels, np.int64)
+    v1 = np.zeros(levels, np.int64)
+    fv = np.zeros(levels)
+    for r in range(height):
+        br = r // BLOCK_PX
+        if starts[br] == starts[br + 1]:
+            continue
+        for i in range(levels):
+            if strides[i] > 1:
+                v0[i], v1[i], fv[i] = linear_tap(r, strides[i], peaks[i].shape[0])
+        for k in range(starts[br], starts[br + 1]):
+            for c in range(runs[k, 1] * BLOCK_PX, min(runs[k, 2] * BLOCK_PX, width)):
+                if not mask[r, c]:
+                    continue
+                best = np.float32(0.0)
+                chosen = -1
+                hinted = False
+                for i in range(levels):
+                    if strides[i] == 1:
+                        value = peaks[i][r, c]
+                    else:
+                        value = np.float32(
+                            blend(peaks[i], v0[i], v1[i], fv[i], u0[i, c], u1[i, c], fu[i, c])
+                        )
+                    if value > best:
+                        best = value
+                        chosen = i
+                    hinted = hinted or hints[i][r, c]
+                if chosen >= 0:
+                    sigma_map[r, c] = sigmas[chosen]
+                if hinted:
+                    rows[count], cols[count], index[count] = r, c, chosen
+                    count += 1
+    return sigma_map, rows[:count].copy(), cols[:count].copy(), index[:count].copy()
 
 
 def choose_in_band(
@@ -151,16 +166,11 @@ def choose_in_band(
         Candidates in raster order and the index of their σB (the scale with the largest
         ridge-peak strength C, bilinear on coarser levels), −1 if none has C > 0.
     """
-    rows, cols = band_pixels(mask, blocks)
-    best = np.zeros(rows.size, np.float32)
-    chosen = np.full(rows.size, -1, np.int64)
-    hinted = np.zeros(rows.size, np.bool_)
-    # Scale after scale, each pixel keeps the first scale of the largest C, as a loop over
-    # the scales per pixel would.
-    for i, scale in enumerate(scales):
-        _best_scale(
-            scale.peak_strength, scale.hints, scale.level.stride, i, rows, cols, best, chosen, hinted
-        )
-    sigma_map = np.zeros(mask.shape, np.float32)
-    picked = _chosen_pixels(rows, cols, chosen, hinted, np.asarray(sigmas_px, np.float32), sigma_map)
-    return (sigma_map, *picked)
+    return _choose_in_band(
+        mask,
+        tuple(scale.hints for scale in scales),
+        tuple(scale.peak_strength for scale in scales),
+        tuple(scale.level.stride for scale in scales),
+        np.asarray(sigmas_px, np.float32),
+        blocks,
+    )
