@@ -23,10 +23,10 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from backend.config import Settings
 from backend.jobs.allocator import keep_freed_memory
-from backend.jobs.tasks import measure_pass_wheel, record_wheel_crash, update_back_to_back
+from backend.jobs.tasks import measure_pass_wheel, record_wheel_crash
 from backend.services.pass_wheels import refresh_job
 from backend.transient import is_transient
-from db.models import TERMINAL_WHEEL_STATES, Job, PassWheel
+from db.models import Job, PassWheel
 
 logger = logging.getLogger(__name__)
 
@@ -202,8 +202,8 @@ class ProcessPoolRunner:
 
 def requeue_wheel(session: Session, pass_wheel_id: int) -> bool:
     """Put back a wheel whose task met a passing fault: running → queued; True when it is
-    to be measured again. A wheel that was finished before the fault gets what came after
-    its results (back-to-back, the job's count) brought up to date instead."""
+    to be measured again. A wheel that was finished before the fault (its results and its
+    axle's values are one commit) gets its job's count brought up to date instead."""
     session.execute(
         update(PassWheel)
         .where(PassWheel.id == pass_wheel_id, PassWheel.state == "running")
@@ -213,7 +213,5 @@ def requeue_wheel(session: Session, pass_wheel_id: int) -> bool:
     state, pass_id = session.execute(
         select(PassWheel.state, PassWheel.pass_id).where(PassWheel.id == pass_wheel_id)
     ).one()
-    if state in TERMINAL_WHEEL_STATES:
-        update_back_to_back(session, pass_wheel_id)
     refresh_job(session, pass_id)
     return state == "queued"

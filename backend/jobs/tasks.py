@@ -110,7 +110,6 @@ def measure_pass_wheel(pass_wheel_id: int, database_url: str, data_dir: str) -> 
             logger.exception("pass wheel %d: measurement crashed", pass_wheel_id)
             record_wheel_crash(session, pass_wheel_id, f"{type(exc).__name__}: {exc}")
             return "failed"
-        update_back_to_back(session, pass_wheel_id)
         refresh_job(session, pass_id)
         return state
 
@@ -123,6 +122,12 @@ def _decode(store: BlobStore, frame: Frame) -> np.ndarray:
 def store_wheel_results(session: Session, store: BlobStore, pass_wheel_id: int) -> str:
     """Measure a claimed wheel with every method and write the results (one transaction).
 
+    The measuring and the frame artefacts come first, outside any transaction; the write
+    is short. It locks the axle's wheels first (`lock_axle`), so of the two wheels of an
+    axle finishing at once the second always sees the first's results and stores the
+    axle's values (back-to-back, conicity) in the same commit that makes it "measured":
+    no one ever sees both wheels finished and the axle's values missing.
+
     Returns the wheel's final state: "measured" when at least one method measured it,
     otherwise "not_measured" with the first method's reason.
     """
@@ -131,22 +136,20 @@ def store_wheel_results(session: Session, store: BlobStore, pass_wheel_id: int) 
     calibration = parse_calibration(train_pass.calibration.document)
     frames = {p: wheel_frames(session, pass_wheel, (p,)) for p in POSITIONS}
     images = {p: [_decode(store, f) for f in rows] for p, rows in frames.items()}
-    session.execute(delete(Measurement).where(Measurement.pass_wheel_id == pass_wheel_id))
-    reasons = []
+    by_index = {(f.sensor, i): f for p in POSITIONS for i, f in enumerate(frames[p])}
+    side = pass_wheel.wheel.side
+    rows, reasons = [], []
     for method in MEASURE_METHODS:
         result = measure_wheel(
-            images["inner"], images["outer"], calibration, side=pass_wheel.wheel.side, method=method
+            images["inner"], images["outer"], calibration, side=side, method=method
         )
         row = measurement_row(result, train_pass.fleet, session)
         row.pass_wheel_id = pass_wheel_id
-        session.add(row)
-        session.flush()
-        by_index = {(f.sensor, i): f for p in POSITIONS for i, f in enumerate(frames[p])}
+        frame_rows = []
         for frame_centres in result.frames:
             frame = by_index[(frame_centres.sensor, frame_centres.frame_index)]
-            session.add(
+            frame_rows.append(
                 MeasurementFrame(
-                    measurement_id=row.id,
                     sensor=frame.sensor,
                     seq=frame.seq,
                     artefact_sha256=save_artefacts(store, frame_centres.centres),
@@ -154,21 +157,58 @@ def store_wheel_results(session: Session, store: BlobStore, pass_wheel_id: int) 
                     **prerender_layers(store, frame_centres.centres),
                 )
             )
+        rows.append((row, frame_rows))
         if result.status != MEASURED:
             reasons.append(f"{method}: {result.reason}")
+    lock_axle(session, pass_wheel)
+    session.execute(delete(Measurement).where(Measurement.pass_wheel_id == pass_wheel_id))
+    for row, frame_rows in rows:
+        session.add(row)
+        session.flush()
+        for frame_row in frame_rows:
+            frame_row.measurement_id = row.id
+            session.add(frame_row)
     measured = len(reasons) < len(MEASURE_METHODS)
     pass_wheel.state = "measured" if measured else "not_measured"
     pass_wheel.reason = "; ".join(reasons) or None
     pass_wheel.finished_at = utc_now()
+    session.flush()
+    update_axle(session, pass_wheel)
     session.commit()
     return pass_wheel.state
 
 
-def update_back_to_back(session: Session, pass_wheel_id: int) -> None:
-    """Once both wheels of an axle are finished, store the axle's back-to-back distance and
-    equivalent conicity on both wheels' measurements (per method) and re-evaluate their
-    alarms. Idempotent."""
-    pass_wheel = session.get_one(PassWheel, pass_wheel_id)
+def lock_axle(session: Session, pass_wheel: PassWheel) -> None:
+    """Begin the write that finishes a wheel by locking its axle's wheels in this pass.
+
+    PostgreSQL: both wheels' rows FOR UPDATE, in id order (no deadlock); the other wheel's
+    write waits, then reads what this one committed. SQLite: the UPDATE takes the
+    database's one write lock, and what is read after it is what the last writer committed.
+    """
+    wheel = pass_wheel.wheel
+    axle_wheels = (
+        select(PassWheel.id)
+        .join(Wheel, PassWheel.wheel_id == Wheel.id)
+        .where(
+            PassWheel.pass_id == pass_wheel.pass_id,
+            Wheel.vehicle_id == wheel.vehicle_id,
+            Wheel.axle == wheel.axle,
+        )
+    )
+    if session.get_bind().dialect.name == "postgresql":
+        session.execute(axle_wheels.order_by(PassWheel.id).with_for_update(of=PassWheel)).all()
+    else:
+        session.execute(
+            update(PassWheel)
+            .where(PassWheel.id == pass_wheel.id)
+            .values(finished_at=PassWheel.finished_at)
+        )
+
+
+def update_axle(session: Session, pass_wheel: PassWheel) -> None:
+    """When both wheels of `pass_wheel`'s axle are measured, store the axle's back-to-back
+    distance and equivalent conicity on both wheels' measurements (per method) and
+    re-evaluate their alarms. Idempotent; flushes, the caller commits (under `lock_axle`)."""
     wheel = pass_wheel.wheel
     pair = session.execute(
         select(PassWheel, Wheel)
@@ -179,12 +219,23 @@ def update_back_to_back(session: Session, pass_wheel_id: int) -> None:
             Wheel.axle == wheel.axle,
             PassWheel.state == "measured",
         )
+        .execution_options(populate_existing=True)
     ).all()
     sides = {w.side: pw for pw, w in pair}
     if set(sides) != {"left", "right"}:
         return
-    left = {m.method: m for m in sides["left"].measurements}
-    right = {m.method: m for m in sides["right"].measurements}
+    measurements = {
+        side: {
+            m.method: m
+            for m in session.scalars(
+                select(Measurement)
+                .where(Measurement.pass_wheel_id == pw.id)
+                .execution_options(populate_existing=True)
+            )
+        }
+        for side, pw in sides.items()
+    }
+    left, right = measurements["left"], measurements["right"]
     fleet = pass_wheel.train_pass.fleet
     rails = site_rails(pass_wheel.train_pass.site)
     for method in set(left) & set(right):
@@ -194,4 +245,4 @@ def update_back_to_back(session: Session, pass_wheel_id: int) -> None:
         for row in (left[method], right[method]):
             row.back_to_back_mm = b2b
             apply_alarms(row, fleet, session)
-    session.commit()
+    session.flush()

@@ -151,8 +151,11 @@ class WorkerProcess:
         self.process.wait(timeout=30)
 
     def stop(self) -> None:
+        """Warm shutdown: SIGTERM to the worker's main process only, which lets a task
+        that is running finish and log its outcome (a SIGTERM to the whole group ends the
+        pool child at once); SIGKILL to all after 60 s."""
         if self.process.poll() is None:
-            os.killpg(self.process.pid, signal.SIGTERM)
+            self.process.send_signal(signal.SIGTERM)
             try:
                 self.process.wait(timeout=60)
             except subprocess.TimeoutExpired:
