@@ -33,15 +33,17 @@ SEED = 2027
 VEHICLES, AXLES = 2, 2
 METHODS = (
     "adaptive",
-    "adaptive+scatter",
     "adaptive+asymmetry",
-    "adaptive-curvature",
+    "adaptive-normal",
+    "adaptive-normal+scatter",
+    "adaptive-normal-curvature",
     "steger",
     "steger+curvature",
     "steger+curvature+asymmetry",
 )
-"""Adaptive (curvature correction on by default) and Steger (off by default), each with
-and without the corrections (and adaptive with the scatter-chosen support), side by side."""
+"""Adaptive (the matched fit along the normal on by default), its Hessian centres without
+it (curvature correction on, with the scatter-chosen support, and with neither), and
+Steger (corrections off by default), each with and without the corrections, side by side."""
 WHEEL_BAR_MM = 0.10
 """Every wheel's Sh and Sd within 0.10 mm of the truth."""
 KEY_PARAMETERS = ("flange_height_mm", "flange_thickness_mm")

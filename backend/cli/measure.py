@@ -290,7 +290,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         type=_methods,
         default=("adaptive", "steger"),
         help="both (default), or method labels separated by commas with ±curvature, "
-        "±asymmetry, ±scatter (e.g. adaptive,adaptive+asymmetry,steger+curvature+asymmetry)",
+        "±asymmetry, ±scatter, ±normal (e.g. adaptive,adaptive-normal,steger+curvature+asymmetry)",
     )
     rr.add_argument("--json", required=True, metavar="OUT", help="output JSON file, - for stdout")
     add_agreement_arguments(rr)

@@ -196,7 +196,14 @@ class ProcessPoolRunner:
             self._stopped = True
             for timer in self._retries:
                 timer.cancel()
+            running = sum(1 for future in self._pending if future.running())
         if executor is not None:
+            if running:
+                logger.warning(
+                    "stopping: waiting for the %d wheel(s) being measured now; "
+                    "queued wheels resume on the next start",
+                    running,
+                )
             executor.shutdown(wait=True, cancel_futures=True)
 
 

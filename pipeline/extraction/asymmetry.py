@@ -110,6 +110,7 @@ def asymmetry_bias(
     second_sigma_px: np.ndarray,
     width_px: np.ndarray,
     polylines: tuple[np.ndarray, ...],
+    bias_sigma_px: np.ndarray | None = None,
 ) -> np.ndarray:
     """Bias of each centre along its normal from the maximum's move to a second scale [px].
 
@@ -124,6 +125,9 @@ def asymmetry_bias(
         1/e² width of the cross-section (4 s̄) [px]; NaN where unknown.
     polylines : tuple of ndarray of int
         Ordered index arrays into the points; the moves are averaged along them.
+    bias_sigma_px : ndarray of shape (K,), optional
+        The scale whose maximum's bias is returned [px] (the matched kernel's s for
+        centres refined by `normal_fit`); default `sigma_px`.
 
     Returns
     -------
@@ -134,8 +138,9 @@ def asymmetry_bias(
     Notes
     -----
     G(α) = F(σb/s̄, α) − F(σa/s̄, α) is monotone in α for σb ≠ σa; α is read off it on the
-    table's α grid, then c = s̄·F(σa/s̄, α).
+    table's α grid, then c = s̄·F(σc/s̄, α) at the scale σc asked for.
     """
+    bias_sigma = sigma_px if bias_sigma_px is None else bias_sigma_px
     bias = np.zeros(sigma_px.size)
     table = _bias_table()
     for chain in polylines:
@@ -154,8 +159,11 @@ def asymmetry_bias(
         g0 = np.take_along_axis(gap, crossing[:, None], 1)[:, 0]
         g1 = np.take_along_axis(gap, crossing[:, None] + 1, 1)[:, 0]
         w = (target[:, 0] - g0) / np.where(g1 != g0, g1 - g0, np.nan)
-        f0 = np.take_along_axis(fa, crossing[:, None], 1)[:, 0]
-        f1 = np.take_along_axis(fa, crossing[:, None] + 1, 1)[:, 0]
+        fc = table(
+            np.stack(np.broadcast_arrays((bias_sigma[chain] / half)[:, None], SKEWS), axis=-1)
+        )
+        f0 = np.take_along_axis(fc, crossing[:, None], 1)[:, 0]
+        f1 = np.take_along_axis(fc, crossing[:, None] + 1, 1)[:, 0]
         value = half * (f0 + w * (f1 - f0))
         found = np.any(below[:, 1:] != below[:, :-1], axis=1) & (w >= 0) & (w <= 1)
         bias[chain] = np.where(found & np.isfinite(value), value, 0.0)

@@ -21,6 +21,11 @@ LEPSKI_Z = 2.5
 """A wider window is accepted while its fit stays within 2.5 standard errors of each
 narrower one's."""
 
+MATCHED_CORRELATION_PX = 1.0
+"""Centres refined on their own normal (`normal_fit`) read the frame on lines about 1 px
+apart: their errors are independent this far apart along the stripe (those at σB are
+correlated over ≈ 2σB)."""
+
 MIN_HALF_WINDOW_PX = 4.0
 """Least half-width of the fitting window [px]: enough points for a stable quadratic."""
 
@@ -170,14 +175,17 @@ def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> 
     return out
 
 
-def _scatter_windows(x, y, nx, ny, sigma, bounds) -> np.ndarray:
+def _scatter_windows(x, y, nx, ny, sigma, bounds, correlation_px=None) -> np.ndarray:
     """Window scale per point chosen from the measured centre scatter σl (Lepski's rule).
+
+    `correlation_px` (K,) is how far apart along the stripe the centres' errors are
+    independent [px]; default 2σ.
 
     σl of each polyline is the robust spread (1.4826 × MAD) of the points about their local
     fits at the base window. Each point's window grows through `SUPPORT_FACTORS` × σ while
     the fitted curve stays within LEPSKI_Z·σl·√(2/N) of its fit on every smaller window
-    (N the independent centres in that window: the points over the 2σ the smoothing
-    correlates them along the stripe): wider where texture makes the centres scatter and
+    (N the independent centres in that window: the points over the `correlation_px` the
+    smoothing correlates them along the stripe): wider where texture makes the centres scatter and
     the stripe is smooth, no wider where its shape changes.
     """
     fits = []
@@ -185,15 +193,13 @@ def _scatter_windows(x, y, nx, ny, sigma, bounds) -> np.ndarray:
         kappa, offset, count = (np.empty(x.size) for _ in range(3))
         _fit_curvatures(x, y, nx, ny, sigma * factor, bounds, kappa, offset, count)
         fits.append((offset, np.maximum(count, 1.0)))
-    scatter = np.empty(x.size)
-    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
-        a = fits[0][0][lo:hi]
-        scatter[lo:hi] = 1.4826 * np.median(np.abs(a - np.median(a)))
+    scatter = _spread(fits[0][0], bounds)
     chosen = np.full(x.size, SUPPORT_FACTORS[0])
     admissible = np.ones(x.size, bool)
+    correlation = 2.0 * sigma if correlation_px is None else correlation_px
     for k in range(1, len(SUPPORT_FACTORS)):
         for j in range(k):
-            independent = np.maximum(fits[j][1] / np.maximum(2.0 * sigma, 1.0), 1.0)
+            independent = np.maximum(fits[j][1] / np.maximum(correlation, 1.0), 1.0)
             limit = LEPSKI_Z * scatter * np.sqrt(2.0 / independent)
             admissible &= np.abs(fits[k][0] - fits[j][0]) <= limit
         chosen[admissible] = SUPPORT_FACTORS[k]
@@ -243,17 +249,98 @@ def remove_curvature_bias(
     y_out = y.astype(np.float64, copy=True)
     if not polylines:
         return x_out, y_out
-    order = np.concatenate(polylines)
-    bounds = np.cumsum([0] + [chain.size for chain in polylines])
-    fx, fy, fnx, fny, fsigma = (
-        np.ascontiguousarray(a[order], np.float64) for a in (x, y, nx, ny, sigma)
-    )
+    order, bounds, fx, fy, fnx, fny, fsigma = _chained(polylines, x, y, nx, ny, sigma)
     window = _scatter_windows(fx, fy, fnx, fny, fsigma, bounds) if scatter_support else fsigma
     cx, cy = fx.copy(), fy.copy()
     _remove_bias(fx, fy, fnx, fny, fsigma, window, bounds, cx, cy)
     if scatter_support:
-        kappa, offset, count = (np.empty(fx.size) for _ in range(3))
-        _fit_curvatures(cx, cy, fnx, fny, window, bounds, kappa, offset, count)
+        offset = _fitted_offsets(cx, cy, fnx, fny, window, bounds)
         cx, cy = cx + offset * fnx, cy + offset * fny
     x_out[order], y_out[order] = cx, cy
+    return x_out, y_out
+
+
+def _chained(polylines: tuple[np.ndarray, ...], *arrays) -> tuple:
+    """The polylines' points in order: their index, the chains' bounds in it, and each array
+    taken in that order (contiguous float64)."""
+    order = np.concatenate(polylines)
+    bounds = np.cumsum([0] + [chain.size for chain in polylines])
+    return order, bounds, *(np.ascontiguousarray(a[order], np.float64) for a in arrays)
+
+
+def _spread(offsets: np.ndarray, bounds: np.ndarray) -> np.ndarray:
+    """Per point, 1.4826 × the median absolute deviation of its polyline's `offsets`."""
+    scatter = np.empty(offsets.size)
+    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+        a = offsets[lo:hi]
+        scatter[lo:hi] = 1.4826 * np.median(np.abs(a - np.median(a)))
+    return scatter
+
+
+def centre_scatter(x, y, nx, ny, support_px, polylines: tuple[np.ndarray, ...]) -> np.ndarray:
+    """σl per point [px]: the robust spread (1.4826 × MAD) of its polyline's centres about
+    their local quadratic fits (Gaussian weight of std `support_px` along the stripe).
+
+    Points in no polyline get NaN.
+    """
+    out = np.full(np.size(x), np.nan)
+    if not polylines:
+        return out
+    order, bounds, fx, fy, fnx, fny, fs = _chained(polylines, x, y, nx, ny, support_px)
+    out[order] = _spread(_fitted_offsets(fx, fy, fnx, fny, fs, bounds), bounds)
+    return out
+
+
+def _fitted_offsets(x, y, nx, ny, window, bounds) -> np.ndarray:
+    kappa, offset, count = (np.empty(x.size) for _ in range(3))
+    _fit_curvatures(x, y, nx, ny, window, bounds, kappa, offset, count)
+    return offset
+
+
+def smooth_along(
+    x: np.ndarray,
+    y: np.ndarray,
+    nx,
+    ny,
+    support_px,
+    polylines: tuple[np.ndarray, ...],
+) -> tuple[np.ndarray, np.ndarray]:
+    """Centres moved onto their local quadratic fit along the polyline (no bias removed).
+
+    Parameters
+    ----------
+    x, y, nx, ny : ndarray of shape (K,)
+        Centres [px] free of curvature bias (e.g. `normal_fit.matched_offsets`' refined
+        ones) and unit normals.
+    support_px : ndarray of shape (K,)
+        Base standard deviation of each fit's Gaussian weight along the stripe [px] (window
+        ±max(2·support, 4 px)); widened up to 3× where the measured centre scatter σl calls
+        for it (`_scatter_windows`, the centres taken as independent MATCHED_CORRELATION_PX
+        apart).
+    polylines : tuple of ndarray of int
+        Disjoint ordered index arrays into the points.
+
+    Returns
+    -------
+    x, y : ndarray of shape (K,), float64
+        Each point moved along its normal onto the curve v = a + b·u + (κ/2)·u² fitted in
+        its tangent/normal frame; points in no polyline and fits of < 5 points unchanged.
+
+    Notes
+    -----
+    A weighted quadratic fit is exact on a parabola, so it follows the stripe's curvature;
+    with a Gaussian weight of std σt its value at the point has 1.69× the variance of the
+    weighted mean (the equivalent kernel K(u)·(3 − u²/σt²)/2), i.e. that of a mean over
+    2√π·σt/1.69 px of independent centres.
+    """
+    x_out = x.astype(np.float64, copy=True)
+    y_out = y.astype(np.float64, copy=True)
+    if not polylines:
+        return x_out, y_out
+    order, bounds, fx, fy, fnx, fny, fs = _chained(polylines, x, y, nx, ny, support_px)
+    window = _scatter_windows(
+        fx, fy, fnx, fny, fs, bounds, np.full(fx.size, MATCHED_CORRELATION_PX)
+    )
+    offset = np.nan_to_num(_fitted_offsets(fx, fy, fnx, fny, window, bounds))
+    x_out[order], y_out[order] = fx + offset * fnx, fy + offset * fny
     return x_out, y_out

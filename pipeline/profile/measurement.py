@@ -35,11 +35,15 @@ from pipeline.version import PIPELINE_VERSION
 MEASURED = "measured"
 NOT_MEASURED = "not measured"
 MEASURE_METHODS = ("adaptive", "steger")
-CORRECTIONS = ("curvature", "asymmetry", "scatter")
+CORRECTIONS = ("curvature", "asymmetry", "scatter", "normal")
 """Corrections a method label can switch on (+name) or off (−name): "steger+curvature",
-"adaptive+asymmetry", "adaptive-curvature", "adaptive+scatter" (the along-stripe support
-chosen by the centre scatter); a bare method keeps its defaults (curvature on for
-adaptive, off for Steger; asymmetry and scatter off)."""
+"adaptive+asymmetry", "adaptive-normal-curvature" (the Hessian centres without the
+curvature correction), "adaptive-normal+scatter" (Hessian centres with the along-stripe
+support chosen by the centre scatter); "normal" is the matched fit along the normal
+(`extract_centres(normal_fit=...)`), which replaces the curvature correction and the
+scatter support. A bare method keeps its defaults (normal fit on for adaptive, off for
+Steger; curvature on for adaptive's Hessian centres, off for Steger; asymmetry and scatter
+off)."""
 MIN_SENSOR_POINTS = 50
 """A sensor with fewer centre points than this has no usable stripe (a wheel's stripe gives
 over a thousand)."""
@@ -160,6 +164,7 @@ class MethodOptions:
     curvature_correction: bool
     asymmetry_correction: bool
     scatter_support: bool
+    normal_fit: bool
 
 
 def method_options(label: str) -> MethodOptions:
@@ -173,7 +178,8 @@ def method_options(label: str) -> MethodOptions:
     tokens = re.split(r"(?=[+-])", label)
     if tokens[0] not in MEASURE_METHODS:
         raise ValueError(f"method must be one of {', '.join(MEASURE_METHODS)}, got {label!r}")
-    switches = {"curvature": tokens[0] == "adaptive", "asymmetry": False, "scatter": False}
+    adaptive = tokens[0] == "adaptive"
+    switches = {"curvature": adaptive, "asymmetry": False, "scatter": False, "normal": adaptive}
     for token in tokens[1:]:
         if token[1:] not in CORRECTIONS:
             raise ValueError(
@@ -181,7 +187,11 @@ def method_options(label: str) -> MethodOptions:
             )
         switches[token[1:]] = token[0] == "+"
     return MethodOptions(
-        tokens[0], switches["curvature"], switches["asymmetry"], switches["scatter"]
+        tokens[0],
+        switches["curvature"],
+        switches["asymmetry"],
+        switches["scatter"],
+        switches["normal"],
     )
 
 
@@ -231,6 +241,7 @@ def _frame_centres(images, sensor, options: MethodOptions, widths, region) -> li
             curvature_correction=options.curvature_correction,
             asymmetry_correction=options.asymmetry_correction,
             scatter_support=options.scatter_support,
+            normal_fit=options.normal_fit,
             region=region,
         )
         points = pixels_to_track_points(centres.x, centres.y, sensor)

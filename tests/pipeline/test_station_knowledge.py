@@ -99,6 +99,9 @@ def test_method_labels_switch_corrections_and_name_bad_ones() -> None:
     )
     assert not method_options("adaptive-curvature").curvature_correction
     assert method_options("adaptive+scatter").scatter_support
+    assert method_options("adaptive").normal_fit
+    assert not method_options("adaptive-normal").normal_fit
+    assert not method_options("steger").normal_fit
     with pytest.raises(ValueError, match="corrections are"):
         method_options("adaptive+sharpen")
     with pytest.raises(ValueError, match="method must be one of"):
