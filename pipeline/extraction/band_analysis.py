@@ -93,7 +93,9 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
                 y = r * stride + origin + offset * ny
                 hr = min(max(int(np.rint(y)), 0), frame_rows - 1)
                 hc = min(max(int(np.rint(x)), 0), frame_cols - 1)
-                hints[max(hr - 1, 0) : hr + 2, max(hc - 1, 0) : hc + 2] = True
+                for rr in range(max(hr - 1, 0), min(hr + 2, frame_rows)):
+                    for cc in range(max(hc - 1, 0), min(hc + 2, frame_cols)):
+                        hints[rr, cc] = True  # the 3×3 pixels, no view made per hint
     return response, strength
 
 
