@@ -552,6 +552,14 @@ class WorstWheelRead(BaseModel):
     wheel_profile: str
     margin: MarginRead
     disposition: DispositionRead | None
+    tread_hollow_mm: float | None = Field(
+        default=None, description="the same measurement's tread hollow (no limit applies)"
+    )
+    flange_angle_deg: float | None = Field(default=None, description="its flange angle [°]")
+    rim_width_mm: float | None = Field(default=None, description="its rim width")
+    equivalent_conicity: float | None = Field(
+        default=None, description="its axle's equivalent conicity at 3 mm (EN 15302)"
+    )
 
 
 class TrendForecast(BaseModel):

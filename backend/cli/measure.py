@@ -66,10 +66,11 @@ def wheel_row(result: PassWheelResult) -> dict[str, object]:
         "side": wheel.side,
         "method": m.method,
         "status": m.status,
-        "reason": m.reason,
+        "reason": m.reason if parameters is None else parameters.qr_reason,
     }
     for key in PARAMETER_KEYS:
-        row[key] = None if parameters is None else round(getattr(parameters, key), 4)
+        value = None if parameters is None else getattr(parameters, key)
+        row[key] = None if value is None else round(value, 4)
     b2b = result.back_to_back_mm
     row["back_to_back_mm"] = None if b2b is None else round(b2b, 4)
     tread = m.tread

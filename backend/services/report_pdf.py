@@ -45,7 +45,8 @@ TERMS = (
     "Sh flange height above the tread reference point; Sd flange thickness at z = 12 mm "
     "(LM limits), Sd EN at z = 10 mm (EN limits), both from the back face; qR from the flank "
     "at Sh − 2 mm to the flank at z = 10 mm; B2B back-to-back distance of the axle; Hollow "
-    "tread hollow below a straight edge at x = 60 and 120 mm; δ steepest flank angle [°]; "
+    "tread hollow below a straight edge at x = 60 and 120 mm; δ steepest flank angle over 10 mm "
+    "of height [°]; "
     "Rim rim width, back face to field face, where the outer sensor sees it. In mm but δ. "
     "λe the axle's equivalent conicity at 3 mm amplitude (EN 15302), no unit."
 )
@@ -116,6 +117,15 @@ def grid_table(data: list[list[Any]], widths_mm: Sequence[float], extra: list[An
 
 def _number(value: float | None, parameter: Parameter) -> str:
     return "–" if value is None else f"{value:.{parameter.digits}f}"
+
+
+def signed_text(value: float, digits: int) -> str:
+    """`value` with its sign at `digits` decimals; one that rounds to zero shows none ("0.00",
+    never "-0.00" or "+0.00")."""
+    text = f"{abs(value):.{digits}f}"
+    if float(text) == 0:
+        return text
+    return ("+" if value > 0 else "-") + text
 
 
 def limit_text(limits: dict[str, float], parameter: Parameter, family: str) -> str:
@@ -224,7 +234,7 @@ def _attention(sections: list[WheelSection], amber: str, s: dict) -> list:
             w.vehicle_id, w.axle, "axle" if parameter.per_axle else w.side, parameter.label,
             *(values if method == "adaptive" else values[::-1]),
             f"{word} {margin.limit_mm:g} ({section.family})",
-            f"{margin.margin_mm:+.{parameter.digits}f}",
+            signed_text(margin.margin_mm, parameter.digits),
             status_cell, disposition,
         ])  # fmt: skip
         colour = RED if margin.status == "alarm" else AMBER
@@ -321,7 +331,11 @@ def _axle_row(section: WheelSection, parameter: Parameter) -> tuple[list[Any], M
     row = [w.vehicle_id, w.axle, parameter.label, *values, limit]
     if margin is None:
         return [*row, "–", "not computed"], None
-    return [*row, f"{margin.margin_mm:+.{parameter.digits}f}", STATUS_WORDS[margin.status]], margin
+    return [
+        *row,
+        signed_text(margin.margin_mm, parameter.digits),
+        STATUS_WORDS[margin.status],
+    ], margin
 
 
 def _axle_table(sections: list[WheelSection], s: dict) -> list[Any]:
@@ -368,7 +382,7 @@ def _wheel_table(section: WheelSection, s: dict) -> Table:
     for p in WHEEL_COLUMNS:
         a = None if adaptive is None else getattr(adaptive, p.key)
         b = None if steger is None else getattr(steger, p.key)
-        differences.append("–" if a is None or b is None else f"{a - b:+.{p.digits}f}")
+        differences.append("–" if a is None or b is None else signed_text(a - b, p.digits))
     data.append(["Adaptive − Steger", *differences, ""])
     if family is not None:
         limits = _limit_cells(section.limits_mm, family, s)

@@ -70,13 +70,14 @@ def construction_points(
     """The points that define Sh, Sd (12 and 10 mm) and qR in the profile frame [mm].
 
     Sd and qR are horizontal distances from the back face (x = 0), so the flank points are
-    (Sd, 12), (Sd10, 10) and (Sd10 − qR, Sh − 2); the flange top is the highest profile
-    point, at height Sh above the tread reference point (70, 0).
+    (Sd, 12), (Sd10, 10) and (Sd10 − qR, Sh − 2) (no "qr" entry when qR was not measured);
+    the flange top is the highest profile point, at height Sh above the tread reference
+    point (70, 0).
     """
     top = int(np.argmax(profile.z_mm))
     sh = parameters.flange_height_mm
     sd10 = parameters.flange_thickness_10_mm
-    return {
+    points: dict[str, dict[str, Any]] = {
         "sh": {
             "flange_top": [round(float(profile.x_mm[top]), 3), round(sh, 3)],
             "tread_point": [REFERENCE_POINT_X_MM, 0.0],
@@ -86,11 +87,13 @@ def construction_points(
             "flank_point": [round(parameters.flange_thickness_mm, 3), 12.0],
         },
         "sd_en": {"flank_point": [round(sd10, 3), 10.0]},
-        "qr": {
+    }
+    if parameters.qr_mm is not None:
+        points["qr"] = {
             "upper_point": [round(sd10 - parameters.qr_mm, 3), round(sh - 2.0, 3)],
             "lower_point": [round(sd10, 3), 10.0],
-        },
-    }
+        }
+    return points
 
 
 def _sigma_statistics(result: WheelMeasurement) -> dict[str, float | None]:
@@ -133,13 +136,14 @@ def _profile_document(result: WheelMeasurement) -> dict[str, Any]:
 
 
 def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> Measurement:
-    """A Measurement row (not yet attached to a pass wheel) from one method's result."""
+    """A Measurement row (not yet attached to a pass wheel) from one method's result; its
+    reason says why the wheel, or only its qR, was not measured."""
     parameters, profile, tread = result.parameters, result.profile, result.tread
     quality = result.quality_figures()
     row = Measurement(
         method=result.method,
         status="measured" if result.status == MEASURED else "not_measured",
-        reason=result.reason,
+        reason=result.reason if parameters is None else parameters.qr_reason,
         flange_height_mm=None if parameters is None else parameters.flange_height_mm,
         flange_thickness_mm=None if parameters is None else parameters.flange_thickness_mm,
         flange_thickness_en_mm=None if parameters is None else parameters.flange_thickness_10_mm,

@@ -43,6 +43,9 @@ from db.models import (
 
 PRIMARY_METHOD = "adaptive"
 """Margins, levels and the ranking come from the product's method (Steger is the baseline)."""
+UNLIMITED_VALUES = ("tread_hollow_mm", "flange_angle_deg", "rim_width_mm", "equivalent_conicity")
+"""Values each worst-wheels row carries beside its margin (the first three have no limit to
+rank by)."""
 NEEDS_COMMENT = {"false_alarm": "a false alarm needs its reason", "comment": "a comment is empty"}
 DISPOSITION_WORDS = {
     "re_profile": "re-profile",
@@ -164,6 +167,7 @@ def worst_wheels(
                     Pass,
                     Site.name,
                     Measurement.reference_profile,
+                    *(getattr(Measurement, name) for name in UNLIMITED_VALUES),
                 )
             ),
             where,
@@ -187,8 +191,9 @@ def worst_wheels(
             wheel_profile=profile_family(reference),
             margin=MarginRead.model_validate(margin),
             disposition=dispositions.get(pass_wheel_id),
+            **dict(zip(UNLIMITED_VALUES, values, strict=True)),
         )
-        for margin, pass_wheel_id, wheel, train_pass, site, reference in rows
+        for margin, pass_wheel_id, wheel, train_pass, site, reference, *values in rows
     ]
     return Page[WorstWheelRead](items=items, total=total or 0, offset=offset, limit=limit)
 

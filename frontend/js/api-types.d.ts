@@ -517,6 +517,14 @@ export interface WorstWheelRead {
   wheel_profile: string;
   margin: MarginRead;
   disposition: DispositionRead | null;
+  /** the same measurement's tread hollow (no limit applies) */
+  tread_hollow_mm?: number | null;
+  /** its flange angle [°] */
+  flange_angle_deg?: number | null;
+  /** its rim width */
+  rim_width_mm?: number | null;
+  /** its axle's equivalent conicity at 3 mm (EN 15302) */
+  equivalent_conicity?: number | null;
 }
 
 /** The JSON body of each route's success response. */

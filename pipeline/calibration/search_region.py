@@ -12,7 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.calibration.geometry import laser_plane_track, project_track_points
+from pipeline.calibration.geometry import (
+    apply_transform,
+    invert_rigid,
+    laser_plane_track,
+    project_track_points,
+)
 from pipeline.calibration.model import SensorCalibration
 from pipeline.imaging import PixelRegion
 
@@ -29,6 +34,10 @@ MARGIN_PX = 24
 """Added on every side: half the widest stripe (21 px) and the filters' reach."""
 MIN_SIDE_PX = MARGIN_PX + 1
 """Fewer rows or columns than this inside the frame: the window itself misses the frame."""
+MIN_DEPTH_MM = 1.0
+"""Window points less than this in front of the camera (or behind it) cannot be imaged:
+their projection through the distortion polynomial is meaningless (near the camera's
+plane it overflows, > 1e19 px on a camera at the track origin)."""
 
 
 def stripe_search_region(sensor: SensorCalibration, side: str) -> PixelRegion | None:
@@ -54,7 +63,10 @@ def stripe_search_region(sensor: SensorCalibration, side: str) -> PixelRegion | 
     At the wheel's lowest section a profile point (x, z) sits at track X = s·(b/2 + x) + e
     and Z = −z (s = ±1 the side, b the back-to-back, e the lateral shift); the laser plane
     n·P = d fixes Y = (d − n_X·X − n_Z·Z)/n_Y. A 33 × 33 grid over the window is projected
-    with the lens distortion, so the box holds the curved image of the window.
+    with the lens distortion, so the box holds the curved image of the window. Grid points
+    less than `MIN_DEPTH_MM` in front of the camera are left out (none in front: None), and
+    projections are clipped to the frame ± `MARGIN_PX` before the box is taken: the
+    distortion polynomial far outside the field of view gives arbitrarily large pixels.
     """
     if side not in ("left", "right"):
         raise ValueError(f"side must be 'left' or 'right', got {side!r}")
@@ -67,10 +79,16 @@ def stripe_search_region(sensor: SensorCalibration, side: str) -> PixelRegion | 
     normal, d = laser_plane_track(sensor)
     x_track, z_track = sign * u.ravel(), -z.ravel()
     y_track = (d - normal[0] * x_track - normal[2] * z_track) / normal[1]
-    pixels = project_track_points(np.column_stack([x_track, y_track, z_track]), sensor)
+    points = np.column_stack([x_track, y_track, z_track])
+    depth = apply_transform(invert_rigid(sensor.T_track_camera), points)[:, 2]
+    points = points[np.isfinite(depth) & (depth >= MIN_DEPTH_MM)]
+    if points.shape[0] == 0:
+        return None
+    width, height = sensor.image_width_px, sensor.image_height_px
+    pixels = project_track_points(points, sensor)
+    pixels = np.clip(pixels, -MARGIN_PX, [width + MARGIN_PX, height + MARGIN_PX])
     low = np.floor(pixels.min(axis=0)).astype(int) - MARGIN_PX
     high = np.ceil(pixels.max(axis=0)).astype(int) + MARGIN_PX + 1
-    width, height = sensor.image_width_px, sensor.image_height_px
     row_start, row_stop = max(int(low[1]), 0), min(int(high[1]), height)
     col_start, col_stop = max(int(low[0]), 0), min(int(high[0]), width)
     if row_stop - row_start < MIN_SIDE_PX or col_stop - col_start < MIN_SIDE_PX:

@@ -93,7 +93,9 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
                 y = r * stride + origin + offset * ny
                 hr = min(max(int(np.rint(y)), 0), frame_rows - 1)
                 hc = min(max(int(np.rint(x)), 0), frame_cols - 1)
-                hints[max(hr - 1, 0) : hr + 2, max(hc - 1, 0) : hc + 2] = True
+                for rr in range(max(hr - 1, 0), min(hr + 2, frame_rows)):
+                    for cc in range(max(hc - 1, 0), min(hc + 2, frame_cols)):
+                        hints[rr, cc] = True  # the 3×3 pixels, no view made per hint
     return response, strength
 
 
@@ -386,7 +388,7 @@ def _with_peaks(
     return tuple(peaked)
 
 
-def _segment(scales, levels, blocks, shape, c_grey):
+def _segment(scales, levels, blocks, shape, c_grey, every_strong):
     """`segment_band` of the scales' V and C (C not yet max-filtered); `blocks` per level,
     the frame's first."""
     return segment_band(
@@ -396,10 +398,11 @@ def _segment(scales, levels, blocks, shape, c_grey):
         blocks[0],
         shape,
         c_grey,
+        every_strong=every_strong,
     )
 
 
-def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey):
+def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey, every_strong):
     """The stripe mask inside the band located on the coarsest scale: (band, scales, mask,
     widened), or the reason why no band can be trusted (a str)."""
     coarsest = pyramid.scale_levels[seed_index]
@@ -423,7 +426,14 @@ def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey):
         return (
             band,
             scales,
-            _segment(scales, pyramid.scale_levels, band.blocks, pyramid.image.shape, c_grey),
+            _segment(
+                scales,
+                pyramid.scale_levels,
+                band.blocks,
+                pyramid.image.shape,
+                c_grey,
+                every_strong,
+            ),
         )
 
     # A stripe the band cuts (a spot fused to its edge, a faint end) gets one wider band.
@@ -446,6 +456,7 @@ def analyse_band(
     c_grey: float,
     peak_reach_px: float,
     full_frame: bool = False,
+    every_strong: bool = False,
     max_level: int = MAX_LEVEL,
 ) -> BandAnalysis:
     """Multi-scale analysis and stripe mask of a frame, inside its stripe band.
@@ -463,6 +474,9 @@ def analyse_band(
         Half-size of the max filter of C [px].
     full_frame : bool
         Analyse the band of all blocks (the whole frame) without locating a band.
+    every_strong : bool
+        Keep every strong stripe candidate (`segmentation.stripe_components`): the frame is
+        a search region the calibration bounds.
     max_level : int
         Coarsest pyramid level.
 
@@ -488,7 +502,7 @@ def analyse_band(
     elif not full_frame:
         grid = everywhere[levels[seed_index]]
         seed = _analysed(pyramid, sigmas_px[seed_index], levels[seed_index], grid, ~grid, c_grey)
-        found = _in_band(pyramid, sigmas_px, seed_index, seed, c_grey)
+        found = _in_band(pyramid, sigmas_px, seed_index, seed, c_grey, every_strong)
         if not isinstance(found, str):
             band, scales, inside, widened = found
             return BandAnalysis(
@@ -506,7 +520,7 @@ def analyse_band(
         else _analysed(pyramid, sigma, lv, everywhere[lv], ~everywhere[lv], c_grey)
         for i, (sigma, lv) in enumerate(zip(sigmas_px, levels, strict=True))
     ]
-    whole = _segment(scales, levels, everywhere, image.shape, c_grey)
+    whole = _segment(scales, levels, everywhere, image.shape, c_grey, every_strong)
     return BandAnalysis(
         tuple(float(s) for s in sigmas_px),
         _with_peaks(scales, levels, shapes, whole.mask, everywhere[0], peak_reach_px),

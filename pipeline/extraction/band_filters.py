@@ -135,6 +135,19 @@ def _passes(radius: int) -> tuple[Callable[..., None], ...]:
     return x_pass, y_pass, y_even
 
 
+@functools.lru_cache(maxsize=64)
+def _float32_kernels(sigma_px: float) -> tuple[float, int, tuple[np.ndarray, ...]]:
+    """σ [px], radius [px] and G, G', G'' of `gaussian_kernels` as float32 (read-only).
+
+    Convolution by reversed kernels: G and G'' are symmetric, G' antisymmetric.
+    """
+    kernels = gaussian_kernels(sigma_px)
+    taps = tuple(np.asarray(k, np.float32) for k in (kernels.g0, kernels.g1, kernels.g2))
+    for k in taps:
+        k.flags.writeable = False
+    return kernels.sigma_px, kernels.radius_px, taps
+
+
 def band_derivatives(
     image: np.ndarray, sigma_px: float, blocks: np.ndarray, ring: np.ndarray
 ) -> GaussianDerivatives:
@@ -156,10 +169,7 @@ def band_derivatives(
     GaussianDerivatives
         Five float32 (M, N) images, valid on the band (Ix, Iy on its ring too).
     """
-    kernels = gaussian_kernels(sigma_px)
-    radius = kernels.radius_px
-    # Convolution by reversed kernels: G and G'' are symmetric, G' antisymmetric.
-    g0, g1, g2 = (np.asarray(k, np.float32) for k in (kernels.g0, kernels.g1, kernels.g2))
+    sigma, radius, (g0, g1, g2) = _float32_kernels(sigma_px)
     rows, cols = image.shape
     need = _row_needs(blocks, radius, rows + 2 * radius)
     along_x = tuple(np.empty((rows + 2 * radius, cols), np.float32) for _ in range(3))
@@ -174,4 +184,4 @@ def band_derivatives(
     # Only the width search reads beyond the band, and only the gradient.
     for field in (ix, iy):
         zero_blocks(field, ring)
-    return GaussianDerivatives(sigma_px=kernels.sigma_px, ix=ix, iy=iy, ixx=ixx, ixy=ixy, iyy=iyy)
+    return GaussianDerivatives(sigma_px=sigma, ix=ix, iy=iy, ixx=ixx, ixy=ixy, iyy=iyy)

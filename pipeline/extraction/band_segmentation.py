@@ -186,6 +186,8 @@ def segment_band(
     blocks: np.ndarray,
     shape: tuple[int, int],
     c_grey: float,
+    *,
+    every_strong: bool = False,
 ) -> BandMask:
     """Stripe mask from the scales' ridge responses inside the band.
 
@@ -203,6 +205,9 @@ def segment_band(
         Frame shape (M, N).
     c_grey : float
         The ridge response's structure constant c [grey levels] (`ridges`).
+    every_strong : bool
+        Keep every strong candidate (`segmentation.stripe_components`: inside a search
+        region).
 
     Returns
     -------
@@ -219,7 +224,7 @@ def segment_band(
     label, shapes, strength = _components(runs, _run_peaks(runs, pixel_strength))
     strong = strong_candidates(shapes, strength, c_grey)
     near = labels_within(runs, label, strong, CONTINUITY_GAP_PX)
-    keep = stripe_components(shapes, strength, near, c_grey)
+    keep = stripe_components(shapes, strength, near, c_grey, every_strong=every_strong)
     # A component the band may have cut: one shaped like a stripe piece (kept ones are). A
     # round spot (a specular reflection beside the stripe) is not, whole or cut, so it may.
     piece = candidates(shapes)

@@ -488,7 +488,9 @@ def extract_centres(
         (see `Centres.path`).
     region : PixelRegion, optional
         Search only this part of the frame (e.g. where the calibration says a wheel's stripe
-        can lie, `pipeline.calibration.search_region`); coordinates stay the frame's.
+        can lie, `pipeline.calibration.search_region`); coordinates stay the frame's. Inside
+        it every strong stripe candidate is kept, however short beside the longest
+        (`segmentation.stripe_components`, `every_strong`).
 
 
     Returns
@@ -538,22 +540,43 @@ def extract_centres(
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
     _check_widths(width_min, width_max)
     _check_sigma(sigma, method)
+    frame = image
     if region is not None:
         region.validate(image.shape)
         crop = image[region.row_start : region.row_stop, region.col_start : region.col_stop]
-        found = extract_centres(
-            np.ascontiguousarray(crop),
-            method,
-            width_min,
-            width_max,
-            sigma,
-            curvature_correction=curvature_correction,
-            asymmetry_correction=asymmetry_correction,
-            scatter_support=scatter_support,
-            normal_fit=normal_fit,
-            full_frame=full_frame,
-        )
-        return _in_frame(found, region, image.shape)
+        frame = np.ascontiguousarray(crop)
+    found = _extract(
+        frame,
+        method,
+        width_min,
+        width_max,
+        sigma,
+        curvature_correction=curvature_correction,
+        asymmetry_correction=asymmetry_correction,
+        scatter_support=scatter_support,
+        normal_fit=normal_fit,
+        full_frame=full_frame,
+        every_strong=region is not None,
+    )
+    return found if region is None else _in_frame(found, region, image.shape)
+
+
+def _extract(
+    image: np.ndarray,
+    method: str,
+    width_min: float,
+    width_max: float,
+    sigma: float | None,
+    *,
+    curvature_correction: bool | None,
+    asymmetry_correction: bool,
+    scatter_support: bool,
+    normal_fit: bool | None,
+    full_frame: bool,
+    every_strong: bool,
+) -> Centres:
+    """`extract_centres` of a validated frame; `every_strong` keeps every strong stripe
+    candidate (`segmentation.stripe_components`), as inside a search region."""
     sigmas = stripe_scales(float(width_min), float(width_max))
     fixed_sigma = float(sigma) if sigma is not None else sigmas[1]
     c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
@@ -568,7 +591,12 @@ def extract_centres(
         path = "full"
     else:
         analysis = analyse_band(
-            image, sigmas, c_grey=c_grey, peak_reach_px=width_max / 2, full_frame=full_frame
+            image,
+            sigmas,
+            c_grey=c_grey,
+            peak_reach_px=width_max / 2,
+            full_frame=full_frame,
+            every_strong=every_strong,
         )
         mask, blocks, path = analysis.mask, analysis.blocks, analysis.path
         if asymmetry_correction:

@@ -196,27 +196,75 @@ def shapes_from_moments(
 
 
 @kernel
-def labels_within(runs, label, consider, gap_px):
-    """Pairs of the considered labels with pixels within `gap_px` of each other (Euclidean,
-    pixel centres): (count, count) bool, symmetric, from labelled runs in raster order."""
-    count = consider.size
-    near = np.zeros((count, count), np.bool_)
+def _near_pairs(runs, label, consider, gap_px):
+    """The pairs (a, b), a > b, of `labels_within`: (P, 2) int64.
+
+    Each run is compared with the earlier runs of the `gap_px` rows up to its own that
+    reach within `gap_px` of its columns. A row's runs are sorted and disjoint, and a row's
+    runs come in column order, so where those start in each earlier row only moves on: one
+    pointer per earlier row (a textured frame holds hundreds of runs a row, nearly all of
+    them too far aside). Pairs already found are tracked among the considered labels only.
+    """
+    index = np.full(consider.size, -1, np.int64)  # label → its place among the considered
+    count = 0
+    for a in range(consider.size):
+        if consider[a]:
+            index[a] = count
+            count += 1
+    found = np.zeros((count, count), np.bool_)
+    pairs = np.empty((64, 2), np.int64)  # doubled when full
+    total = 0
     reach = int(np.floor(gap_px))
     gap2 = gap_px * gap_px
-    first = 0
+    if runs.shape[0] == 0:
+        return pairs[:0]
+    first_row = runs[0, 0]
+    row_start = np.searchsorted(runs[:, 0], np.arange(first_row, runs[-1, 0] + 2))
+    pointer = np.zeros(reach + 1, np.int64)  # per dy: the first run of row r − dy in reach
+    row = first_row - 1
     for k in range(runs.shape[0]):
-        a = label[k]
-        if not consider[a]:
-            continue
         r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2]
-        while runs[first, 0] < r - reach:
-            first += 1
-        for j in range(first, k):
-            b = label[j]
-            if b == a or not consider[b] or near[a, b]:
-                continue
-            dy = r - runs[j, 0]
-            dx = max(0, runs[j, 1] - (c1 - 1), c0 - (runs[j, 2] - 1))
-            if dx * dx + dy * dy <= gap2:
-                near[a, b] = near[b, a] = True
+        if r != row:
+            row = r
+            for dy in range(min(reach, r - first_row) + 1):
+                pointer[dy] = row_start[r - dy - first_row]
+        a = index[label[k]]
+        if a < 0:
+            continue
+        for dy in range(min(reach, r - first_row) + 1):
+            end = k if dy == 0 else row_start[r - dy - first_row + 1]
+            j = pointer[dy]
+            while j < end and runs[j, 2] - 1 < c0 - reach:
+                j += 1
+            pointer[dy] = j
+            while j < end and runs[j, 1] <= c1 - 1 + reach:
+                b = index[label[j]]
+                if b >= 0 and b != a and not found[a, b]:
+                    dx = max(0, runs[j, 1] - (c1 - 1), c0 - (runs[j, 2] - 1))
+                    if dx * dx + dy * dy <= gap2:
+                        found[a, b] = found[b, a] = True
+                        if total == pairs.shape[0]:
+                            more = np.empty((2 * total, 2), np.int64)
+                            more[:total] = pairs
+                            pairs = more
+                        pairs[total, 0], pairs[total, 1] = label[k], label[j]
+                        total += 1
+                j += 1
+    return pairs[:total]
+
+
+def labels_within(
+    runs: np.ndarray, label: np.ndarray, consider: np.ndarray, gap_px: float
+) -> np.ndarray:
+    """Pairs of the considered labels with pixels within `gap_px` of each other (Euclidean,
+    pixel centres): (count, count) bool, symmetric, from labelled runs in raster order.
+
+    `consider` (bool, one per label) marks the labels compared. The matrix is NumPy's
+    (zeroed as the system hands out pages: a textured frame's thousands of labels cost
+    nothing where no considered pair lies).
+    """
+    pairs = _near_pairs(runs, label, consider, float(gap_px))
+    near = np.zeros((consider.size, consider.size), np.bool_)
+    near[pairs[:, 0], pairs[:, 1]] = True
+    near[pairs[:, 1], pairs[:, 0]] = True
     return near

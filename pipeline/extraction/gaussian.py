@@ -3,6 +3,7 @@ filtering with them is `band_filters.band_derivatives`)."""
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -52,6 +53,7 @@ class GaussianDerivatives:
     iyy: np.ndarray
 
 
+@functools.lru_cache(maxsize=64)
 def gaussian_kernels(sigma_px: float) -> GaussianKernels:
     """Return the sampled Gaussian and derivative kernels of scale `sigma_px`.
 
@@ -63,7 +65,8 @@ def gaussian_kernels(sigma_px: float) -> GaussianKernels:
     Returns
     -------
     GaussianKernels
-        Kernels in convolution order (index 0 is offset -radius), float64.
+        Kernels in convolution order (index 0 is offset -radius), float64, read-only:
+        one object per scale, kept (a frame's scales repeat frame after frame).
 
     Raises
     ------
@@ -87,4 +90,6 @@ def gaussian_kernels(sigma_px: float) -> GaussianKernels:
     g2 = (k**2 - sigma_px**2) * g0
     g2 -= g0 * g2.sum()
     g2 /= 0.5 * np.sum(k**2 * g2)
+    for kernel in (g0, g1, g2):
+        kernel.flags.writeable = False
     return GaussianKernels(sigma_px=float(sigma_px), radius_px=radius_px, g0=g0, g1=g1, g2=g2)

@@ -5,8 +5,10 @@ A bright step edge has λ1 < 0 on its bright side and a ridge response near 1, a
 thin highlight along an edge; the Hessian alone does not ask whether the grey falls off on
 *both* sides. The test reads the frame's profile along the normal, smoothed at the scale the
 centre was found at, at the centre and at ±SIDE_REACH_SIGMAS·σ, where the line the scale
-matches (w = √3·σ) has fallen to e⁻² of its smoothed peak; and it asks the unsmoothed
-profile whether the line is as wide as the narrowest stripe expected.
+matches (w = √3·σ) has fallen to e⁻² of its smoothed peak; a side that does not fall off
+enough there is read again twice as far, beyond a bright spot or glow beside the line, where
+the line stands well above it. It asks the unsmoothed profile whether the line is as wide as
+the narrowest stripe expected.
 """
 
 from __future__ import annotations
@@ -23,6 +25,17 @@ SIDE_REACH_SIGMAS = 2.0 * math.sqrt(1.0 + 3.0 / 16.0)
 w = √3·σ (s = w/4) smoothed at σ has the standard deviation √(σ² + s²) = 1.09·σ, and twice
 that (2.18·σ) is where its smoothed profile is down to e⁻² ≈ 0.14 of its peak."""
 
+
+BACKGROUND_REACH_FACTOR = 2.0
+"""A side's level is also read at this multiple of d: beyond a bright spot or glow beside
+the line (specular spots 8–12 px off a dim flange tip lift the read at d to the line's
+level or above it), the background the line stands on."""
+
+BACKGROUND_CONTRAST = 1.0
+"""The farther read is the side's level only where the line stands above it by at least
+this share of it: light added by the laser, not the reflectance texture of a lit surface,
+which multiplies the ambient level (15 % standard deviation: a texture ridge 3σ high is
+0.45 of its surroundings). The bright side of a step edge is as bright at 2d as at d."""
 
 SIDE_FLOOR = 0.5
 """A line's weaker side falls off by at least this share of its stronger side's fall-off.
@@ -80,11 +93,40 @@ grow with σ."""
 
 
 @kernel
+def _side_passes(fall: float, stronger: float) -> bool:
+    """A side's fall-off [grey levels] is positive and ≥ SIDE_FLOOR of the stronger side's."""
+    return fall > 0 and fall >= SIDE_FLOOR * stronger
+
+
+@kernel
+def _smoothed_at(image, x, y, nx, ny, s, offset, weights, inside) -> float:
+    """The frame's grey at `offset` [px] along the normal from (x, y), smoothed along the
+    normal by the Gaussian of std s sampled by `weights` (taps s/2 apart)."""
+    grey = 0.0
+    for j in range(-SMOOTHING_TAPS, SMOOTHING_TAPS + 1):
+        t = offset + 0.5 * j * s
+        grey += weights[j + SMOOTHING_TAPS] * _bilinear_pixel(image, x + t * nx, y + t * ny, inside)
+    return grey
+
+
+@kernel
+def _background_level(image, x, y, nx, ny, s, reach, centre, near, weights, inside) -> float:
+    """A side's level when its read `near` at `reach` [px] (signed) along the normal fails
+    the side test: the read BACKGROUND_REACH_FACTOR farther where it is lower and the line
+    stands above it by at least BACKGROUND_CONTRAST of it, else `near`."""
+    far = _smoothed_at(image, x, y, nx, ny, s, BACKGROUND_REACH_FACTOR * reach, weights, inside)
+    if far < near and centre - far >= BACKGROUND_CONTRAST * far:
+        return far
+    return near
+
+
+@kernel
 def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, out) -> None:
     """Per centre: out[0], out[1] the fall-off to +d·n and −d·n of the profile smoothed along
-    the normal by a Gaussian of the centre's σ (SMOOTHING_TAPS); out[2] the unsmoothed
-    profile's height at the centre and out[3] the lower of its heights at ±shoulder_px, both
-    above the brighter smoothed side."""
+    the normal by a Gaussian of the centre's σ (SMOOTHING_TAPS), a side that fails the side
+    test read against its background (`_background_level`); out[2] the unsmoothed profile's
+    height at the centre and out[3] the lower of its heights at ±shoulder_px, both above the
+    brighter side; out[4] the stronger side's fall-off at d."""
     height, width = image.shape
     weights = np.empty(2 * SMOOTHING_TAPS + 1)
     for j in range(-SMOOTHING_TAPS, SMOOTHING_TAPS + 1):
@@ -94,24 +136,30 @@ def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, out) -> None:
         s = sigma[k]
         reach = SIDE_REACH_SIGMAS * s
         # Every read lies within `extent` of the centre: no folding needed inside the frame.
-        extent = reach + 0.5 * SMOOTHING_TAPS * s + 1.0 + max(TANGENT_OFFSETS_PX)
+        extent = BACKGROUND_REACH_FACTOR * reach + 0.5 * SMOOTHING_TAPS * s + 1.0
+        extent += max(TANGENT_OFFSETS_PX)
         inside = extent <= x[k] < width - 1 - extent and extent <= y[k] < height - 1 - extent
-        minus = centre = plus = 0.0
-        for j in range(-SMOOTHING_TAPS, SMOOTHING_TAPS + 1):
-            weight = weights[j + SMOOTHING_TAPS]
-            t = 0.5 * j * s
-            xt, yt = x[k] + t * nx[k], y[k] + t * ny[k]
-            dx, dy = reach * nx[k], reach * ny[k]
-            minus += weight * _bilinear_pixel(image, xt - dx, yt - dy, inside)
-            centre += weight * _bilinear_pixel(image, xt, yt, inside)
-            plus += weight * _bilinear_pixel(image, xt + dx, yt + dy, inside)
+        xk, yk, nxk, nyk = x[k], y[k], nx[k], ny[k]
+        centre = _smoothed_at(image, xk, yk, nxk, nyk, s, 0.0, weights, inside)
+        plus = _smoothed_at(image, xk, yk, nxk, nyk, s, reach, weights, inside)
+        minus = _smoothed_at(image, xk, yk, nxk, nyk, s, -reach, weights, inside)
+        stronger = centre - min(plus, minus)
+        if not _side_passes(centre - plus, stronger):
+            plus = _background_level(
+                image, xk, yk, nxk, nyk, s, reach, centre, plus, weights, inside
+            )
+        if not _side_passes(centre - minus, stronger):
+            minus = _background_level(
+                image, xk, yk, nxk, nyk, s, -reach, centre, minus, weights, inside
+            )
         out[0, k] = centre - plus
         out[1, k] = centre - minus
+        out[4, k] = stronger
         side = max(minus, plus)
-        out[2, k] = _profile_at(image, x[k], y[k], nx[k], ny[k], 0.0, inside) - side
+        out[2, k] = _profile_at(image, xk, yk, nxk, nyk, 0.0, inside) - side
         shoulder = min(
-            _profile_at(image, x[k], y[k], nx[k], ny[k], shoulder_px, inside),
-            _profile_at(image, x[k], y[k], nx[k], ny[k], -shoulder_px, inside),
+            _profile_at(image, xk, yk, nxk, nyk, shoulder_px, inside),
+            _profile_at(image, xk, yk, nxk, nyk, -shoulder_px, inside),
         )
         out[3, k] = shoulder - side
 
@@ -142,15 +190,19 @@ def line_profiles(
 
     Returns
     -------
-    ndarray of shape (4, K), float64
+    ndarray of shape (5, K), float64
         [grey levels] Rows 0 and 1: fall-off of the profile smoothed at σ (along the normal,
-        SMOOTHING_TAPS) from the centre to +d·n and to −d·n, d = SIDE_REACH_SIGMAS·σ
-        (negative where the side is brighter).
+        SMOOTHING_TAPS) from the centre to its level on the side +n and −n: the read at
+        d = SIDE_REACH_SIGMAS·σ, or, for a side that falls off by less than SIDE_FLOOR of
+        the stronger side (or not at all), its background beyond a spot (the read at
+        BACKGROUND_REACH_FACTOR·d where the line stands above it by ≥ BACKGROUND_CONTRAST
+        of it); negative where the side is brighter.
         Rows 2 and 3: the unsmoothed profile at the centre and the lower of it at
-        ±SHOULDER_WIDTHS·width_min_px, above the brighter smoothed side, each the mean over
-        lines TANGENT_OFFSETS_PX along the tangent. Read bilinearly, reflect border.
+        ±SHOULDER_WIDTHS·width_min_px, above the brighter side's level, each the mean over
+        lines TANGENT_OFFSETS_PX along the tangent.
+        Row 4: the stronger side's fall-off at d. Read bilinearly, reflect border.
     """
-    out = np.empty((4, np.size(x)))
+    out = np.empty((5, np.size(x)))
     fx, fy, fnx, fny, fsigma = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny, sigma))
     _line_profiles(
         np.ascontiguousarray(image),
@@ -168,11 +220,11 @@ def line_profiles(
 def is_line(profiles: np.ndarray) -> np.ndarray:
     """Whether each candidate is a bright stripe's line (bool (K,)).
 
-    Its weaker side falls off by more than 0 and by at least SIDE_FLOOR of its stronger
-    side's fall-off (a line, not an edge), and its shoulders keep at least SHOULDER_FLOOR
+    Its weaker side falls off (to its level at d or, beyond a bright spot, to its
+    background) by more than 0 and by at least SIDE_FLOOR of its stronger side's fall-off at
+    d (a line, not an edge), and its shoulders keep at least SHOULDER_FLOOR
     of its height (not thinner than the stripes expected).
     """
-    falls = profiles[:2]
-    weaker, stronger = falls.min(axis=0), falls.max(axis=0)
+    weaker, stronger = profiles[:2].min(axis=0), profiles[4]
     wide = profiles[3] >= SHOULDER_FLOOR * profiles[2]
     return (weaker > 0) & (weaker >= SIDE_FLOOR * stronger) & wide

@@ -64,7 +64,12 @@ to 12 px)."""
 
 
 def stripe_components(
-    shapes: ComponentShapes, strength: np.ndarray, near: np.ndarray, c_grey: float
+    shapes: ComponentShapes,
+    strength: np.ndarray,
+    near: np.ndarray,
+    c_grey: float,
+    *,
+    every_strong: bool = False,
 ) -> np.ndarray:
     """Which components (index 0: background, never) are parts of the stripe (bool (K,)).
 
@@ -79,6 +84,11 @@ def stripe_components(
         (`components.labels_within`).
     c_grey : float
         The ridge response's structure constant c [grey levels].
+    every_strong : bool
+        Keep every strong candidate: inside the search region the calibration bounds
+        (`pipeline.calibration.search_region`), where other parts' stripes, longer than a
+        piece of the wheel's, are mostly left out and measurement rejects the rest by their
+        place in the track frame.
 
     Notes
     -----
@@ -88,7 +98,7 @@ def stripe_components(
     strong one within CONTINUITY_GAP_PX of a kept one, until none is added.
     """
     strong = strong_candidates(shapes, strength, c_grey)
-    if not strong.any():
+    if every_strong or not strong.any():
         return strong
     keep = strong & (shapes.length_px >= KEEP_FRACTION * shapes.length_px[strong].max())
     while True:

@@ -328,9 +328,12 @@ def handheld_parameters(profile: HandheldProfile) -> HandheldParameters:
     except FlangeNotFoundError as exc:
         reason = str(exc)
     else:
-        if fitted.flank_gap_mm == 0.0:
+        if fitted.qr_reason is not None:
+            reason = fitted.qr_reason
+        elif fitted.flank_gap_mm == 0.0:
             return HandheldParameters(fitted, "fit", None)
-        reason = f"the flank's samples are {fitted.flank_gap_mm:.2f} mm apart in z"
+        else:
+            reason = f"the flank's samples are {fitted.flank_gap_mm:.2f} mm apart in z"
     parameters = curve_flange_parameters(profile.x_mm, profile.z_mm)
     return HandheldParameters(parameters, "interpolated", reason)
 

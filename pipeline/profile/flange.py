@@ -61,19 +61,23 @@ class FlangeParameters:
         Sd at z = 12 mm from the back face.
     flange_thickness_10_mm : float
         Sd at z = 10 mm (EN variant).
-    qr_mm : float
-        qR = x_flank(10) − x_flank(Sh − 2).
+    qr_mm : float or None
+        qR = x_flank(10) − x_flank(Sh − 2); None when the flank near the flange top
+        cannot be measured (`qr_reason` says why): Sh and Sd are still measured.
     flank_gap_mm : float
         Largest gap in z between the flank points below and above a height of Sd or qR
         that had to be bridged (fewer than `MIN_FIT_POINTS` points within 1 mm on a side
         of it), at most `MAX_FLANK_GAP_MM`; 0 when every height had its points [mm].
+    qr_reason : str or None
+        Why qR was not measured (None when it was).
     """
 
     flange_height_mm: float
     flange_thickness_mm: float
     flange_thickness_10_mm: float
-    qr_mm: float
+    qr_mm: float | None
     flank_gap_mm: float = 0.0
+    qr_reason: str | None = None
 
 
 def _check_points(x_mm: object, z_mm: object) -> tuple[np.ndarray, np.ndarray]:
@@ -280,14 +284,15 @@ def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameter
     Raises
     ------
     FlangeNotFoundError
-        If the flange top or the flank at a needed height has too few points.
+        If the flange top or the flank at an Sd height (12 or 10 mm) has too few points;
+        a flank without points at Sh − 2 leaves only qR not measured (`qr_reason`).
 
     Notes
     -----
     Sh: a quadratic z(x) within ±2.5 mm of the highest points locates the crest, and a circle
     fitted within ±4 mm of it gives the height (the top is an arc). Each
     flank abscissa is a quadratic x(z) fitted to points on the tread side of the top within
-    ±1 mm of the height, evaluated at that height; a gap of ≤ 2 mm about the height with
+    ±1 mm of the height, evaluated at that height; a gap of ≤ 2.5 mm about the height with
     points on both sides is bridged by the fit over ±3 mm. Both sides of the crest must hold
     points: a crest seen on one side only is not measured.
     """
@@ -297,6 +302,10 @@ def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameter
         raise FlangeNotFoundError("the flange top fit failed")
     flank_12, gap_12 = _fit_flank(x, z, x_top, SD_HEIGHT_MM)
     flank_10, gap_10 = _fit_flank(x, z, x_top, SD_EN_HEIGHT_MM)
-    flank_top, gap_top = _fit_flank(x, z, x_top, height - QR_DROP_MM)
+    try:
+        flank_top, gap_top = _fit_flank(x, z, x_top, height - QR_DROP_MM)
+    except FlangeNotFoundError as exc:
+        gap = max(gap_12, gap_10)
+        return FlangeParameters(height, flank_12, flank_10, None, gap, f"qR: {exc}")
     gap = max(gap_12, gap_10, gap_top)
     return FlangeParameters(height, flank_12, flank_10, flank_10 - flank_top, gap)

@@ -50,6 +50,12 @@ over a thousand)."""
 MIN_CHAIN_POINTS = 25
 """Linked centre chains shorter than this (≈ 3 mm of profile) are stray spots or glints
 beside the stripe, not the profile, and are left out of the measurement."""
+MIN_WINDOW_CHAIN_POINTS = 8
+"""Inside the wheel window at a located back face (within 6 mm of a reference profile at
+the wheel's own lateral position), pieces of chains of ≥ 8 points (≈ 1 mm) are measured:
+under glare the dim flange top comes in 1–3 mm pieces (8–22 points; at 25 a harsh pass
+lost its whole top). Fusion's consensus and linked-piece tests then drop what is off the
+profile (`pipeline.profile.fusion.LINK_RADIUS_MM`)."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -219,13 +225,13 @@ def _excluded_bright_px(image: np.ndarray, centres: Centres) -> int:
     return bright - int(np.count_nonzero(inside >= level))
 
 
-def _used(centres: Centres, inside: np.ndarray) -> np.ndarray:
-    """Centres on pieces of chains of ≥ MIN_CHAIN_POINTS points with `inside` set."""
+def _used(centres: Centres, inside: np.ndarray, min_points: int = MIN_CHAIN_POINTS) -> np.ndarray:
+    """Centres on pieces of chains of ≥ `min_points` points with `inside` set."""
     used = np.zeros(len(centres), bool)
     for chain in centres.polylines:
         breaks = np.flatnonzero(np.diff(inside[chain].astype(np.int8))) + 1
         for piece in np.split(chain, breaks):
-            used[piece] = piece.size >= MIN_CHAIN_POINTS and inside[piece[0]]
+            used[piece] = piece.size >= min_points and inside[piece[0]]
     return used
 
 
@@ -263,7 +269,10 @@ def _in_window(frames: list[FrameCentres], side: str) -> list[FrameCentres]:
     for frame, inside in zip(frames, windowed, strict=True):
         if back_face is not None:
             inside = in_wheel_window(frame.points_track_mm, side, back_face_mm=back_face)
-        result.append(replace(frame, used=_used(frame.centres, inside)))
+            used = _used(frame.centres, inside, MIN_WINDOW_CHAIN_POINTS)
+        else:
+            used = _used(frame.centres, inside)
+        result.append(replace(frame, used=used))
     return result
 
 

@@ -75,10 +75,8 @@ def test_rr_reports_both_methods_against_truth(tmp_path: Path) -> None:
         ("steger+curvature+asymmetry", "flange_height_mm"),
     }
     sh = pooled[("adaptive", "flange_height_mm")]
-    # 3 of the 4 wheel-passes: the line test drops seed 9's dim flange tip on pass 2's left
-    # wheel (a 2.6 mm gap at qR's height); the strict xfail in tests/pipeline/test_measurement.py
-    # holds the bar of all 4.
-    assert sh["passes"] == 3 and sh["mae_mm"] < 0.1
+    # All 4 wheel-passes, pass 2's left wheel with its dim flange tip beside specular spots.
+    assert sh["passes"] == 4 and sh["mae_mm"] < 0.1
     assert pooled[("adaptive", "back_to_back_mm")]["max_error_mm"] < 0.2
 
 

@@ -58,6 +58,18 @@ def test_the_overlap_check_sees_text_drawn_over_text(tmp_path) -> None:
     assert [set(pair) for pair in overlapping_words(pdf_pages(pdf)[0])] == [{"1357–1363", "alarms"}]
 
 
+def test_signed_values_that_round_to_zero_show_no_sign() -> None:
+    """The diff row once printed "-0.00" for a difference of −0.001 mm."""
+    from backend.services.report_pdf import signed_text
+
+    assert [signed_text(v, 2) for v in (-0.001, 0.004, 0.0, -0.0)] == ["0.00"] * 4
+    assert (signed_text(-0.006, 2), signed_text(0.25, 1), signed_text(-1.234, 3)) == (
+        "-0.01",
+        "+0.2",
+        "-1.234",
+    )
+
+
 def test_the_pass_pdf_has_what_a_depot_files(client, auth, measured, tmp_path) -> None:
     pass_id = measured["pass_id"]
     pdf, _ = fetch_pdf(client, auth, f"/api/passes/{pass_id}/report.pdf", tmp_path, "pass.pdf")

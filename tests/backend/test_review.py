@@ -54,7 +54,17 @@ def depot(client, auth) -> dict[str, int]:
         "new": new,
         "alarm": add_wheel(client, new, "V003", 1, "left", flange_height_mm=36.4, steger_sh=34.4),
         "near": add_wheel(client, new, "V003", 1, "right", flange_height_mm=35.8),
-        "fine": add_wheel(client, new, "V017", 2, "left"),
+        "fine": add_wheel(
+            client,
+            new,
+            "V017",
+            2,
+            "left",
+            tread_hollow_mm=0.62,
+            flange_angle_deg=71.4,
+            rim_width_mm=135.02,
+            equivalent_conicity=0.181,
+        ),  # fmt: skip
         "healed_old": add_wheel(client, old, "V017", 3, "left", flange_height_mm=36.9),
         "healed_new": add_wheel(client, new, "V017", 3, "left"),
     }
@@ -83,6 +93,16 @@ def test_worst_wheels_rank_alarm_then_amber_by_margin_to_the_nearest_limit(
     fine = next(i for i in page["items"] if i["wheel_id"] == depot["fine"])
     assert fine["margin"]["parameter"] == "qr_mm" and fine["margin"]["level"] == "ok"
     assert fine["margin"]["band_mm"] == pytest.approx(S1002_QR_NEW_MM - 6.5, abs=1e-3)
+
+
+def test_worst_wheels_carry_the_values_without_a_limit(client, auth, depot) -> None:
+    """Tread hollow, flange angle and rim width have no limit to rank by: each row carries
+    them (and the axle's λe) from the same adaptive measurement; None where not measured."""
+    items = {i["wheel_id"]: i for i in worst(client, auth)["items"]}
+    fine, alarm = items[depot["fine"]], items[depot["alarm"]]
+    assert (fine["tread_hollow_mm"], fine["flange_angle_deg"]) == (0.62, 71.4)
+    assert (fine["rim_width_mm"], fine["equivalent_conicity"]) == (135.02, 0.181)
+    assert alarm["tread_hollow_mm"] is None and alarm["equivalent_conicity"] is None
 
 
 def test_worst_wheels_show_each_wheels_newest_pass_unless_asked_for_all(

@@ -123,6 +123,14 @@ def test_pass_view_shows_every_wheel_with_both_methods_and_their_difference(
     assert cards.count() == len(wheels_of(service, measured_pass)) == 4
     first = cards.first.inner_text()
     assert "Sh" in first and "Sd" in first and "qR" in first
+    # the values without a limit and the axle's λe on every card, their definitions a click away
+    for key in ("tread_hollow_mm", "flange_angle_deg", "rim_width_mm", "equivalent_conicity"):
+        assert cards.first.locator(f"tr[data-parameter={key}]").count() == 1, key
+    title = cards.first.locator("tr[data-parameter=flange_angle_deg] th").get_attribute("title")
+    assert "Nadal" in title
+    definitions = page.locator("details.definitions")
+    definitions.locator("summary").click()
+    assert "EN 15302" in definitions.locator("dd[data-parameter=equivalent_conicity]").inner_text()
     assert page.locator(".wheel-card.ok, .wheel-card.alarm").count() >= 1
     page.screenshot(path=str(screenshots / "04-pass-adaptive.png"))
     page.get_by_role("button", name="Steger", exact=True).click()

@@ -3,6 +3,8 @@ or a flange top seen from one side only leaves the wheel not measured, with the 
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -63,3 +65,18 @@ def test_a_flange_top_seen_on_one_side_only_is_not_measured() -> None:
     keep = (x < x_top + 0.1) | (z < 2.0)
     with pytest.raises(FlangeNotFoundError, match="not seen on its flank side"):
         fit_flange_parameters(x[keep], z[keep])
+
+
+@pytest.mark.parametrize("name", ["LMA", "S1002"])
+def test_a_flank_lost_below_the_top_leaves_only_qr_not_measured(name) -> None:
+    """The dim flange tip lost from 1 mm to 4.5 mm below the crest: Sh and Sd measured."""
+    truth = curve_flange_parameters(*_samples(name, 0.01))
+    sh = truth.flange_height_mm
+    x, z = _without_flank(*_samples(name), name, sh - 4.5, sh - 1.0)
+    fitted = fit_flange_parameters(x, z)
+    assert fitted.qr_mm is None
+    assert fitted.qr_reason is not None and fitted.qr_reason.startswith("qR: ")
+    assert re.search(r"flank near z = 2\d\.\d\d mm", fitted.qr_reason)
+    assert fitted.flange_height_mm == pytest.approx(sh, abs=0.02)
+    assert fitted.flange_thickness_mm == pytest.approx(truth.flange_thickness_mm, abs=0.02)
+    assert fitted.flank_gap_mm == 0.0

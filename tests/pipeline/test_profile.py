@@ -113,3 +113,30 @@ def test_smooth_disagreement_keeps_both_sensors() -> None:
     inner, outer = _track_points("right", 676.5)
     profile = fuse_profile(inner, outer + np.array([0.0, 0.0, 0.15]), side="right")
     assert profile.rejected_points == 0
+
+
+def test_a_flange_top_in_short_pieces_is_kept_and_a_glint_above_it_is_not() -> None:
+    """Under glare the dim top comes in 1.5 mm pieces (30 points each) 0.8 mm apart: they
+    link into one piece of the profile; a compact glint 2.5 mm above the crest does not
+    (one within the 1 mm link of the profile would: the consensus tests must drop it)."""
+    x, z = PROFILE.x_mm, PROFILE.z_mm
+    top = x[np.argmax(z)]
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(z)))])
+    near = np.abs(x - top) < 6.0
+    pieces = near & (np.mod(arc - arc[near][0], 2.3) < 1.5)
+    points = np.column_stack([676.5 + x, np.zeros_like(x), -z])
+    inner = points[((x < top - 6.0) | pieces) & (z > -39)]
+    outer = points[(x > top + 6.0) & (x < x.max())]
+    rng = np.random.default_rng(3)
+    glint = np.column_stack(
+        [
+            676.5 + top + rng.normal(0, 0.15, 30),
+            np.zeros(30),
+            -(PROFILE.truth.flange_height_mm + 2.5 + rng.normal(0, 0.15, 30)),
+        ]
+    )
+    assert np.count_nonzero(pieces) > 100 and np.diff(np.flatnonzero(pieces)).max() > 1
+    profile = fuse_profile(np.concatenate([inner, glint]), outer, side="right")
+    assert profile.z_mm.max() < PROFILE.truth.flange_height_mm + 0.01
+    p = fit_flange_parameters(profile.x_mm, profile.z_mm)
+    assert p.flange_height_mm == pytest.approx(PROFILE.truth.flange_height_mm, abs=0.01)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pipeline.profile.conicity import equivalent_conicity
 from pipeline.profile.rails import GAUGE_DEPTH_MM, load_rail_profile, track_rails
 from pipeline.profile.reference import load_reference_profile
 from pipeline.profile.wheelset import WheelCurve, axle_conicity, rolling_radius_difference
@@ -108,3 +109,27 @@ def test_wheels_that_miss_their_rails_are_an_error():
     short = WheelCurve(np.array([20.0, 40.0]), np.array([1.0, 0.0]))
     with pytest.raises(ContactError, match="does not reach over its rail"):
         rolling_radius_difference(short, short, 1360.0, track_rails())
+
+
+def test_a_long_gap_in_the_flange_root_is_no_conicity_but_a_reason():
+    """A straight bridge across the concave root lies above the wheel: the rail touches it
+    and λₑ reads high (the demo pass's cause), so a gap over 8 mm is refused, a short one
+    bridged."""
+    rails = track_rails()
+    thin = wheel_profile(load_reference_profile("S1002"))
+    top = int(np.argmax(thin.z_mm))
+    end = top + int(np.flatnonzero(np.diff(thin.x_mm[top:]) <= 0)[0]) + 1
+    new = WheelCurve(thin.x_mm[top:end], thin.z_mm[top:end])
+    root = new.x_mm[0] + np.array([16.0, 34.0])  # 18 mm of root, as in the demo's frames
+    keep = (new.x_mm < root[0]) | (new.x_mm > root[1])
+    gapped = WheelCurve(new.x_mm[keep], new.z_mm[keep])
+    whole = axle_conicity(new, new, 1360.0, rails).conicity_3mm
+    bridged = rolling_radius_difference(gapped, gapped, 1360.0, rails)
+    assert abs(float(equivalent_conicity(bridged, 3.0)[0]) - whole) > 0.02  # the false contact
+    from pipeline.profile.wheelset import ContactError
+
+    with pytest.raises(ContactError, match="left wheel's running surface shows no points"):
+        axle_conicity(gapped, new, 1360.0, rails)
+    short = (new.x_mm < root[0]) | (new.x_mm > root[0] + 4.0)
+    near = axle_conicity(WheelCurve(new.x_mm[short], new.z_mm[short]), new, 1360.0, rails)
+    assert near.conicity_3mm == pytest.approx(whole, abs=0.01)

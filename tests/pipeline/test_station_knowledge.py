@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from pipeline.profile.window import in_wheel_window, locate_back_face
 from pipeline.simulation.render import WheelPose, wheel_section
 from pipeline.simulation.station import build_station
 from pipeline.simulation.wheel import Wear, wheel_profile
+from tests.pipeline.archive_helpers import small_calibration
 
 
 def _sections(side: str, position: str):
@@ -56,6 +58,26 @@ def test_a_camera_that_does_not_see_the_window_searches_its_whole_frame() -> Non
     sensor = build_station().calibration.sensor("left_inner")
     tiny = dataclasses.replace(sensor, image_width_px=40, image_height_px=30)
     assert stripe_search_region(tiny, "left") is None
+
+
+def test_window_points_at_or_behind_the_camera_do_not_reach_the_bounds() -> None:
+    """A camera at the track origin has half the window behind it and grid points on its
+    plane, which the distortion polynomial sends beyond 1e19 px: they are left out, and the
+    box is cast without an overflow."""
+    sensor = small_calibration().sensor("left_inner")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        region = stripe_search_region(sensor, "left")
+    assert region is None or (
+        0 <= region.row_start < region.row_stop <= sensor.image_height_px
+        and 0 <= region.col_start < region.col_stop <= sensor.image_width_px
+    )
+    away = np.diag([1.0, -1.0, -1.0, 1.0])  # at Z = −100 mm, looking down, away from it
+    away[2, 3] = -100.0
+    behind = dataclasses.replace(sensor, T_track_camera=away)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert stripe_search_region(behind, "left") is None
 
 
 def test_wheel_window_keeps_the_wheel_and_drops_what_is_off_it() -> None:

@@ -8,6 +8,7 @@ from scipy.special import erfc
 
 from pipeline import extract_centres
 from pipeline.extraction.line_test import is_line, line_profiles
+from pipeline.imaging import PixelRegion
 
 SHAPE = (80, 120)
 ROW = 40.3
@@ -34,7 +35,7 @@ def _test(image: np.ndarray, sigma_px: float, width_min_px: float = 5.0) -> bool
     y = np.array([ROW])
     normal = (np.zeros(1), np.ones(1))
     profiles = line_profiles(image, x, y, *normal, np.array([sigma_px]), width_min_px=width_min_px)
-    assert profiles.shape == (4, 1)
+    assert profiles.shape == (5, 1)
     return bool(is_line(profiles)[0])
 
 
@@ -46,6 +47,26 @@ def test_a_bright_line_is_a_line(width_px, sigma_px) -> None:
 def test_a_line_on_a_lit_ramp_and_beside_a_dim_step_is_a_line() -> None:
     ramp = _frame(lambda d: _line(7)(d) + 1.5 * d + _step(-9, 25)(d))
     assert _test(ramp, 2.887)
+
+
+def _glow(offset_px: float, peak: float, sigma_px: float = 4.0):
+    """A specular glow of `peak` grey levels, Gaussian of std sigma_px, offset_px off d = 0."""
+    return lambda d: peak * np.exp(-0.5 * ((d - offset_px) / sigma_px) ** 2)
+
+
+def test_a_dim_line_on_the_flank_of_a_glow_is_a_line() -> None:
+    # A dim flange tip (peak 40, w 8 px, on a background of 6) with a specular glow (50 grey
+    # levels) 6 px to one side: the side read at d lies on the glow, no darker than the line;
+    # the background beyond it, at 2d, is dark.
+    tip = _frame(lambda d: _line(8, 40)(d) + _glow(6, 50)(d) - 6)
+    assert _test(tip, 2.887)
+
+
+def test_a_texture_ridge_on_the_flank_of_a_brighter_grain_is_not() -> None:
+    # The same shapes on a lit surface (level 60) at a reflectance texture's contrast (a ridge
+    # of 20, a grain of 25): the background beyond is not far below the ridge.
+    grain = _frame(lambda d: 48 + _line(8, 20)(d) + _glow(6, 25)(d))
+    assert not _test(grain, 2.887)
 
 
 def test_the_bright_side_of_a_step_edge_is_not() -> None:
@@ -104,3 +125,19 @@ def test_a_stripe_dimmed_to_a_third_of_the_frames_strongest_is_kept_and_a_ghost_
     assert ((np.abs(centres.y - 200.6) < 0.1) & (centres.x > 50) & (centres.x < 590)).sum() > 500
     assert ((np.abs(centres.y - 60.3) < 0.1) & (centres.x > 30) & (centres.x < 330)).sum() > 290
     assert not (np.abs(centres.y - 110.2) < 3).any()
+
+
+def test_inside_a_search_region_a_short_bright_piece_is_kept() -> None:
+    # The flange's glare piece (60 px, saturated) far from the tread's stripe and another
+    # part's long stripe: shorter than 0.3 of the longest, so the whole frame drops it; inside
+    # the region the calibration bounds every strong piece is kept (measurement's window
+    # rejects what lies off the wheel).
+    rows, cols = np.mgrid[0:300, 0:640].astype(np.float64)
+    image = 12 + _segment(rows, cols, 60.3, 20, 620, 170)  # another part's stripe, 600 px
+    image += _segment(rows, cols, 150.4, 200, 420, 170)  # the tread, 220 px
+    image += _segment(rows, cols, 240.7, 300, 360, 243, width_px=5)  # the glare piece
+    frame = np.rint(image).astype(np.uint8)
+    glare = lambda c: ((np.abs(c.y - 240.7) < 0.1) & (c.x > 310) & (c.x < 350)).sum()  # noqa: E731
+    assert glare(extract_centres(frame, width_min=5, width_max=21)) == 0
+    inside = extract_centres(frame, width_min=5, width_max=21, region=PixelRegion(0, 300, 0, 640))
+    assert glare(inside) > 35

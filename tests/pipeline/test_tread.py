@@ -42,9 +42,33 @@ def test_straight_flank_gives_its_angle(angle_deg):
 
 def test_flank_with_a_gap_is_not_measured():
     x, z = straight_flank_profile(70.0)
-    keep = (z < 14.0) | (z > 16.5) | (x < 20)
-    with pytest.raises(TreadNotFoundError, match="no points from z = 1[34].* to 16.5 mm"):
+    keep = (z < 13.0) | (z > 16.5) | (x < 20)
+    with pytest.raises(TreadNotFoundError, match="no points from z = 1[23].* to 16.[5-9] mm"):
         flange_angle(x[keep], z[keep], 28.0)
+
+
+@pytest.mark.parametrize("gap", [(14.0, 16.0), (20.0, 22.4), (1.0, 3.0)])
+def test_a_flank_gap_up_to_its_bridge_keeps_the_angle(gap):
+    """Gaps ≤ 2.5 mm in height (as Sd and qR bridge) leave a straight flank's angle exact."""
+    x, z = straight_flank_profile(70.0)
+    keep = (z < gap[0]) | (z > gap[1]) | (x < 20)
+    assert flange_angle(x[keep], z[keep], 28.0) == pytest.approx(70.0, abs=1e-6)
+
+
+def test_the_steepest_part_of_a_curved_flank_over_ten_millimetres():
+    """A flank of two straight pieces (60° below z = 14 mm, 75° above): the steepest 10 mm
+    window lies in the 75° piece (the ±1 mm smoothing of the kink adds < 0.02°); noise of
+    0.02 mm moves it by < 0.2°."""
+    z = np.arange(0.5, 28.0, 0.01)
+    x = 20 + np.where(
+        z > 14,
+        (28 - z) / np.tan(np.radians(75)),
+        14 / np.tan(np.radians(75)) + (14 - z) / np.tan(np.radians(60)),
+    )
+    assert flange_angle(x, z, 28.0) == pytest.approx(75.0, abs=0.02)  # the kink smoothed
+    rng = np.random.default_rng(5)
+    noisy = [flange_angle(x + rng.normal(0, 0.02, x.size), z, 28.0) for _ in range(5)]
+    assert np.ptp(noisy) < 0.2 and abs(np.mean(noisy) - 75.0) < 0.1
 
 
 def test_an_overhanging_flank_is_not_an_angle_past_90_degrees():

@@ -5,8 +5,8 @@
  * The measured wheel parameters, in table order: key (the API's field), label, title, unit,
  * decimals shown, the definition shown a click away, the limit field bounding it from
  * above where that is not `<stem>_max_mm`, the limit sets that check it (`families`: EN
- * checks Sd at 10 mm, LM at 12 mm; none for unchecked ones), whether a wheel card shows
- * it (`card`) and its colour in every plot. The one list every view iterates (as the
+ * checks Sd at 10 mm, LM at 12 mm; none for unchecked ones), whether a wheel card and the
+ * trend show it (`card`: `shownParameters`) and its colour in every plot. The one list every view iterates (as the
  * service's GET /api/parameters for the checked ones).
  */
 export const PARAMETERS = [
@@ -72,7 +72,7 @@ export const PARAMETERS = [
     unit: 'mm',
     digits: 2,
     families: [],
-    card: false,
+    card: true,
     colour: '#f472b6',
     definition:
       'Largest depth of the tread below a straight edge through the profile at 60 and 120 mm from the back face (new LMA 0.05 mm, S1002 0.12 mm).',
@@ -84,10 +84,10 @@ export const PARAMETERS = [
     unit: '°',
     digits: 1,
     families: [],
-    card: false,
+    card: true,
     colour: '#fb7185',
     definition:
-      "Steepest angle of the flange flank to the horizontal, from lines over 6 mm of flank height between 3 mm and Sh − 3 mm; it sets Nadal's derailment limit Y/Q = (tan δ − μ)/(1 + μ tan δ). Not measured where the flank's points leave a gap.",
+      "Steepest angle of the flange flank to the horizontal, from lines over 10 mm of flank height (centred from 6 mm to Sh − 6 mm) on the flank resampled every 0.25 mm; it sets Nadal's derailment limit Y/Q = (tan δ − μ)/(1 + μ tan δ). Gaps up to 2.5 mm are bridged; not measured where the flank's points leave a longer gap.",
   },
   {
     key: 'rim_width_mm',
@@ -96,7 +96,7 @@ export const PARAMETERS = [
     unit: 'mm',
     digits: 2,
     families: [],
-    card: false,
+    card: true,
     colour: '#94a3b8',
     definition: 'Back face to field-side face, where the outer sensor sees that face.',
   },
@@ -107,13 +107,23 @@ export const PARAMETERS = [
     unit: '',
     digits: 3,
     families: ['EN', 'LM'],
-    card: false,
+    card: true,
     colour: '#facc15',
     limitMax: 'conicity_max',
     definition:
       "The axle's equivalent conicity at 3 mm amplitude (EN 15302, nonlinear method): from the rolling-radius difference Δr(y) of both measured wheels at their back-to-back distance on the site's rails (60E1 at 1:40, gauge 1435 mm by default), wheel radii taken equal. Above the fleet's limit (0.4 by default) the axle may hunt.",
   },
 ];
+
+/**
+ * The parameters a wheel card and the trend show for a wheel checked against `family`'s
+ * limits: those the set checks and those no set checks (tread hollow, flange angle, rim
+ * width), never those only the other set checks (Sd at 12 mm for EN wheels).
+ * @param {string} family 'EN' or 'LM'
+ */
+export function shownParameters(family) {
+  return PARAMETERS.filter((p) => p.card && (p.families.length === 0 || p.families.includes(family)));
+}
 
 /** Why the wheel diameter is not among the parameters (shown on the wheel page). */
 export const DIAMETER_NOTE =

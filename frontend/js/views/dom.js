@@ -77,3 +77,26 @@ export function filterButtons(filter, applyFilter) {
     ),
   ];
 }
+
+/**
+ * The definitions of `parameters`, one click away: a closed disclosure listing each one's
+ * label, title, unit and definition (the pass page's cards, the worst wheels, the trend).
+ * @param {any[]} parameters PARAMETERS entries
+ * @param {string} [summary] the disclosure's text
+ * @returns {HTMLElement}
+ */
+export function definitions(parameters, summary = 'What the values mean') {
+  return h(
+    'details',
+    { class: 'definitions' },
+    h('summary', {}, summary),
+    h(
+      'dl',
+      {},
+      parameters.map((p) => [
+        h('dt', { dataset: { parameter: p.key } }, `${p.label}: ${p.title}${p.unit ? ` [${p.unit}]` : ''}`),
+        h('dd', { dataset: { parameter: p.key } }, p.definition),
+      ]),
+    ),
+  );
+}

@@ -4,10 +4,18 @@
  * back-to-back and its alarm state by colour, for the adaptive method, Steger, or their
  * difference (adaptive − Steger).
  */
-import { fmtDisposition, fmtNumber, fmtSigned, fmtTime, PARAMETERS, parameterOf } from '../lib/format.js';
+import {
+  fmtDisposition,
+  fmtNumber,
+  fmtSigned,
+  fmtTime,
+  PARAMETERS,
+  parameterOf,
+  shownParameters,
+} from '../lib/format.js';
 import { familyOf, hasAlarmOn, marginOf, passStatus, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
-import { alarmClass, h } from './dom.js';
+import { alarmClass, definitions, h } from './dom.js';
 
 /**
  * Render the pass page.
@@ -67,6 +75,7 @@ export function renderPass(root, state, handlers) {
         ? h('p', { class: 'alarm-values' }, h('strong', {}, 'In alarm: '), p.alarm_values.join(' · '))
         : null,
       train(pass.wheels, mode, String(p.id)),
+      definitions(PARAMETERS),
     ),
   );
 }
@@ -249,11 +258,11 @@ function wheelCard(wheel, side, mode, passId) {
       : h(
           'table',
           {},
-          PARAMETERS.filter((p) => p.card && p.families.includes(family)).map((p) =>
+          shownParameters(family).map((p) =>
             h(
               'tr',
               { dataset: { parameter: p.key } },
-              h('th', { title: p.title }, p.label),
+              h('th', { title: `${p.title}: ${p.definition}` }, p.label),
               h(
                 'td',
                 { class: `num ${mode === 'difference' ? '' : valueLevel(wheel, shown, p.key, family, mode)}` },

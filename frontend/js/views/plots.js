@@ -7,9 +7,9 @@ import uPlot from '../../vendor/uPlot-1.6.32.esm.js';
 import { drawDifference } from '../draw/difference.js';
 import { METHOD_COLOURS } from '../draw/frame.js';
 import { drawProfile } from '../draw/profile.js';
-import { fmtNumber, fmtSigned, METHODS, PARAMETERS } from '../lib/format.js';
+import { fmtNumber, fmtSigned, METHODS, shownParameters } from '../lib/format.js';
 import { trendColumns } from '../lib/records.js';
-import { fitCanvas, h } from './dom.js';
+import { definitions, fitCanvas, h } from './dom.js';
 
 /**
  * Draw the profile plot of the methods shown.
@@ -158,7 +158,7 @@ export function renderTrend(root, trend, previous) {
   previous?.destroy();
   root.replaceChildren();
   const family = trend?.limits?.wheel_profile ?? 'EN';
-  const shown = PARAMETERS.filter((p) => p.card && p.families.includes(family));
+  const shown = shownParameters(family);
   const { x, columns } = trendColumns(
     trend,
     METHODS,
@@ -182,6 +182,7 @@ export function renderTrend(root, trend, previous) {
     root.append(box, h('p', { class: 'note forecast', dataset: { parameter: p.key } }, forecastText(p, forecast)));
     return parameterPlot(box, p, x, columns, forecast, trend.limits);
   });
+  root.append(definitions(shown, 'What the trended values mean'));
   return { destroy: () => plots.forEach((plot) => plot.destroy()) };
 }
 
@@ -337,7 +338,7 @@ function drawLimits(u, lowMm, highMm, bandMm) {
  * @returns {string}
  */
 function forecastText(p, forecast) {
-  if (!forecast) return `${p.label}: no forecast`;
+  if (!forecast) return `${p.label}: ${p.families.length ? 'no forecast' : 'no limit, so no forecast'}`;
   if (forecast.points < 3 || forecast.limit_mm == null) return `${p.label}: ${forecast.note}`;
   const per = forecast.per === 'day' ? 'day' : '1000 km';
   const rate = `${fmtSigned(forecast.rate_mm, 3)} mm/${per} (${fmtSigned(forecast.rate_low_mm, 3)} to ${fmtSigned(forecast.rate_high_mm, 3)})`;

@@ -7,13 +7,16 @@
 import { fmtDisposition, fmtNumber, fmtTime, PARAMETERS, parameterOf } from '../lib/format.js';
 import { REVIEW_PAGE_ROWS } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
-import { filterButtons, h } from './dom.js';
+import { definitions, filterButtons, h } from './dom.js';
 
 const FILTERS = [
   { key: 'site', label: 'Site' },
   { key: 'fleet', label: 'Fleet' },
   { key: 'vehicle', label: 'Vehicle' },
 ];
+/** The same measurement's values shown beside its margin (the first three have no limit). */
+const VALUE_KEYS = ['tread_hollow_mm', 'flange_angle_deg', 'rim_width_mm', 'equivalent_conicity'];
+/** @type {Array<[string, string|null, string?]>} header, class, the parameter it shows */
 const COLUMNS = [
   ['#', 'num'],
   ['Level', null],
@@ -26,6 +29,7 @@ const COLUMNS = [
   ['Margin mm', 'num'],
   ['Margin % of band', 'num'],
   ['Limits', null],
+  ...VALUE_KEYS.map((key) => /** @type {[string, string, string]} */ ([parameterOf(key).label, 'num', key])),
   ['Disposition', null],
   ['Pass', null],
   ['Time', null],
@@ -130,7 +134,14 @@ export function renderReview(root, state, handlers) {
           h(
             'tr',
             {},
-            COLUMNS.map(([t, cls]) => h('th', { class: cls }, t)),
+            COLUMNS.map(([t, cls, key]) => {
+              const p = key ? parameterOf(key) : null;
+              return h(
+                'th',
+                { class: cls, title: p ? `${p.title}: ${p.definition}` : null },
+                p?.unit ? `${t} ${p.unit}` : t,
+              );
+            }),
           ),
         ),
         h(
@@ -152,6 +163,7 @@ export function renderReview(root, state, handlers) {
         ),
       ),
       pager(review.page, filter, handlers.applyFilter),
+      definitions(PARAMETERS),
     ),
   );
 }
@@ -185,6 +197,9 @@ function row(item, rank) {
     h('td', { class: 'num' }, fmtNumber(m.margin_mm)),
     h('td', { class: 'num', title: `of a ${fmtNumber(m.band_mm)} mm band` }, fmtNumber(100 * m.margin_fraction, 1)),
     h('td', {}, item.wheel_profile),
+    VALUE_KEYS.map((key) =>
+      h('td', { class: 'num', dataset: { parameter: key } }, fmtNumber(item[key], parameterOf(key).digits)),
+    ),
     h('td', { class: `disposition ${item.disposition ? 'set' : 'open'}` }, fmtDisposition(item.disposition)),
     h('td', {}, h('a', { href }, `#${item.pass_id} wheel`)),
     h('td', { class: 'mono' }, fmtTime(item.started_at)),
