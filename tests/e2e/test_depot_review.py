@@ -239,7 +239,7 @@ def test_trend_spans_the_passes_with_limits_and_a_forecast_in_utc(
     open_wheel(page, service, depot.newest, target["wheel_id"])
     plots = page.locator(".trend-plot")
     plots.first.locator("canvas").wait_for()
-    assert plots.count() == 3  # Sh, Sd (12 mm for LM), qR
+    assert plots.count() == 7  # Sh, Sd (12 mm for LM), qR, hollow, flange angle, rim, λe
     span = plots.first.evaluate("(el) => [Number(el.dataset.xMin), Number(el.dataset.xMax)]")
     days = (span[1] - span[0]) / 86400
     assert 60 <= days < 70, f"the x-axis spans the 60 days of passes, got {days:.1f} days"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial import cKDTree
@@ -44,15 +45,32 @@ def xy(centres) -> np.ndarray:
     return np.stack([centres.x, centres.y], axis=1)
 
 
-@settings(max_examples=8, deadline=None)
-@given(stripes, METHODS)
-def test_transposing_the_frame_transposes_the_centres(grey, method) -> None:
+def assert_transposed(grey: np.ndarray, method: str) -> None:
+    """Centres of the transposed frame are the transposed centres (count within 1 %)."""
     image = np.rint(grey).astype(np.uint8)
     direct = extract_centres(image, method)
     transposed = extract_centres(np.ascontiguousarray(image.T), method)
     assert len(direct) > 50
     assert abs(len(direct) - len(transposed)) <= 0.01 * len(direct) + 1
     assert matched_fraction(xy(direct)[:, ::-1], xy(transposed), 1e-3) >= 0.98
+
+
+# Derandomized so that CI is reproducible; a random run found the case below.
+@settings(max_examples=8, deadline=None, derandomize=True)
+@given(stripes, METHODS)
+def test_transposing_the_frame_transposes_the_centres(grey, method) -> None:
+    assert_transposed(grey, method)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="classic: 125 centres direct, 133 transposed (r 125.8 px, w 5.07 px, turn 232.5°; "
+    "the same on the previous release): an end of the arc at the frame's edge, not yet traced",
+)
+def test_transposing_an_arc_ending_at_the_frame_edge_transposes_the_classic_centres() -> None:
+    assert_transposed(
+        arc_stripe(125.77161326729238, 5.070918286031663, 232.45952240698122), "classic"
+    )
 
 
 @settings(max_examples=8, deadline=None)
