@@ -178,6 +178,16 @@ def store_wheel_results(session: Session, store: BlobStore, pass_wheel_id: int) 
     return pass_wheel.state
 
 
+def _axle_of(pass_wheel: PassWheel) -> tuple:
+    """WHERE terms for the pass wheels of `pass_wheel`'s axle in its pass (joined to Wheel)."""
+    wheel = pass_wheel.wheel
+    return (
+        PassWheel.pass_id == pass_wheel.pass_id,
+        Wheel.vehicle_id == wheel.vehicle_id,
+        Wheel.axle == wheel.axle,
+    )
+
+
 def lock_axle(session: Session, pass_wheel: PassWheel) -> None:
     """Begin the write that finishes a wheel by locking its axle's wheels in this pass.
 
@@ -185,18 +195,14 @@ def lock_axle(session: Session, pass_wheel: PassWheel) -> None:
     write waits, then reads what this one committed. SQLite: the UPDATE takes the
     database's one write lock, and what is read after it is what the last writer committed.
     """
-    wheel = pass_wheel.wheel
-    axle_wheels = (
-        select(PassWheel.id)
-        .join(Wheel, PassWheel.wheel_id == Wheel.id)
-        .where(
-            PassWheel.pass_id == pass_wheel.pass_id,
-            Wheel.vehicle_id == wheel.vehicle_id,
-            Wheel.axle == wheel.axle,
-        )
-    )
     if session.get_bind().dialect.name == "postgresql":
-        session.execute(axle_wheels.order_by(PassWheel.id).with_for_update(of=PassWheel)).all()
+        session.execute(
+            select(PassWheel.id)
+            .join(Wheel, PassWheel.wheel_id == Wheel.id)
+            .where(*_axle_of(pass_wheel))
+            .order_by(PassWheel.id)
+            .with_for_update(of=PassWheel)
+        ).all()
     else:
         session.execute(
             update(PassWheel)
@@ -209,16 +215,10 @@ def update_axle(session: Session, pass_wheel: PassWheel) -> None:
     """When both wheels of `pass_wheel`'s axle are measured, store the axle's back-to-back
     distance and equivalent conicity on both wheels' measurements (per method) and
     re-evaluate their alarms. Idempotent; flushes, the caller commits (under `lock_axle`)."""
-    wheel = pass_wheel.wheel
     pair = session.execute(
         select(PassWheel, Wheel)
         .join(Wheel, PassWheel.wheel_id == Wheel.id)
-        .where(
-            PassWheel.pass_id == pass_wheel.pass_id,
-            Wheel.vehicle_id == wheel.vehicle_id,
-            Wheel.axle == wheel.axle,
-            PassWheel.state == "measured",
-        )
+        .where(*_axle_of(pass_wheel), PassWheel.state == "measured")
         .execution_options(populate_existing=True)
     ).all()
     sides = {w.side: pw for pw, w in pair}
