@@ -35,20 +35,21 @@ test('drawFrame culls centres outside the view and draws each method in one fill
   assert.ok(drawn > 0 && drawn < 10000 / 32, `only the zoomed-in corner is drawn, got ${drawn}`);
 });
 
+/** A 100×100 px frame fitted to a 100×100 px canvas with Steger's centres hidden. */
+const stegerHiddenOptions = () => ({
+  viewport: fitViewport(100, 100, 100, 100),
+  widthPx: 100,
+  heightPx: 100,
+  pixelRatio: 1,
+  show: { ...SHOW_ALL, steger: false },
+});
+const NO_RASTER_LAYERS = { image: null, mask: null, sigma: null, highlight: null };
+
 test('drawFrame skips hidden methods', () => {
   const { ctx } = recordingContext();
-  const options = {
-    viewport: fitViewport(100, 100, 100, 100),
-    widthPx: 100,
-    heightPx: 100,
-    pixelRatio: 1,
-    show: { ...SHOW_ALL, steger: false },
-  };
+  const options = stegerHiddenOptions();
   const layers = {
-    image: null,
-    mask: null,
-    sigma: null,
-    highlight: null,
+    ...NO_RASTER_LAYERS,
     centres: [
       { method: 'adaptive', x: [1, 2], y: [1, 2] },
       { method: 'steger', x: [3], y: [3] },
@@ -59,18 +60,9 @@ test('drawFrame skips hidden methods', () => {
 
 test('drawFrame marks rejected candidates of shown methods only, apart from the centres', () => {
   const { ctx, calls } = recordingContext();
-  const options = {
-    viewport: fitViewport(100, 100, 100, 100),
-    widthPx: 100,
-    heightPx: 100,
-    pixelRatio: 1,
-    show: { ...SHOW_ALL, steger: false },
-  };
+  const options = stegerHiddenOptions();
   const layers = {
-    image: null,
-    mask: null,
-    sigma: null,
-    highlight: null,
+    ...NO_RASTER_LAYERS,
     centres: [{ method: 'adaptive', x: [1, 2], y: [1, 2] }],
     rejected: [
       { method: 'adaptive', x: [5, 6, 7], y: [5, 6, 7] },
