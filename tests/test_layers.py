@@ -53,3 +53,31 @@ def test_only_backend_imports_fastapi_and_viser() -> None:
             if imported_top_modules(path) & {"fastapi", "viser"}:
                 offenders.append(str(path.relative_to(ROOT)))
     assert offenders == []
+
+
+SESSION_CALLS = {"execute", "scalar", "scalars", "get", "add", "delete", "flush", "commit"}
+"""Session methods that query or write: a route calls services, which own them."""
+
+
+def test_routes_leave_queries_and_transactions_to_services() -> None:
+    # docs/service.md, "Layers": a route validates, calls one service function, returns a
+    # schema; the services run the SQL and commit.
+    offenders = []
+    for path in sorted((ROOT / "backend" / "api" / "routes").glob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == (
+                "sqlalchemy"
+            ):
+                sql = [a.name for a in node.names if a.name not in {"Session", "sessionmaker"}]
+                if sql:
+                    offenders.append(f"{path.name}:{node.lineno} imports {sql} from sqlalchemy")
+            if (
+                isinstance(node, ast.Call)
+                and isinstance(node.func, ast.Attribute)
+                and node.func.attr in SESSION_CALLS
+                and isinstance(node.func.value, ast.Name)
+                and node.func.value.id == "session"
+            ):
+                offenders.append(f"{path.name}:{node.lineno} session.{node.func.attr}()")
+    assert offenders == []
