@@ -2,7 +2,8 @@
 
 Each module in `VERB_MODULES` exposes `register(subparsers)`, which adds its verbs and sets
 `func(args) -> int` on each. Errors a user can fix (`ValueError`, `OSError`) end as one line
-on stderr and exit status 2, never a traceback.
+on stderr and exit status 2, never a traceback. The verbs: README.md; where the CLI sits
+among the layers: docs/service.md, "Layers".
 """
 
 from __future__ import annotations
