@@ -63,3 +63,30 @@ def test_the_package_docstring_points_to_its_docs_page(package: str) -> None:
     pages = [page for page in CITED.findall(docstring) if page.startswith("docs/")]
     assert pages, f"{package}/__init__.py: no docs/ page in its docstring"
     assert all((ROOT / page).is_file() for page in pages), pages
+
+
+CODE_REFERENCE = re.compile(
+    r"`((?:pipeline|backend|db|frontend|scripts|benchmarks)/[\w/.-]+\.(?:py|js)) : ([^`]+)`"
+)
+"""A docs/ reference to code: `path/module.py : name` or `… : name, other → third`."""
+
+
+def _defines(source: str, name: str) -> bool:
+    definition = rf"(def|class|function|const)\s+{name}\b|^\s*(export\s+)?{name}\s*[:=]"
+    return re.search(definition, source, re.MULTILINE) is not None
+
+
+def test_every_function_and_constant_the_docs_name_exists() -> None:
+    # "Where does this number come from" in one hop only helps if the hop lands.
+    missing = []
+    for page in sorted((ROOT / "docs").glob("*.md")):
+        for path, names in CODE_REFERENCE.findall(page.read_text(encoding="utf-8")):
+            if not (ROOT / path).is_file():
+                missing.append(f"{page.name}: {path}")
+                continue
+            source = (ROOT / path).read_text(encoding="utf-8")
+            for name in re.split(r"[\s,→]+", names):
+                name = name.split("(")[0].split(".")[-1]
+                if re.fullmatch(r"\w+", name) and not _defines(source, name):
+                    missing.append(f"{page.name}: {path} : {name}")
+    assert missing == []
