@@ -1,6 +1,8 @@
 """From a pipeline `WheelMeasurement` to a `Measurement` row: parameters, quality, σ
 statistics, the fused profile with its construction points, the reference profile family
-and the alarms against the fleet's limits."""
+and the alarms against the fleet's limits.
+
+Where each value comes from: docs/numbers.md."""
 
 from __future__ import annotations
 
