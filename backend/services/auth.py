@@ -1,6 +1,6 @@
 """API tokens: creation, lookup by hash, revocation, roles, and the audit trail of writes.
 
-The token routes and `wheelscan token create` call `grant_token` and `revoke_token`, which
+The token routes and `wheelscan token create` call `grant_token` and `revoke_api_token`, which
 commit; docs/service.md, "Entities and access".
 """
 
@@ -64,7 +64,7 @@ def grant_token(
     return row, plaintext
 
 
-def revoke_token(session: Session, admin: ApiToken, token_id: int) -> ApiToken:
+def revoke_api_token(session: Session, admin: ApiToken, token_id: int) -> ApiToken:
     """Revoke token `token_id` at once (idempotent: a revoked token keeps its first
     revocation time), audited and committed."""
     row = session.get(ApiToken, token_id)

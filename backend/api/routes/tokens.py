@@ -9,7 +9,7 @@ from fastapi import APIRouter, Query, status
 from backend.api.deps import AdminDep, Offset, RowId, SessionDep, ViewerDep
 from backend.api.schemas import AuditRead, Me, TokenCreate, TokenCreated, TokenRead
 from backend.errors import ERROR_RESPONSES
-from backend.services.auth import audit_trail, grant_token, revoke_token, tokens_newest_first
+from backend.services.auth import audit_trail, grant_token, revoke_api_token, tokens_newest_first
 
 router = APIRouter(prefix="/api", tags=["tokens"], responses=ERROR_RESPONSES)
 
@@ -38,9 +38,9 @@ def post_token(body: TokenCreate, session: SessionDep, admin: AdminDep) -> Token
 
 
 @router.delete("/tokens/{token_id}")
-def delete_token(token_id: RowId, session: SessionDep, admin: AdminDep) -> TokenRead:
+def revoke_token(token_id: RowId, session: SessionDep, admin: AdminDep) -> TokenRead:
     """Revoke a token at once (idempotent)."""
-    return TokenRead.model_validate(revoke_token(session, admin, token_id))
+    return TokenRead.model_validate(revoke_api_token(session, admin, token_id))
 
 
 @router.get("/audit")
