@@ -81,3 +81,40 @@ def test_routes_leave_queries_and_transactions_to_services() -> None:
             ):
                 offenders.append(f"{path.name}:{node.lineno} session.{node.func.attr}()")
     assert offenders == []
+
+
+PIPELINE_ORDER = ("extraction", "calibration", "archive", "profile", "simulation")
+"""The data flow's order (docs/data-flow.md): a subpackage imports only those before it and
+the shared modules at the top of `pipeline/` (errors, imaging, jit, version)."""
+
+
+def _imported_modules(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    names = {alias.name for n in ast.walk(tree) if isinstance(n, ast.Import) for alias in n.names}
+    names |= {
+        n.module
+        for n in ast.walk(tree)
+        if isinstance(n, ast.ImportFrom) and n.module and not n.level
+    }
+    return names
+
+
+def test_pipeline_subpackages_import_only_upstream_steps() -> None:
+    offenders = []
+    for i, package in enumerate(PIPELINE_ORDER):
+        downstream = {f"pipeline.{later}" for later in PIPELINE_ORDER[i + 1 :]}
+        for path in sorted((ROOT / "pipeline" / package).rglob("*.py")):
+            for module in _imported_modules(path):
+                if any(module == d or module.startswith(d + ".") for d in downstream):
+                    offenders.append(f"{path.relative_to(ROOT)} imports {module}")
+    assert offenders == []
+
+
+def test_services_take_from_the_api_layer_only_its_schemas() -> None:
+    offenders = [
+        f"{path.relative_to(ROOT)} imports {module}"
+        for path in sorted((ROOT / "backend" / "services").rglob("*.py"))
+        for module in _imported_modules(path)
+        if module.startswith("backend.api") and module != "backend.api.schemas"
+    ]
+    assert offenders == []
