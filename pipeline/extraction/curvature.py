@@ -194,7 +194,7 @@ def _scatter_windows(
     the stripe is smooth, no wider where its shape changes. A point's fit depends only on
     its own window, so the fit on the chosen window is the one made while choosing it.
     """
-    fits = []
+    fits: list[tuple[np.ndarray, np.ndarray]] = []
     for factor in SUPPORT_FACTORS:
         if first is not None and not fits:
             offset, count = first
