@@ -71,6 +71,8 @@ def test_a_token_expiry_beyond_utc_is_refused(client, auth, expires_at) -> None:
     body = {"role": "viewer", "name": "x", "expires_at": expires_at}
     response = client.post("/api/tokens", headers=auth("admin"), json=body)
     assert response.status_code == 422, response.text
+    assert response.json()["code"] == "invalid_input"
+    assert "outside years 1–9999" in response.json()["detail"]
 
 
 def test_a_frame_header_claiming_billions_of_pixels_is_refused(client, auth) -> None:
