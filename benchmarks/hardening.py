@@ -229,7 +229,6 @@ def _validation_time() -> str:
 
 def limits() -> list[str]:
     """Markdown lines: the hostile requests' table and the validation time."""
-    load_before = os.getloadavg()[0]
     table = [row for backend in BACKENDS for row in _refusals(backend)]
     return [
         "### oversized and bomb-like requests refused (`wheelscan serve`)",
@@ -245,14 +244,12 @@ def limits() -> list[str]:
         "",
         _validation_time(),
         "",
-        f"1-min load average {load_before:.1f} before, {os.getloadavg()[0]:.1f} after "
-        "(2 cores shared with other work).",
-        "",
     ]
 
 
 def run() -> str:
     """Markdown section: each fault and backup test, its outcome and its time; the limits."""
+    load_before = os.getloadavg()[0]
     lines = ["## Faults survived, backups restored (tests/faults, tests/backend/test_backup*)", ""]
     for name, paths in SUITES.items():
         outcomes, elapsed_s = _run_suite(paths)
@@ -265,7 +262,12 @@ def run() -> str:
             *(f"| `{test}` | {outcome} | {seconds:.1f} |" for test, outcome, seconds in outcomes),
             "",
         ]
-    return "\n".join(lines + limits())
+    lines += limits()
+    lines.append(
+        f"1-min load average {load_before:.1f} at the start, {os.getloadavg()[0]:.1f} at the "
+        "end (2 cores shared with other work)."
+    )
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
