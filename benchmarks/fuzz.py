@@ -16,6 +16,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 TEST = "tests/backend/test_fuzz_api.py"
+EXAMPLES = 12
+"""Examples per operation and generation mode for a caller with a valid token (the suite: 4)."""
 _COUNTS = re.compile(
     r"fuzzed as (?P<caller>[\w ]+?) on (?P<db>\w+): (?P<ops>\d+) operations, (?P<cases>\d+) cases, "
     r"(?P<server>\d+) server errors, (?P<conformance>\d+) conformance failures"
@@ -31,6 +33,7 @@ def run() -> str:
         [sys.executable, "-m", "pytest", TEST, "-k", "every_operation", "-rA", "-p", "no:warnings",
          "-o", "log_cli=true", "--log-cli-level=INFO"],
         capture_output=True, text=True, cwd=ROOT, check=False,
+        env={**os.environ, "WHEELSCAN_FUZZ_EXAMPLES": str(EXAMPLES)},
     )  # fmt: skip
     elapsed_s = time.perf_counter() - started_s
     counts = {(m["db"], m["caller"]): m for m in _COUNTS.finditer(result.stdout)}

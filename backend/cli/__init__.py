@@ -4,8 +4,8 @@ Each module in `VERB_MODULES` exposes `register(subparsers)`, which adds its ver
 `func(args) -> int` on each. A command imports only the module of its own verb (`VERBS`), so
 `wheelscan agent` does not load the web service, the PDF renderer and the pipeline's kernels
 (about 3 s of CPU per start); `--help` and an unknown verb load them all. Errors a user can fix
-(`ValueError`, `OSError`) end as one line on stderr and exit status 2, never a traceback. The verbs: README.md;
-where the CLI sits among the layers: docs/service.md, "Layers".
+(`ValueError`, `OSError`) end as one line on stderr and exit status 2, never a traceback. The
+verbs: README.md; where the CLI sits among the layers: docs/service.md, "Layers".
 """
 
 from __future__ import annotations
