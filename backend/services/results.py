@@ -29,7 +29,7 @@ STORED_DECIMALS = 4
 PARAMETER_NAMES = (
     "flange_height_mm",
     "flange_thickness_mm",
-    "flange_thickness_en_mm",
+    "flange_thickness_10_mm",
     "qr_mm",
     "back_to_back_mm",
     "tread_hollow_mm",
@@ -39,8 +39,8 @@ PARAMETER_NAMES = (
 )
 """The wheel parameters of a measurement: its columns and the API's fields, in mm but for
 `flange_angle_deg` (°) and the axle's `equivalent_conicity` (no unit, EN 15302 at 3 mm).
-`flange_thickness_en_mm` is the pipeline's `flange_thickness_10_mm` (Sd at the EN height,
-z = 10 mm above the tread reference point); `flange_thickness_mm` is Sd at z = 12 mm."""
+`flange_thickness_10_mm` (Sd 10) is Sd at the EN height, z = 10 mm above the tread reference
+point; `flange_thickness_mm` (Sd 12) is Sd at z = 12 mm."""
 
 
 @lru_cache(maxsize=1)
@@ -146,7 +146,7 @@ def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> M
         reason=result.reason if parameters is None else parameters.qr_reason,
         flange_height_mm=None if parameters is None else parameters.flange_height_mm,
         flange_thickness_mm=None if parameters is None else parameters.flange_thickness_mm,
-        flange_thickness_en_mm=None if parameters is None else parameters.flange_thickness_10_mm,
+        flange_thickness_10_mm=None if parameters is None else parameters.flange_thickness_10_mm,
         qr_mm=None if parameters is None else parameters.qr_mm,
         back_face_track_x_mm=result.back_face_track_x_mm,
         tread_hollow_mm=None if tread is None else tread.tread_hollow_mm,

@@ -18,7 +18,7 @@ def result(method: str, **values: float | None) -> MethodResult:
         method=method, status="measured" if measured else "not_measured",
         reason=None if measured else "too few profile points on the flank near z = 12.00 mm",
         flange_height_mm=values.get("sh"), flange_thickness_mm=values.get("sd"),
-        flange_thickness_en_mm=values.get("sd_en"), qr_mm=values.get("qr"),
+        flange_thickness_10_mm=values.get("sd_en"), qr_mm=values.get("qr"),
         back_to_back_mm=None, reference_profile="LMA" if measured else None,
         sigma_mean_px=None, sigma_min_px=None, sigma_max_px=None, point_count=0, quality={},
         alarms=[], pipeline_version="test",
