@@ -87,10 +87,16 @@ def report_styles() -> dict[str, ParagraphStyle]:
     body = ParagraphStyle("body", parent=base["BodyText"], fontSize=8, leading=10)
     return {
         "title": ParagraphStyle("title", parent=base["Title"], fontSize=15, spaceAfter=2 * mm),
-        "h2": ParagraphStyle("h2", parent=base["Heading2"], fontSize=11, spaceBefore=3 * mm),
-        "h3": ParagraphStyle("h3", parent=base["Heading4"], fontSize=9, spaceAfter=1 * mm),
+        "h2": ParagraphStyle(
+            "h2", parent=base["Heading2"], fontSize=11, spaceBefore=3 * mm, keepWithNext=1
+        ),
+        "h3": ParagraphStyle(
+            "h3", parent=base["Heading4"], fontSize=9, spaceAfter=1 * mm, keepWithNext=1
+        ),
         "body": body,
         "small": ParagraphStyle("small", parent=body, fontSize=6.5, leading=8),
+        # limits in the full table's 10 mm columns: "27.5–36" on one line, words unbroken
+        "limit": ParagraphStyle("limit", parent=body, fontSize=6, leading=7.5, splitLongWords=0),
     }
 
 
@@ -282,7 +288,7 @@ def _colours(row: int, margins: list[Margin], first_column: int) -> list[Any]:
 
 
 def _limit_cells(limits: dict[str, float], family: str, s: dict) -> list[Any]:
-    return [Paragraph(limit_text(limits, p, family), s["small"]) for p in WHEEL_COLUMNS]
+    return [Paragraph(limit_text(limits, p, family), s["limit"]) for p in WHEEL_COLUMNS]
 
 
 def _full_table(
