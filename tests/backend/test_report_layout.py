@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections import Counter
 from datetime import UTC, datetime
+from pathlib import Path
 
 from backend.api.schemas import MethodResult, PassSummary, PassWheelRead
 from backend.services.limits import DEFAULT_LIMITS_MM
@@ -42,6 +43,22 @@ def wheel(wheel_id: int, side: str, results: list[MethodResult]) -> PassWheelRea
     )  # fmt: skip
 
 
+def pass_pdf(sections: list[WheelSection], pdf: Path) -> Path:
+    """The pass PDF of one axle's `sections` (fleet default limits, 10 % amber), at `pdf`."""
+    measured = sum(any(r.status == "measured" for r in x.wheel.results) for x in sections)
+    summary = PassSummary(
+        id=9, site="s", started_at=datetime(2026, 11, 30, 8, tzinfo=UTC), direction=None,
+        speed_kmh=None, fleet="default", source="upload", state="closed",
+        calibration_version=1, vehicles=["V9"], wheels_total=len(sections),
+        wheels_measured=measured, wheels_not_measured=len(sections) - measured, alarm_count=0,
+        job=None,
+    )  # fmt: skip
+    header = ReportHeader("Train pass wheel report", False, "now", "0.1.0", "test")
+    amber = {"EN": 0.1, "LM": 0.1}
+    pdf.write_bytes(render_pdf(summary, sections, DEFAULT_LIMITS_MM, amber, header))
+    return pdf
+
+
 def test_a_steger_only_wheel_is_summarised_and_an_unmeasured_one_has_no_limit_set(tmp_path):
     lm = DEFAULT_LIMITS_MM["LM"]
     steger = result("steger", sh=25.4, sd=30.0, sd_en=31.0, qr=9.0)
@@ -52,16 +69,7 @@ def test_a_steger_only_wheel_is_summarised_and_an_unmeasured_one_has_no_limit_se
         WheelSection(only_steger, "LM", lm, margins, None),
         WheelSection(nothing, None, {}, {}, None),
     ]
-    summary = PassSummary(
-        id=9, site="s", started_at=datetime(2026, 11, 30, 8, tzinfo=UTC), direction=None,
-        speed_kmh=None, fleet="default", source="upload", state="closed",
-        calibration_version=1, vehicles=["V9"], wheels_total=2, wheels_measured=1,
-        wheels_not_measured=1, alarm_count=0, job=None,
-    )  # fmt: skip
-    header = ReportHeader("Train pass wheel report", False, "now", "0.1.0", "test")
-    pdf = tmp_path / "layout.pdf"
-    amber = {"EN": 0.1, "LM": 0.1}
-    pdf.write_bytes(render_pdf(summary, sections, DEFAULT_LIMITS_MM, amber, header))
+    pdf = pass_pdf(sections, tmp_path / "layout.pdf")
     assert len(render_pages(pdf, tmp_path / "pages")) == len(pdf_pages(pdf))
     assert all(overlapping_words(page) == [] for page in pdf_pages(pdf))
     text = pdf_text(pdf)
@@ -85,17 +93,7 @@ def test_the_full_tables_limit_rows_keep_their_words_whole(tmp_path):
         WheelSection(w, family, DEFAULT_LIMITS_MM[family], {}, None)
         for w, family in zip(wheels, ("LM", "EN"), strict=True)
     ]
-    summary = PassSummary(
-        id=9, site="s", started_at=datetime(2026, 11, 30, 8, tzinfo=UTC), direction=None,
-        speed_kmh=None, fleet="default", source="upload", state="closed",
-        calibration_version=1, vehicles=["V9"], wheels_total=2, wheels_measured=2,
-        wheels_not_measured=0, alarm_count=0, job=None,
-    )  # fmt: skip
-    header = ReportHeader("Train pass wheel report", False, "now", "0.1.0", "test")
-    pdf = tmp_path / "limits.pdf"
-    pdf.write_bytes(
-        render_pdf(summary, sections, DEFAULT_LIMITS_MM, {"EN": 0.1, "LM": 0.1}, header)
-    )
+    pdf = pass_pdf(sections, tmp_path / "limits.pdf")
     words = [word for page in pdf_pages(pdf) for word in page.words]
     expected: Counter[str] = Counter()
     for family in ("EN", "LM"):  # its row in the full table and in its wheel's section
