@@ -91,7 +91,7 @@ def _fill(session: Session, rng: np.random.Generator) -> int:
     for pw in pass_wheels:
         values = {
             "flange_height_mm": float(rng.uniform(28.0, 36.6)),
-            "flange_thickness_en_mm": float(rng.uniform(21.5, 33.0)),
+            "flange_thickness_10_mm": float(rng.uniform(21.5, 33.0)),
             "qr_mm": float(rng.uniform(6.2, 10.8)),
         }
         for method in ("adaptive", "steger"):

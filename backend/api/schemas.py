@@ -13,6 +13,7 @@ from pydantic import (
     BeforeValidator,
     ConfigDict,
     Field,
+    computed_field,
     model_validator,
 )
 
@@ -341,13 +342,25 @@ class Page(BaseModel, Generic[ItemT]):
     limit: int
 
 
-class MethodResult(BaseModel):
+class Sd10Alias(BaseModel):
+    """Responses that carry Sd 10 also under its old name (`flange_thickness_en_mm`)."""
+
+    @computed_field(  # type: ignore[prop-decorator]
+        description="deprecated: the old name of flange_thickness_10_mm (Sd 10), the same value"
+    )
+    @property
+    def flange_thickness_en_mm(self) -> float | None:
+        value: float | None = getattr(self, "flange_thickness_10_mm")  # noqa: B009
+        return value
+
+
+class MethodResult(Sd10Alias):
     method: str
     status: str
     reason: str | None
     flange_height_mm: float | None
     flange_thickness_mm: float | None
-    flange_thickness_en_mm: float | None
+    flange_thickness_10_mm: float | None
     qr_mm: float | None
     back_to_back_mm: float | None
     tread_hollow_mm: float | None = Field(
@@ -443,7 +456,7 @@ class ProfileRead(BaseModel):
     )
 
 
-class TrendPoint(BaseModel):
+class TrendPoint(Sd10Alias):
     pass_id: int
     started_at: datetime
     site: str
@@ -451,7 +464,7 @@ class TrendPoint(BaseModel):
     status: str
     flange_height_mm: float | None
     flange_thickness_mm: float | None
-    flange_thickness_en_mm: float | None
+    flange_thickness_10_mm: float | None
     qr_mm: float | None
     back_to_back_mm: float | None
     tread_hollow_mm: float | None = None
@@ -600,7 +613,7 @@ class VehicleHistory(BaseModel):
     passes: list[VehiclePass] = Field(description="newest first")
 
 
-class ReferenceRead(ORMModel):
+class ReferenceRead(ORMModel, Sd10Alias):
     """A handheld-gauge profile of a wheel with its parameters [mm]."""
 
     id: int
@@ -614,7 +627,7 @@ class ReferenceRead(ORMModel):
     )
     flange_height_mm: float
     flange_thickness_mm: float
-    flange_thickness_en_mm: float
+    flange_thickness_10_mm: float
     qr_mm: float
     instrument_flange_height_mm: float | None = Field(description="Sh as the file's header gave it")
     instrument_flange_thickness_mm: float | None = Field(

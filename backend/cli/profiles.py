@@ -85,7 +85,7 @@ def _import_reference(args: argparse.Namespace) -> int:
         row = add_reference(session, wheel, path.name, path.read_bytes(), args.measured_at, None)
         sys.stdout.write(
             f"reference {row.id} of wheel {wheel.id}: Sh {row.flange_height_mm:.2f} mm, "
-            f"Sd {row.flange_thickness_mm:.2f} mm, Sd EN {row.flange_thickness_en_mm:.2f} mm, "
+            f"Sd {row.flange_thickness_mm:.2f} mm, Sd EN {row.flange_thickness_10_mm:.2f} mm, "
             f"qR {row.qr_mm:.2f} mm ({row.parameter_quality})\n"
         )
     return 0

@@ -72,7 +72,7 @@ PARAMETERS = (
         "flange_thickness_mm", "Sd", "Flange thickness at 12 mm", "mm", "flange_thickness", ("LM",)
     ),
     Parameter(
-        "flange_thickness_en_mm",
+        "flange_thickness_10_mm",
         "Sd EN",
         "Flange thickness at 10 mm (EN)",
         "mm",
@@ -125,7 +125,7 @@ def nominal_mm(family: str, key: str) -> float | None:
     nominal = {
         "flange_height_mm": values.flange_height_mm,
         "flange_thickness_mm": values.flange_thickness_mm,
-        "flange_thickness_en_mm": values.flange_thickness_10_mm,
+        "flange_thickness_10_mm": values.flange_thickness_10_mm,
         "qr_mm": values.qr_mm,
     }
     return nominal.get(key)

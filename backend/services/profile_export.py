@@ -82,7 +82,7 @@ def export_profile(pass_wheel: PassWheel, method: str, fmt: str) -> ExportedProf
         data = _dxf(x_mm, z_mm, ident)
     else:
         values = [
-            ("Sd", measurement.flange_thickness_en_mm),
+            ("Sd", measurement.flange_thickness_10_mm),
             ("Sh", measurement.flange_height_mm),
             ("qR", measurement.qr_mm),
         ]

@@ -31,7 +31,7 @@ from db.types import utc_now
 from pipeline.profile.exchange import handheld_parameters, read_profile_text
 from pipeline.profile.repeatability import Observation, summarise_agreement
 
-COMPARED = ("flange_height_mm", "flange_thickness_mm", "flange_thickness_en_mm", "qr_mm")
+COMPARED = ("flange_height_mm", "flange_thickness_mm", "flange_thickness_10_mm", "qr_mm")
 """The parameters a handheld gauge measures (it does not see the axle's back-to-back)."""
 SUFFIXES = (".whl", ".prr", ".csv")
 STORED_DECIMALS = 4
@@ -92,7 +92,7 @@ def import_reference(
         z_offset_mm=profile.z_offset_mm,
         flange_height_mm=p.flange_height_mm,
         flange_thickness_mm=p.flange_thickness_mm,
-        flange_thickness_en_mm=p.flange_thickness_10_mm,
+        flange_thickness_10_mm=p.flange_thickness_10_mm,
         qr_mm=p.qr_mm,
         parameter_quality=result.quality,
         instrument_flange_height_mm=profile.instrument_flange_height_mm,

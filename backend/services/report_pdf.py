@@ -24,6 +24,7 @@ from reportlab.lib.styles import ParagraphStyle, getSampleStyleSheet
 from reportlab.lib.units import mm
 from reportlab.pdfgen.canvas import Canvas
 from reportlab.platypus import (
+    CondPageBreak,
     KeepTogether,
     Paragraph,
     SimpleDocTemplate,
@@ -54,6 +55,9 @@ RED_HEX, AMBER_HEX = "#b71c1c", "#e65100"
 RED, AMBER = colors.HexColor(RED_HEX), colors.HexColor(AMBER_HEX)
 HEAD = colors.Color(0.9, 0.9, 0.9)
 MARGIN_PT = 14 * mm
+HEADING_ROOM_PT = 35 * mm
+WHEEL_SECTION_PT = 95 * mm
+"""A wheel's section with its plot (kept together): the room the "Wheels" heading needs."""
 WIDTH_PT = A4[0] - 2 * MARGIN_PT
 
 
@@ -91,7 +95,15 @@ def report_styles() -> dict[str, ParagraphStyle]:
         "h3": ParagraphStyle("h3", parent=base["Heading4"], fontSize=9, spaceAfter=1 * mm),
         "body": body,
         "small": ParagraphStyle("small", parent=body, fontSize=6.5, leading=8),
+        # limits in the full table's 10 mm columns: "27.5–36" on one line, words unbroken
+        "limit": ParagraphStyle("limit", parent=body, fontSize=6, leading=7.5, splitLongWords=0),
     }
+
+
+def heading(text: str, s: dict[str, ParagraphStyle], room_pt: float = HEADING_ROOM_PT) -> list[Any]:
+    """A section heading, on a new page where less than `room_pt` is left below it (no
+    heading alone at a page's foot; a long table after it still starts on its page)."""
+    return [CondPageBreak(room_pt), Paragraph(text, s["h2"])]
 
 
 def grid_table(data: list[list[Any]], widths_mm: Sequence[float], extra: list[Any]) -> Table:
@@ -211,7 +223,7 @@ def _attention(sections: list[WheelSection], amber: str, s: dict) -> list:
             other_mm = None if other is None else getattr(other, margin.parameter)
             rows.append((margin, section, method, other_mm))
     rows.sort(key=lambda r: (r[0].status != "alarm", r[0].margin_mm))
-    story: list[Any] = [Paragraph("Wheels in alarm and near a limit", s["h2"])]
+    story: list[Any] = heading("Wheels in alarm and near a limit", s)
     if not rows:
         story.append(Paragraph("No wheel is in alarm or near a limit.", s["body"]))
         return story
@@ -282,7 +294,7 @@ def _colours(row: int, margins: list[Margin], first_column: int) -> list[Any]:
 
 
 def _limit_cells(limits: dict[str, float], family: str, s: dict) -> list[Any]:
-    return [Paragraph(limit_text(limits, p, family), s["small"]) for p in WHEEL_COLUMNS]
+    return [Paragraph(limit_text(limits, p, family), s["limit"]) for p in WHEEL_COLUMNS]
 
 
 def _full_table(
@@ -309,7 +321,7 @@ def _full_table(
         extra.append(("SPAN", (0, len(data)), (2, len(data))))
         data.append(row)
     return [
-        Paragraph("All wheels", s["h2"]),
+        *heading("All wheels", s),
         grid_table(data, [13, 7, 8, 9, 13, 10, 10, 11, 10, 14, 11, 8, 11, 47], extra),
         Paragraph(
             f"{TERMS} Red: outside its limit; orange: within {amber} of its band.", s["small"]
@@ -357,7 +369,7 @@ def _axle_table(sections: list[WheelSection], s: dict) -> list[Any]:
                 colour = RED if margin.status == "alarm" else AMBER
                 extra.append(("TEXTCOLOR", (3, len(data) - 1), (7, len(data) - 1), colour))
     return [
-        Paragraph("Axles", s["h2"]),
+        *heading("Axles", s),
         grid_table(data, [20, 10, 14, 20, 20, 40, 20, 38], extra),
         Paragraph(
             "λe: the axle's equivalent conicity at 3 mm amplitude (EN 15302, nonlinear method) "
@@ -479,7 +491,7 @@ def render_pdf(
     if len(sections) > 1:
         story += _full_table(sections, all_limits, amber, s)
     story += _axle_table(sections, s)
-    story.append(Paragraph("Wheels", s["h2"]))
+    story += heading("Wheels", s, WHEEL_SECTION_PT)
     story += [_wheel_block(section, s) for section in sections]
     story += _signature(s)
     footer = f"{header.title} · site {summary.site} · pass #{summary.id} · {header.generated_at}"

@@ -132,7 +132,7 @@ def construction_labels(
     wanted = [
         ("sh", "flange_top", f"Flange top: Sh {value('flange_height_mm')}"),
         ("sd", "flank_point", f"Flank at z = 12 mm: Sd {value('flange_thickness_mm')}"),
-        ("sd_en", "flank_point", f"Flank at z = 10 mm: Sd EN {value('flange_thickness_en_mm')}"),
+        ("sd_en", "flank_point", f"Flank at z = 10 mm: Sd EN {value('flange_thickness_10_mm')}"),
         ("qr", "upper_point", f"Flank at Sh − 2 mm: qR {value('qr_mm')} (to z = 10)"),
         ("sh", "tread_point", "Tread reference point (x = 70 mm, z = 0)"),
     ]

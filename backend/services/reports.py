@@ -48,7 +48,7 @@ REPORT_CACHE_FILES = 500
 """PDFs kept in the cache, newest first (a pass PDF is ~250 kB: about 125 MB at most)."""
 STALE_PART_S = 3600.0
 """A half-written cache file older than this was left by a killed process."""
-REPORT_LAYOUT = "8"
+REPORT_LAYOUT = "10"
 """Part of the cache key: bump when the PDF's layout changes, so old PDFs are not served."""
 CSV_COLUMNS = (
     "pass_id", "site", "started_at", "vehicle_id", "axle", "side", "wheel_id", "state",
@@ -136,7 +136,10 @@ def _section(
         profile = measurement.profile or {}
         if profile.get("x_mm"):
             curves.append(Curve(method, np.asarray(profile["x_mm"]), np.asarray(profile["z_mm"])))
-    primary = measurements.get("adaptive") or next(iter(measurements.values()), None)
+    measured = [m for m in measurements.values() if m.status == "measured"]
+    # the constructions drawn: a measured method's, adaptive first
+    primary = min(measured or list(measurements.values()), key=lambda m: m.method != "adaptive",
+                  default=None)  # fmt: skip
     drawing = None
     if len(curves) > (reference in REFERENCE_PROFILES) and primary is not None:
         result = next(r for r in wheel.results if r.method == primary.method)

@@ -30,10 +30,9 @@ STORED_DECIMALS = 4
 """Profile coordinates are stored to 0.1 µm: far below the measurement's resolution."""
 PARAMETER_NAMES = tuple(p.key for p in REPORTED)
 """The wheel parameters of a measurement (`margins.REPORTED`, the one list): its columns and
-the API's fields, in mm but for
-`flange_angle_deg` (°) and the axle's `equivalent_conicity` (no unit, EN 15302 at 3 mm).
-`flange_thickness_en_mm` is the pipeline's `flange_thickness_10_mm` (Sd at the EN height,
-z = 10 mm above the tread reference point); `flange_thickness_mm` is Sd at z = 12 mm."""
+the API's fields, in mm but for `flange_angle_deg` (°) and the axle's `equivalent_conicity`
+(no unit, EN 15302 at 3 mm). `flange_thickness_10_mm` (Sd 10) is Sd at the EN height,
+z = 10 mm above the tread reference point; `flange_thickness_mm` (Sd 12) is Sd at z = 12 mm."""
 
 
 @lru_cache(maxsize=1)
@@ -139,7 +138,7 @@ def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> M
         reason=result.reason if parameters is None else parameters.qr_reason,
         flange_height_mm=None if parameters is None else parameters.flange_height_mm,
         flange_thickness_mm=None if parameters is None else parameters.flange_thickness_mm,
-        flange_thickness_en_mm=None if parameters is None else parameters.flange_thickness_10_mm,
+        flange_thickness_10_mm=None if parameters is None else parameters.flange_thickness_10_mm,
         qr_mm=None if parameters is None else parameters.qr_mm,
         back_face_track_x_mm=result.back_face_track_x_mm,
         tread_hollow_mm=None if tread is None else tread.tread_hollow_mm,

@@ -206,7 +206,7 @@ export interface MethodResult {
   reason: string | null;
   flange_height_mm: number | null;
   flange_thickness_mm: number | null;
-  flange_thickness_en_mm: number | null;
+  flange_thickness_10_mm: number | null;
   qr_mm: number | null;
   back_to_back_mm: number | null;
   /** depth below the straight edge at x = 60 and 120 mm */
@@ -227,6 +227,8 @@ export interface MethodResult {
   quality: Record<string, unknown>;
   alarms: Record<string, unknown>[];
   pipeline_version: string;
+  /** deprecated: the old name of flange_thickness_10_mm (Sd 10), the same value */
+  flange_thickness_en_mm: number | null;
 }
 
 export interface MissingSensor {
@@ -350,7 +352,7 @@ export interface ReferenceRead {
   parameter_quality: "fit" | "interpolated";
   flange_height_mm: number;
   flange_thickness_mm: number;
-  flange_thickness_en_mm: number;
+  flange_thickness_10_mm: number;
   qr_mm: number;
   /** Sh as the file's header gave it */
   instrument_flange_height_mm: number | null;
@@ -363,6 +365,8 @@ export interface ReferenceRead {
   x_mm: number[];
   z_mm: number[];
   created_at: string;
+  /** deprecated: the old name of flange_thickness_10_mm (Sd 10), the same value */
+  flange_thickness_en_mm: number | null;
 }
 
 export interface SiteCreate {
@@ -450,7 +454,7 @@ export interface TrendPoint {
   status: string;
   flange_height_mm: number | null;
   flange_thickness_mm: number | null;
-  flange_thickness_en_mm: number | null;
+  flange_thickness_10_mm: number | null;
   qr_mm: number | null;
   back_to_back_mm: number | null;
   tread_hollow_mm?: number | null;
@@ -458,6 +462,8 @@ export interface TrendPoint {
   rim_width_mm?: number | null;
   equivalent_conicity?: number | null;
   alarm_count: number;
+  /** deprecated: the old name of flange_thickness_10_mm (Sd 10), the same value */
+  flange_thickness_en_mm: number | null;
 }
 
 export interface VehicleHistory {

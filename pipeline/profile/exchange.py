@@ -40,6 +40,8 @@ is a chamfer or the end of the tread, which tells a file written z-down from one
 INSTRUMENT_KEYS = {"Sh": "flange_height", "Sd": "flange_thickness", "qR": "qr"}
 """Header keys (case-insensitive) of the instrument's own parameters [mm]."""
 MIN_POINTS = 10
+LEGACY_MARKER = re.compile(r"\(\s*Sd\s*/\s*Sh\s*/\s*qR\s*\)", re.IGNORECASE)
+"""The line of an old MiniProf file's header that names its three numbers Sd, Sh and qR."""
 
 
 class ProfileFileError(PipelineError):
@@ -140,15 +142,35 @@ def _split_row(line: str) -> list[str]:
     return [cell for cell in re.split(r"[\s,;]+", line.strip()) if cell]
 
 
+def _legacy_header(lines: list[str]) -> tuple[list[tuple[str, str]], set[int]]:
+    """The header of an old MiniProf ASCII file (no `key=value` lines: a title such as
+    `MINIPROF 2020`, `Stock.......:` lines, then `Sd Sh qR` as three numbers on the line of
+    the `(Sd/Sh/qR)` marker or the one before it) and the indices of the lines it used, or
+    nothing where no such marker precedes the points."""
+    marker = next((i for i, line in enumerate(lines) if LEGACY_MARKER.search(line)), None)
+    if marker is None:
+        return [], set()
+    used = {marker}
+    values = _split_row(LEGACY_MARKER.sub("", lines[marker]).replace('"', " "))
+    if not values and marker > 0:
+        used.add(marker - 1)
+        values = _split_row(lines[marker - 1].replace('"', " "))
+    header = [(key, value) for key, value in zip(("Sd", "Sh", "qR"), values, strict=False)]
+    title = next((line.strip() for line in lines[:marker] if line.strip().upper().startswith(
+        "MINIPROF")), None)  # fmt: skip
+    return ([("ProgramName", title)] if title else []) + header, used
+
+
 def _parse_whl(lines: list[str]) -> tuple[list[tuple[str, str]], np.ndarray]:
     """Header lines and the (K, 2) points of a MiniProf-style file. Before the first row
     of numbers, lines that are not `key=value` (titles, section names) are passed over;
-    after it, every line must be numbers."""
-    header: list[tuple[str, str]] = []
+    after it, every line must be numbers. Old MiniProf files' `(Sd/Sh/qR)` line is read
+    as those three header keys (`_legacy_header`)."""
+    header, legacy_lines = _legacy_header(lines)
     rows: list[list[str]] = []
     for number, raw in enumerate(lines, start=1):
         line = raw.strip()
-        if not line or line.startswith("#"):
+        if not line or line.startswith("#") or number - 1 in legacy_lines:
             continue
         if "=" in line and not rows:
             key, _, value = line.partition("=")

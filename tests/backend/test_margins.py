@@ -13,8 +13,8 @@ from backend.services.results import PARAMETER_NAMES
 @pytest.mark.parametrize(
     "family, values, expected",
     [
-        ("EN", {"flange_height_mm": 27.9, "flange_thickness_en_mm": 30.0, "qr_mm": 9.0},
-         {"flange_height_mm": ("min", 0.4, "near"), "flange_thickness_en_mm": ("max", 3.0, "ok"),
+        ("EN", {"flange_height_mm": 27.9, "flange_thickness_10_mm": 30.0, "qr_mm": 9.0},
+         {"flange_height_mm": ("min", 0.4, "near"), "flange_thickness_10_mm": ("max", 3.0, "ok"),
           "qr_mm": ("min", 2.5, "ok")}),
         # LM Sd band 23–34 mm: 1.2 mm inside is 10.9 % of it (ok), 0.9996 mm is 9.1 % (near)
         ("LM", {"flange_height_mm": 33.2, "flange_thickness_mm": 24.2, "qr_mm": 6.4},
@@ -22,7 +22,7 @@ from backend.services.results import PARAMETER_NAMES
           "qr_mm": ("min", -0.1, "alarm")}),
         ("LM", {"flange_thickness_mm": 23.9996},
          {"flange_thickness_mm": ("min", 0.9996, "near")}),
-        ("LM", {"back_to_back_mm": 1355.5, "flange_thickness_en_mm": 20.0},
+        ("LM", {"back_to_back_mm": 1355.5, "flange_thickness_10_mm": 20.0},
          {"back_to_back_mm": ("max", 0.5, "near")}),
     ],
 )  # fmt: skip

@@ -25,7 +25,6 @@ from tests.backend.conftest import empty_service, make_tokens
 
 PARAMETERS = ("flange_height_mm", "flange_thickness_mm", "qr_mm", "back_to_back_mm")
 TREAD = ("tread_hollow_mm", "flange_angle_deg", "rim_width_mm")
-CLI_NAMES = {"flange_thickness_en_mm": "flange_thickness_10_mm"}
 
 
 @pytest.fixture(scope="session")
@@ -104,11 +103,12 @@ def test_an_uploaded_pass_is_measured_as_the_cli_measures_it(client, auth, measu
     for row in simulated["cli"]:
         mine = ours[(row["vehicle_id"], row["axle"], row["side"], row["method"])]
         assert mine["status"] == "measured" == row["status"]
-        for name in (*PARAMETERS, "flange_thickness_en_mm"):
+        for name in (*PARAMETERS, "flange_thickness_10_mm"):
             # The CLI rounds to 4 decimals; the service stores the full value.
-            assert mine[name] == pytest.approx(row[CLI_NAMES.get(name, name)], abs=6e-5), name
+            assert mine[name] == pytest.approx(row[name], abs=6e-5), name
         for name in TREAD:
             assert mine[name] == pytest.approx(row[name], abs=6e-5), name
+        assert mine["flange_thickness_en_mm"] == mine["flange_thickness_10_mm"]  # the old name
         # The service computes the axle's conicity from the stored profiles (0.1 µm).
         assert mine["equivalent_conicity"] == pytest.approx(row["equivalent_conicity"], abs=1e-3)
     for truth in simulated["truth"]["wheels"]:
@@ -244,7 +244,7 @@ def test_streaming_out_of_order_with_repeats_and_a_drop_equals_the_upload(
     by_stream = results_by_wheel(client, auth, streamed["pass_id"])
     assert by_stream.keys() == by_upload.keys()
     for key, row in by_upload.items():
-        for name in (*PARAMETERS, "flange_thickness_en_mm", "alarms", "quality"):
+        for name in (*PARAMETERS, "flange_thickness_10_mm", "alarms", "quality"):
             assert by_stream[key][name] == row[name], (key, name)
 
 

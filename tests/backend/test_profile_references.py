@@ -98,7 +98,8 @@ def test_a_handheld_reference_is_imported_compared_and_summarised(client, auth, 
     assert row["parameter_quality"] == "interpolated"
     assert row["z_offset_mm"] == pytest.approx(0.3, abs=0.002)
     assert row["instrument_flange_thickness_mm"] == 32.95
-    assert row["flange_thickness_en_mm"] == pytest.approx(truth.flange_thickness_10_mm, abs=0.02)
+    assert row["flange_thickness_10_mm"] == pytest.approx(truth.flange_thickness_10_mm, abs=0.02)
+    assert row["flange_thickness_en_mm"] == row["flange_thickness_10_mm"]  # the old name, kept
     assert row["qr_mm"] == pytest.approx(truth.qr_mm, abs=0.02)
     again = client.post(url, files=files, headers=auth("operator"))
     assert again.json()["id"] == row["id"]

@@ -22,7 +22,7 @@ S1002_QR_NEW_MM = 10.7941
 def add_wheel(client, pass_id: int, vehicle: str, axle: int, side: str, **values) -> int:
     """A measured wheel in a pass, through the service's own margin and alarm code."""
     steger_sh = values.pop("steger_sh", None)
-    params = {"flange_height_mm": 31.0, "flange_thickness_en_mm": 27.5, "qr_mm": 7.5} | values
+    params = {"flange_height_mm": 31.0, "flange_thickness_10_mm": 27.5, "qr_mm": 7.5} | values
     with client.app.state.session_factory() as session:
         wheel = get_or_create_wheel(session, vehicle, axle, side)
         pass_wheel = PassWheel(pass_id=pass_id, wheel_id=wheel.id, state="measured")

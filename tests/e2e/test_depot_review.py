@@ -193,7 +193,7 @@ def test_pass_list_and_pass_page_show_amber_red_and_the_values_in_alarm(
     value = alarm_card.locator("tr[data-parameter=flange_thickness_mm] td.alarm")
     assert float(value.inner_text()) > LM_SD_MAX_MM
     assert "mm" in alarm_card.inner_text() and "LM limits" in alarm_card.inner_text()
-    assert alarm_card.locator("tr[data-parameter=flange_thickness_en_mm]").count() == 0
+    assert alarm_card.locator("tr[data-parameter=flange_thickness_10_mm]").count() == 0
     assert page.locator(".alarm-values").inner_text().startswith("In alarm:")
     page.screenshot(path=str(screenshots / "22-pass-levels.png"))
 

@@ -42,11 +42,11 @@ test('limitsFor maps the reference profile to its limit family', () => {
 });
 
 test('flange thickness limits apply at 10 mm for EN and at 12 mm for LM', () => {
-  assert.equal(limitStem('flange_thickness_en_mm', 'EN'), 'flange_thickness');
+  assert.equal(limitStem('flange_thickness_10_mm', 'EN'), 'flange_thickness');
   assert.equal(limitStem('flange_thickness_mm', 'EN'), null);
   assert.equal(limitStem('flange_thickness_mm', 'LM'), 'flange_thickness');
   const result = { alarms: [{ parameter: 'flange_thickness_mm' }] };
-  assert.equal(hasAlarmOn(result, 'flange_thickness_en_mm', 'EN'), true);
+  assert.equal(hasAlarmOn(result, 'flange_thickness_10_mm', 'EN'), true);
   assert.equal(hasAlarmOn(result, 'flange_thickness_mm', 'EN'), false);
   assert.equal(hasAlarmOn(result, 'qr_mm', 'EN'), false);
 });

@@ -33,7 +33,7 @@ export const PARAMETERS = [
     definition: 'Back face to the flange flank, 12 mm above the tread reference point (LM wheels).',
   },
   {
-    key: 'flange_thickness_en_mm',
+    key: 'flange_thickness_10_mm',
     label: 'Sd EN',
     title: 'Flange thickness at 10 mm (EN)',
     unit: 'mm',

@@ -23,12 +23,12 @@ export function resultOf(wheel, method) {
 /**
  * The limit name ("flange_thickness") a displayed parameter is checked against, or null.
  * EN limits check the flange thickness at 10 mm, LM limits the one at 12 mm (as the service).
- * @param {string} key parameter key such as "flange_thickness_en_mm"
+ * @param {string} key parameter key such as "flange_thickness_10_mm"
  * @param {string|null|undefined} family "EN" or "LM"
  * @returns {string|null}
  */
 export function limitStem(key, family) {
-  if (key === 'flange_thickness_en_mm') return family === 'LM' ? null : 'flange_thickness';
+  if (key === 'flange_thickness_10_mm') return family === 'LM' ? null : 'flange_thickness';
   if (key === 'flange_thickness_mm') return family === 'LM' ? 'flange_thickness' : null;
   return key.replace(/_mm$/, '');
 }

@@ -286,7 +286,7 @@ function utcDays(_u, splits) {
  * @param {string} key
  */
 function limitStemOf(key) {
-  return key === 'flange_thickness_en_mm' ? 'flange_thickness' : key.replace(/_mm$/, '');
+  return key === 'flange_thickness_10_mm' ? 'flange_thickness' : key.replace(/_mm$/, '');
 }
 
 /**
