@@ -32,7 +32,7 @@ from pipeline.extraction.linking import link_points
 from pipeline.extraction.normal_fit import matched_offsets
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
 from pipeline.extraction.scalespace import ScaleLevel
-from pipeline.extraction.segmentation import CHAIN_FRACTION, CHAIN_MIN_POINTS
+from pipeline.extraction.segmentation import CHAIN_FRACTION, CHAIN_MIN_POINTS, CHAIN_WIDTH_FACTOR
 from pipeline.extraction.steger import centre_pixels, newton_step
 from pipeline.extraction.widths import stripe_widths
 from pipeline.imaging import GEOMETRY_FLOAT, PixelRegion, validate_image
@@ -323,7 +323,10 @@ def _lines_only(
     line = np.ones(x.size, bool)
     height = np.full(x.size, np.nan)
     if width_min is not None:
-        profiles = line_profiles(image, x, y, nx, ny, selected.sigma, width_min_px=width_min)
+        c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
+        profiles = line_profiles(
+            image, x, y, nx, ny, selected.sigma, width_min_px=width_min, c_grey=c_grey
+        )
         line = is_line(profiles)
         height = profiles[2]
     kept = _Selected(
@@ -351,6 +354,36 @@ def _bright_chains(
     return bright, np.concatenate(dim) if dim else np.zeros(0, np.int64)
 
 
+def _widths(levels, level_index, x, y, nx, ny, width_max: float) -> np.ndarray:
+    """Stripe width [px] at centres (x, y) found at `levels[level_index]`
+    (`widths.stripe_widths`, searched within twice the standard deviation of the widest
+    stripe smoothed at that scale); NaN where an edge lies beyond reach."""
+    widths = np.full(x.size, np.nan)
+    for i, level in enumerate(levels):
+        at = np.flatnonzero(level_index == i)
+        if at.size:
+            reach = 2 * math.hypot(level.sigma_px, width_max / 4) + 1
+            widths[at] = stripe_widths(level, x[at], y[at], nx[at], ny[at], reach_px=reach)
+    return widths
+
+
+def _narrow_chains(
+    chains: list[np.ndarray], widths: np.ndarray, width_max: float
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """The chains whose measured widths (`widths`, the chains' points in order) are at most
+    CHAIN_WIDTH_FACTOR·width_max at more than half of their points (`segmentation`; no
+    width counts as wider), and which of the chains' points they hold (bool, same order)."""
+    bounds = np.cumsum([0] + [c.size for c in chains])
+    too_wide = ~(widths <= CHAIN_WIDTH_FACTOR * width_max)
+    kept = np.zeros(widths.size, bool)
+    narrow = []
+    for chain, a, b in zip(chains, bounds[:-1], bounds[1:], strict=True):
+        if too_wide[a:b].mean() <= 0.5:
+            narrow.append(chain)
+            kept[a:b] = True
+    return narrow, kept
+
+
 def _assemble(
     image: np.ndarray,
     candidates: _Selected,
@@ -375,13 +408,14 @@ def _assemble(
     rejected_y = np.concatenate([rejected_y, y[weak]])
     _orient_normals(nx, ny, chains)
     order = np.concatenate(chains) if chains else np.zeros(0, np.int64)
-    widths = np.full(order.size, np.nan)
-    for i, level in enumerate(selected.levels):
-        at = np.flatnonzero(selected.level_index[order] == i)
-        if at.size:
-            p = order[at]
-            reach = 2 * math.hypot(level.sigma_px, width_max / 4) + 1
-            widths[at] = stripe_widths(level, x[p], y[p], nx[p], ny[p], reach_px=reach)
+    points = (x[order], y[order], nx[order], ny[order])
+    widths = _widths(selected.levels, selected.level_index[order], *points, width_max)
+    if width_min is not None:
+        chains, kept = _narrow_chains(chains, widths, width_max)
+        wide = order[~kept]
+        rejected_x = np.concatenate([rejected_x, x[wide]])
+        rejected_y = np.concatenate([rejected_y, y[wide]])
+        order, widths = order[kept], widths[kept]
     bounds = np.cumsum([0] + [c.size for c in chains])
     polylines = tuple(
         np.arange(a, b, dtype=np.int64) for a, b in zip(bounds[:-1], bounds[1:], strict=True)

@@ -53,6 +53,14 @@ CHAIN_MIN_POINTS = 30
 whatever its height: a dim stretch of the laser linked apart from its bright parts (on real
 frames a quarter of their height) is long, texture ridges are not."""
 
+CHAIN_WIDTH_FACTOR = 1.5
+"""A linked chain of centres is the stripe's only when at most half of its points measure
+wider than this multiple of the widest stripe expected (`width_max`), or have no width
+(an edge beyond the search reach, `widths.stripe_widths`). The measured 1/e² width of a
+stripe of the configured range stays within it (uniform 21 px: 21.1 median, saturated
+2.5× at 21 px: 23 at the 90th percentile; real laser lines 7–26 px at the default
+5–21); a lit bar, a broad glow or the halo of a specular highlight measures 35–95 px."""
+
 KEEP_FRACTION = 0.3
 """Strong components at least this share of the longest strong one's length are kept as
 stripe pieces; shorter ones only when they continue a kept piece."""
