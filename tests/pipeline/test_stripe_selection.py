@@ -7,6 +7,7 @@ import pytest
 from scipy.special import erfc
 
 from pipeline import extract_centres
+from pipeline.extraction.centres import _bright_chains
 from pipeline.extraction.line_test import is_line, line_profiles
 from pipeline.imaging import PixelRegion
 
@@ -172,3 +173,22 @@ def test_a_lit_bar_wider_than_the_widest_stripe_is_not_kept() -> None:
     # With the widest stripe configured at 45 px the bar is a stripe.
     wide = extract_centres(np.rint(image).astype(np.uint8), width_min=5, width_max=45)
     assert ((np.abs(wide.y - 200.0) < 0.5) & (wide.x > 60) & (wide.x < 580)).sum() > 400
+
+
+def test_a_long_dim_chain_is_kept_beside_the_stripe_and_dropped_apart_from_it() -> None:
+    # Chains of centres 1 px apart along x: the stripe's bright chain (height 100) at y 0, and
+    # dim ones (height 20, a fifth of it): a long one 10 px beside it (a dim stretch of the
+    # stripe), a long one 40 px off (a flare streak), a long one 80 px off but strong in itself
+    # (C 30 ≥ 10·c), and a short one 5 px beside it (texture).
+    rows = (0.0, 10.0, 40.0, 80.0, 5.0)
+    lengths = (100, 40, 40, 40, 10)
+    xy = np.concatenate(
+        [np.column_stack([np.arange(n), np.full(n, r)]) for r, n in zip(rows, lengths, strict=True)]
+    )
+    bounds = np.cumsum((0, *lengths))
+    chains = [np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    height = np.repeat([100.0, 20, 20, 20, 20], lengths)
+    strength = np.repeat([40.0, 8, 8, 30, 8], lengths)
+    kept, dropped = _bright_chains(chains, height, strength, xy, c_grey=2.55)
+    assert [c[0] for c in kept] == [bounds[0], bounds[1], bounds[3]]
+    assert sorted(dropped) == [*range(bounds[2], bounds[3]), *range(bounds[4], bounds[5])]
