@@ -1,4 +1,7 @@
-"""Stripe centres of a frame: the `Centres` result and `extract_centres`, the design's contract."""
+"""Stripe centres of a frame: the `Centres` result and `extract_centres`, the design's contract.
+
+The method, its equations and constants: docs/extraction.md.
+"""
 
 from __future__ import annotations
 

@@ -131,19 +131,9 @@ def keys_weights(fraction: float) -> tuple[float, float, float, float]:
 
 
 @kernel
-def reflect_index(index: int, size: int) -> int:
-    """An index folded into [0, size) with the edge pixel repeated (the BORDER mode)."""
-    if index < 0:
-        index = -index - 1
-    if index >= size:
-        index = 2 * size - index - 1
-    return index
-
-
-@kernel
 def fold_index(index: int, size: int) -> int:
     """An index folded into [0, size) as cv2.BORDER_REFLECT (edge pixel repeated), as
-    often as it takes."""
+    often as it takes: the one BORDER mode of the pipeline, index by index."""
     if size == 1:
         return 0
     while index < 0 or index >= size:
@@ -160,16 +150,16 @@ def cubic_taps(u: float, v: float, height: int, width: int):
     iu, iv = int(u0), int(v0)
     wu, wv = keys_weights(fu), keys_weights(fv)
     cols = (
-        reflect_index(iu - 1, width),
-        reflect_index(iu, width),
-        reflect_index(iu + 1, width),
-        reflect_index(iu + 2, width),
+        fold_index(iu - 1, width),
+        fold_index(iu, width),
+        fold_index(iu + 1, width),
+        fold_index(iu + 2, width),
     )
     rows = (
-        reflect_index(iv - 1, height),
-        reflect_index(iv, height),
-        reflect_index(iv + 1, height),
-        reflect_index(iv + 2, height),
+        fold_index(iv - 1, height),
+        fold_index(iv, height),
+        fold_index(iv + 1, height),
+        fold_index(iv + 2, height),
     )
     return rows, cols, wv, wu
 

@@ -8,8 +8,8 @@ from pipeline.extraction.scalespace import (
     ScaleLevel,
     cubic_at,
     cubic_taps,
+    fold_index,
     keys_weights,
-    reflect_index,
 )
 from pipeline.jit import kernel
 
@@ -42,8 +42,8 @@ def _gradient_squared(ix, iy, u: float, v: float) -> float:
     if 0 <= c0 < width - 1 and 0 <= r0 < height - 1:
         c1, r1 = c0 + 1, r0 + 1
     else:
-        c1, r1 = reflect_index(c0 + 1, width), reflect_index(r0 + 1, height)
-        c0, r0 = reflect_index(c0, width), reflect_index(r0, height)
+        c1, r1 = fold_index(c0 + 1, width), fold_index(r0 + 1, height)
+        c0, r0 = fold_index(c0, width), fold_index(r0, height)
     return _bilinear_gradient_squared(ix, iy, r0, r1, c0, c1, u - u0, v - v0)
 
 
