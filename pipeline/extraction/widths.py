@@ -9,7 +9,7 @@ from pipeline.extraction.scalespace import (
     cubic_at,
     cubic_taps,
     fold_index,
-    keys_weights,
+    interior_taps,
 )
 from pipeline.jit import kernel
 
@@ -65,16 +65,9 @@ def _coarse_interior(ix, iy, x0, y0, dx, dy, steps, origin, scale, values) -> No
 @kernel
 def _cubic_gradient_interior(ix, iy, u: float, v: float) -> float:
     """|∇I| from Keys cubic Ix, Iy at level-grid coordinates (u, v) when all 4 × 4 taps lie
-    inside the grid: `cubic_taps` without index folding, unsigned indices, the taps shared
-    by both fields."""
-    u0 = np.floor(u)
-    v0 = np.floor(v)
-    c, r = np.uint64(u0) - np.uint64(1), np.uint64(v0) - np.uint64(1)
-    one, two, three = np.uint64(1), np.uint64(2), np.uint64(3)
-    rows = (r, r + one, r + two, r + three)
-    cols = (c, c + one, c + two, c + three)
-    wv, wu = keys_weights(v - v0), keys_weights(u - u0)
-    return np.hypot(cubic_at(ix, rows, cols, wv, wu), cubic_at(iy, rows, cols, wv, wu))
+    inside the grid (`interior_taps`, shared by both fields)."""
+    taps = interior_taps(u, v)
+    return np.hypot(cubic_at(ix, *taps), cubic_at(iy, *taps))
 
 
 @kernel
