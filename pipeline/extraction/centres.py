@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from pipeline.extraction.adaptive import (
     LevelResponse,
@@ -36,7 +37,13 @@ from pipeline.extraction.linking import link_points
 from pipeline.extraction.normal_fit import matched_offsets
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
 from pipeline.extraction.scalespace import ScaleLevel
-from pipeline.extraction.segmentation import CHAIN_FRACTION, CHAIN_MIN_POINTS
+from pipeline.extraction.segmentation import (
+    CHAIN_FRACTION,
+    CHAIN_MIN_POINTS,
+    CHAIN_WIDTH_FACTOR,
+    CONTINUITY_GAP_PX,
+    STRONG_C_RATIO,
+)
 from pipeline.extraction.steger import centre_pixels, newton_step
 from pipeline.extraction.widths import stripe_widths
 from pipeline.imaging import GEOMETRY_FLOAT, PixelRegion, validate_image
@@ -95,9 +102,10 @@ class Centres:
     rejected_x, rejected_y : ndarray of shape (R,), float64
         Sub-pixel positions [px] of the candidate centres inside the mask that "adaptive"
         rejected: the line-vs-edge test's (`pipeline.extraction.line_test`: the grey does
-        not fall off on both sides, or the line is thinner than width_min allows) and those
-        of short, dim chains (`segmentation.CHAIN_FRACTION`). Empty for "steger" and
-        "classic", the paper's baselines.
+        not fall off on both sides, or the line is thinner than width_min allows), those of
+        dim chains short or apart from the stripe (`segmentation.CHAIN_FRACTION`) and of
+        chains wider than the width range (`segmentation.CHAIN_WIDTH_FACTOR`). Empty for
+        "steger" and "classic", the paper's baselines.
     region : PixelRegion or None
         The part of the frame searched (None: all of it); nothing outside it is in the mask.
 
@@ -334,7 +342,10 @@ def _lines_only(
     line = np.ones(x.size, bool)
     height = np.full(x.size, np.nan)
     if width_min is not None:
-        profiles = line_profiles(image, x, y, nx, ny, selected.sigma, width_min_px=width_min)
+        c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
+        profiles = line_profiles(
+            image, x, y, nx, ny, selected.sigma, width_min_px=width_min, c_grey=c_grey
+        )
         line = is_line(profiles)
         height = profiles[2]
     kept = _Selected(
@@ -348,18 +359,72 @@ def _lines_only(
 
 
 def _bright_chains(
-    chains: list[np.ndarray], height: np.ndarray
+    chains: list[np.ndarray],
+    height: np.ndarray,
+    strength: np.ndarray,
+    xy: np.ndarray,
+    c_grey: float,
 ) -> tuple[list[np.ndarray], np.ndarray]:
-    """The chains that are long (≥ CHAIN_MIN_POINTS) or whose highest line is at least
-    CHAIN_FRACTION of the highest of all (`segmentation`; every chain when the heights are
-    NaN), and the points of the others."""
+    """The chains of the stripe (`segmentation`; every chain when the heights are NaN) and
+    the points of the others.
+
+    A chain is kept when its highest line (`height` [grey levels]) is at least
+    CHAIN_FRACTION of the highest chain's; a dimmer one only when it is long
+    (≥ CHAIN_MIN_POINTS) and either strong in itself (`strength` up to STRONG_C_RATIO·c) or
+    within CONTINUITY_GAP_PX of a kept chain (a dim stretch of the stripe beside its bright
+    parts, not a flare streak or an outline apart from them), until none is added.
+    `xy` (K, 2) are the centres [px].
+    """
     if not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
     least = CHAIN_FRACTION * max(height[c].max() for c in chains)
-    kept = [c.size >= CHAIN_MIN_POINTS or height[c].max() >= least for c in chains]
+    long = [c.size >= CHAIN_MIN_POINTS for c in chains]
+    kept = [
+        height[c].max() >= least or (g and strength[c].max() >= STRONG_C_RATIO * c_grey)
+        for c, g in zip(chains, long, strict=True)
+    ]
+    while any(kept):
+        near = cKDTree(xy[np.concatenate([c for c, k in zip(chains, kept, strict=True) if k])])
+        grown = [
+            k or (g and near.query(xy[c], distance_upper_bound=CONTINUITY_GAP_PX)[0].min() < np.inf)
+            for c, k, g in zip(chains, kept, long, strict=True)
+        ]
+        if grown == kept:
+            break
+        kept = grown
     dim = [c for c, k in zip(chains, kept, strict=True) if not k]
     bright = [c for c, k in zip(chains, kept, strict=True) if k]
     return bright, np.concatenate(dim) if dim else np.zeros(0, np.int64)
+
+
+def _widths(levels, level_index, x, y, nx, ny, width_max: float) -> np.ndarray:
+    """Stripe width [px] at centres (x, y) found at `levels[level_index]`
+    (`widths.stripe_widths`, searched within twice the standard deviation of the widest
+    stripe smoothed at that scale); NaN where an edge lies beyond reach."""
+    widths = np.full(x.size, np.nan)
+    for i, level in enumerate(levels):
+        at = np.flatnonzero(level_index == i)
+        if at.size:
+            reach = 2 * math.hypot(level.sigma_px, width_max / 4) + 1
+            widths[at] = stripe_widths(level, x[at], y[at], nx[at], ny[at], reach_px=reach)
+    return widths
+
+
+def _narrow_chains(
+    chains: list[np.ndarray], widths: np.ndarray, width_max: float
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """The chains whose measured widths (`widths`, the chains' points in order) are at most
+    CHAIN_WIDTH_FACTOR·width_max at more than half of their points (`segmentation`; no
+    width counts as wider), and which of the chains' points they hold (bool, same order)."""
+    bounds = np.cumsum([0] + [c.size for c in chains])
+    too_wide = ~(widths <= CHAIN_WIDTH_FACTOR * width_max)
+    kept = np.zeros(widths.size, bool)
+    narrow = []
+    for chain, a, b in zip(chains, bounds[:-1], bounds[1:], strict=True):
+        if too_wide[a:b].mean() <= 0.5:
+            narrow.append(chain)
+            kept[a:b] = True
+    return narrow, kept
 
 
 def _assemble(
@@ -381,18 +446,21 @@ def _assemble(
     lines = _lines_only(image, candidates, width_min)
     selected, (x, y, nx, ny), height, rejected_x, rejected_y = lines
     chains = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
-    chains, weak = _bright_chains(chains, height)
+    c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
+    xy = np.column_stack([x, y])
+    chains, weak = _bright_chains(chains, height, selected.strength, xy, c_grey)
     rejected_x = np.concatenate([rejected_x, x[weak]])
     rejected_y = np.concatenate([rejected_y, y[weak]])
     _orient_normals(nx, ny, chains)
     order = np.concatenate(chains) if chains else np.zeros(0, np.int64)
-    widths = np.full(order.size, np.nan)
-    for i, level in enumerate(selected.levels):
-        at = np.flatnonzero(selected.level_index[order] == i)
-        if at.size:
-            p = order[at]
-            reach = 2 * math.hypot(level.sigma_px, width_max / 4) + 1
-            widths[at] = stripe_widths(level, x[p], y[p], nx[p], ny[p], reach_px=reach)
+    points = (x[order], y[order], nx[order], ny[order])
+    widths = _widths(selected.levels, selected.level_index[order], *points, width_max)
+    if width_min is not None:
+        chains, kept = _narrow_chains(chains, widths, width_max)
+        wide = order[~kept]
+        rejected_x = np.concatenate([rejected_x, x[wide]])
+        rejected_y = np.concatenate([rejected_y, y[wide]])
+        order, widths = order[kept], widths[kept]
     bounds = np.cumsum([0] + [c.size for c in chains])
     polylines = tuple(
         np.arange(a, b, dtype=np.int64) for a, b in zip(bounds[:-1], bounds[1:], strict=True)
@@ -523,11 +591,13 @@ def extract_centres(
     t = −(nx·Ix + ny·Iy)/(nx²·Ixx + 2nx·ny·Ixy + ny²·Iyy) satisfies |t·nx| ≤ 0.5 and
     |t·ny| ≤ 0.5; the point is (c + t·nx, r + t·ny) [1] (paper eqs. (8)–(10)). "adaptive"
     then keeps the candidates that are lines, not edges (`line_test.is_line`). Points are
-    linked into polylines ("adaptive" drops short chains far dimmer than the brightest) and
-    their widths measured between the gradient maxima. Which stage rejects what: the mask
-    (`segmentation`) spots, dim outlines, texture, ghosts and short pieces of other parts'
-    stripes; the line test step edges and highlights thinner than the stripe; measurement
-    another part's long bright stripe, by its place in the track frame.
+    linked into polylines and their widths measured between the gradient maxima; "adaptive"
+    drops chains far dimmer than the brightest that are short or lie apart from the kept
+    ones, and chains wider than CHAIN_WIDTH_FACTOR·width_max (`segmentation`). Which stage
+    rejects what: the mask (`segmentation`) spots, dim outlines, texture, ghosts and short
+    pieces of other parts' stripes; the line test step edges and highlights thinner than
+    the stripe; the chain rules dim streaks apart from the stripe and lines wider than it;
+    measurement another part's long bright stripe, by its place in the track frame.
     The σ map and the mask are those of the pixels, before the sub-pixel step.
 
     References

@@ -37,6 +37,30 @@ this share of it: light added by the laser, not the reflectance texture of a lit
 which multiplies the ambient level (15 % standard deviation: a texture ridge 3σ high is
 0.45 of its surroundings). The bright side of a step edge is as bright at 2d as at d."""
 
+VALLEY_START_SIGMAS = 1.0
+"""A strong line's side (VALLEY_FALL_C) that fails at d and at the background read is read a
+third time, for a valley between the line and a bright neighbour closer than d (the wide
+end of the next piece of a stripe broken at a depth step, a second laser line where the two
+cross): the lowest grey of the profile smoothed at σ/2 (VALLEY_SMOOTHING) from this
+multiple of σ out to d, every VALLEY_STEP_PX. A line of the width σ matches is down to 0.32
+of its peak at σ in that profile; the bright side of a step edge does not dip below the
+candidate's level."""
+
+VALLEY_FALL_C = 6.0
+"""The valley is looked for only beside a line whose stronger side falls off by at least
+this many times the ridge response's structure constant c (`ridges.RIDGE_C_FULL_SCALE`,
+15.3 grey levels in 8 bit: a Gaussian line of peak ≈ 45 at its matching scale). Laser
+lines fall off by 57–75 on the lit synthetic scenes and 15–95 on the real frames; a texture
+ridge of a lit plate by 10–18 (lit-edge-crossing), and beside one a texture bump opens a
+valley as well: at 3·c a 33-point texture chain passes there (3.4 % false points), at
+10·c the crossing lines of weld-2 lose 0.7 point of coverage (95.1 → 94.4 %)."""
+
+VALLEY_SMOOTHING = 0.5
+"""The valley's profile is smoothed by a Gaussian of this share of the centre's σ."""
+
+VALLEY_STEP_PX = 1.0
+"""Spacing of the valley reads [px]."""
+
 SIDE_FLOOR = 0.5
 """A line's weaker side falls off by at least this share of its stronger side's fall-off.
 A line on a flat background has 1, on a lit ramp or across a plate edge a little less; the
@@ -121,12 +145,30 @@ def _background_level(image, x, y, nx, ny, s, reach, centre, near, weights, insi
 
 
 @kernel
-def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, out) -> None:
+def _valley_level(image, x, y, nx, ny, s, reach, near, weights, inside) -> float:
+    """A side's level when its reads at d and beyond fail the side test: the lowest grey,
+    smoothed at VALLEY_SMOOTHING·s, from VALLEY_START_SIGMAS·s out to `reach` [px]
+    (signed) along the normal, if lower than `near`."""
+    fine = VALLEY_SMOOTHING * s
+    direction = 1.0 if reach > 0 else -1.0
+    lowest = near
+    t = VALLEY_START_SIGMAS * s
+    while t <= abs(reach):
+        lowest = min(
+            lowest, _smoothed_at(image, x, y, nx, ny, fine, direction * t, weights, inside)
+        )
+        t += VALLEY_STEP_PX
+    return lowest
+
+
+@kernel
+def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, strong_fall, out) -> None:
     """Per centre: out[0], out[1] the fall-off to +d·n and −d·n of the profile smoothed along
     the normal by a Gaussian of the centre's σ (SMOOTHING_TAPS), a side that fails the side
-    test read against its background (`_background_level`); out[2] the unsmoothed profile's
-    height at the centre and out[3] the lower of its heights at ±shoulder_px, both above the
-    brighter side; out[4] the stronger side's fall-off at d."""
+    test read against its background (`_background_level`), then, beside a line whose
+    stronger side falls off by ≥ `strong_fall`, for a valley (`_valley_level`); out[2] the
+    unsmoothed profile's height at the centre and out[3] the lower of its heights at
+    ±shoulder_px, both above the brighter side; out[4] the stronger side's fall-off at d."""
     height, width = image.shape
     weights = np.empty(2 * SMOOTHING_TAPS + 1)
     for j in range(-SMOOTHING_TAPS, SMOOTHING_TAPS + 1):
@@ -148,10 +190,14 @@ def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, out) -> None:
             plus = _background_level(
                 image, xk, yk, nxk, nyk, s, reach, centre, plus, weights, inside
             )
+        if stronger >= strong_fall and not _side_passes(centre - plus, stronger):
+            plus = _valley_level(image, xk, yk, nxk, nyk, s, reach, plus, weights, inside)
         if not _side_passes(centre - minus, stronger):
             minus = _background_level(
                 image, xk, yk, nxk, nyk, s, -reach, centre, minus, weights, inside
             )
+        if stronger >= strong_fall and not _side_passes(centre - minus, stronger):
+            minus = _valley_level(image, xk, yk, nxk, nyk, s, -reach, minus, weights, inside)
         out[0, k] = centre - plus
         out[1, k] = centre - minus
         out[4, k] = stronger
@@ -173,6 +219,7 @@ def line_profiles(
     sigma: np.ndarray,
     *,
     width_min_px: float,
+    c_grey: float,
 ) -> np.ndarray:
     """The profile across candidate centres: how far the grey falls off on each side, and
     the line's height at its centre and shoulders.
@@ -187,6 +234,10 @@ def line_profiles(
         The scale each centre was found at [px].
     width_min_px : float
         The narrowest stripe width expected [px].
+    c_grey : float
+        The ridge response's structure constant c [grey levels] (`ridges.RIDGE_C_FULL_SCALE`
+        of full scale): the valley read is tried beside lines whose stronger side falls off
+        by ≥ VALLEY_FALL_C·c.
 
     Returns
     -------
@@ -196,7 +247,9 @@ def line_profiles(
         d = SIDE_REACH_SIGMAS·σ, or, for a side that falls off by less than SIDE_FLOOR of
         the stronger side (or not at all), its background beyond a spot (the read at
         BACKGROUND_REACH_FACTOR·d where the line stands above it by ≥ BACKGROUND_CONTRAST
-        of it); negative where the side is brighter.
+        of it) or, beside a strong line, the valley before a bright neighbour (the lowest
+        read from VALLEY_START_SIGMAS·σ to d, smoothed at VALLEY_SMOOTHING·σ); negative
+        where the side is brighter.
         Rows 2 and 3: the unsmoothed profile at the centre and the lower of it at
         ±SHOULDER_WIDTHS·width_min_px, above the brighter side's level, each the mean over
         lines TANGENT_OFFSETS_PX along the tangent.
@@ -212,6 +265,7 @@ def line_profiles(
         fny,
         fsigma,
         SHOULDER_WIDTHS * width_min_px,
+        VALLEY_FALL_C * c_grey,
         out,
     )
     return out

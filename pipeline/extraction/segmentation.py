@@ -49,9 +49,20 @@ of its height; the dimmest piece of a broken stripe (0.8 of the peak beside one 
 has 0.64."""
 
 CHAIN_MIN_POINTS = 30
-"""A chain of at least this many centres (about as many px along the stripe) is kept
-whatever its height: a dim stretch of the laser linked apart from its bright parts (on real
-frames a quarter of their height) is long, texture ridges are not."""
+"""A chain dimmer than CHAIN_FRACTION of the highest is kept only when it has at least this
+many centres (about as many px along the stripe) and is strong in itself (STRONG_C_RATIO)
+or lies within CONTINUITY_GAP_PX of a kept chain: a dim stretch of the laser linked apart
+from its bright parts (on real frames a quarter of their height) is long and beside them;
+texture ridges are short, and flare streaks and dim outlines (C 4–10 on the real frames,
+22–28 px from the nearest laser chain) lie apart."""
+
+CHAIN_WIDTH_FACTOR = 1.5
+"""A linked chain of centres is the stripe's only when at most half of its points measure
+wider than this multiple of the widest stripe expected (`width_max`), or have no width
+(an edge beyond the search reach, `widths.stripe_widths`). The measured 1/e² width of a
+stripe of the configured range stays within it (uniform 21 px: 21.1 median, saturated
+2.5× at 21 px: 23 at the 90th percentile; real laser lines 7–26 px at the default
+5–21); a lit bar, a broad glow or the halo of a specular highlight measures 35–95 px."""
 
 KEEP_FRACTION = 0.3
 """Strong components at least this share of the longest strong one's length are kept as

@@ -7,6 +7,7 @@ import pytest
 from scipy.special import erfc
 
 from pipeline import extract_centres
+from pipeline.extraction.centres import _bright_chains
 from pipeline.extraction.line_test import is_line, line_profiles
 from pipeline.imaging import PixelRegion
 
@@ -30,11 +31,14 @@ def _step(at_px: float, height: float):
     return lambda d: height * 0.5 * erfc((d - at_px) / (np.sqrt(2) * 0.8))
 
 
-def _test(image: np.ndarray, sigma_px: float, width_min_px: float = 5.0) -> bool:
+def _test(
+    image: np.ndarray, sigma_px: float, width_min_px: float = 5.0, c_grey: float = 2.55
+) -> bool:
     x = np.array([60.0])
     y = np.array([ROW])
     normal = (np.zeros(1), np.ones(1))
-    profiles = line_profiles(image, x, y, *normal, np.array([sigma_px]), width_min_px=width_min_px)
+    sigma = np.array([sigma_px])
+    profiles = line_profiles(image, x, y, *normal, sigma, width_min_px=width_min_px, c_grey=c_grey)
     assert profiles.shape == (5, 1)
     return bool(is_line(profiles)[0])
 
@@ -80,6 +84,19 @@ def test_a_highlight_thinner_than_the_stripes_along_an_edge_is_not() -> None:
     # The same highlight alone on a dark background: a line, but too thin for w_min 5 px.
     assert not _test(_frame(_line(2.5, 140)), 2.887)
     assert _test(_frame(_line(2.5, 140)), 2.887, width_min_px=2.5)
+
+
+def test_a_stripe_beside_a_wide_piece_closer_than_d_is_a_line() -> None:
+    # A 5 px stripe (peak 120) with the wide end of the next piece of a broken stripe
+    # (w 15 px, peak 150) 12 px beside it: at σ1 the side read at d = 6.3 px lies on that
+    # piece's flank, as bright as the line, and 2d inside it; a valley lies between them.
+    beside = _frame(lambda d: _line(5, 120)(d) + _line(15, 150)(d - 12))
+    assert _test(beside, 2.887)
+    # The same shapes at a lit plate's texture contrast (ridge and grain 40 on 60): no valley
+    # is looked for beside so weak a line; with the floor 5× lower it would be found.
+    weak = _frame(lambda d: 48 + _line(5, 40)(d) + _line(15, 40)(d - 12))
+    assert not _test(weak, 2.887)
+    assert _test(weak, 2.887, c_grey=0.5)
 
 
 def test_extraction_rejects_the_edge_and_keeps_the_stripe() -> None:
@@ -141,3 +158,37 @@ def test_inside_a_search_region_a_short_bright_piece_is_kept() -> None:
     assert glare(extract_centres(frame, width_min=5, width_max=21)) == 0
     inside = extract_centres(frame, width_min=5, width_max=21, region=PixelRegion(0, 300, 0, 640))
     assert glare(inside) > 35
+
+
+def test_a_lit_bar_wider_than_the_widest_stripe_is_not_kept() -> None:
+    # A 9 px laser line and a lit bar as bright (w 45 px, more than CHAIN_WIDTH_FACTOR ×
+    # width_max): both are lines and strong, only the line is as wide as a stripe can be.
+    rows, cols = np.mgrid[0:300, 0:640].astype(np.float64)
+    image = 12 + _segment(rows, cols, 80.3, 20, 620, 150, width_px=9)
+    image += _segment(rows, cols, 200.0, 40, 600, 150, width_px=45)
+    centres = extract_centres(np.rint(image).astype(np.uint8), width_min=5, width_max=21)
+    assert ((np.abs(centres.y - 80.3) < 0.1) & (centres.x > 30) & (centres.x < 610)).sum() > 570
+    assert not (np.abs(centres.y - 200.0) < 10).any()
+    assert (np.abs(centres.rejected_y - 200.0) < 3).sum() > 400
+    # With the widest stripe configured at 45 px the bar is a stripe.
+    wide = extract_centres(np.rint(image).astype(np.uint8), width_min=5, width_max=45)
+    assert ((np.abs(wide.y - 200.0) < 0.5) & (wide.x > 60) & (wide.x < 580)).sum() > 400
+
+
+def test_a_long_dim_chain_is_kept_beside_the_stripe_and_dropped_apart_from_it() -> None:
+    # Chains of centres 1 px apart along x: the stripe's bright chain (height 100) at y 0, and
+    # dim ones (height 20, a fifth of it): a long one 10 px beside it (a dim stretch of the
+    # stripe), a long one 40 px off (a flare streak), a long one 80 px off but strong in itself
+    # (C 30 ≥ 10·c), and a short one 5 px beside it (texture).
+    rows = (0.0, 10.0, 40.0, 80.0, 5.0)
+    lengths = (100, 40, 40, 40, 10)
+    xy = np.concatenate(
+        [np.column_stack([np.arange(n), np.full(n, r)]) for r, n in zip(rows, lengths, strict=True)]
+    )
+    bounds = np.cumsum((0, *lengths))
+    chains = [np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    height = np.repeat([100.0, 20, 20, 20, 20], lengths)
+    strength = np.repeat([40.0, 8, 8, 30, 8], lengths)
+    kept, dropped = _bright_chains(chains, height, strength, xy, c_grey=2.55)
+    assert [c[0] for c in kept] == [bounds[0], bounds[1], bounds[3]]
+    assert sorted(dropped) == [*range(bounds[2], bounds[3]), *range(bounds[4], bounds[5])]
