@@ -32,7 +32,11 @@ from pipeline.extraction.linking import link_points
 from pipeline.extraction.normal_fit import matched_offsets
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
 from pipeline.extraction.scalespace import ScaleLevel
-from pipeline.extraction.segmentation import CHAIN_FRACTION, CHAIN_MIN_POINTS
+from pipeline.extraction.segmentation import (
+    CHAIN_FRACTION,
+    CHAIN_MIN_POINTS,
+    CONTINUITY_GAP_PX,
+)
 from pipeline.extraction.steger import centre_pixels, newton_step
 from pipeline.extraction.widths import stripe_widths
 from pipeline.imaging import GEOMETRY_FLOAT, PixelRegion, validate_image
@@ -336,16 +340,79 @@ def _lines_only(
     return kept, (x[line], y[line], nx[line], ny[line]), height[line], x[~line], y[~line]
 
 
+CONTINUING_MIN_POINTS = 8
+"""Least centres of a dim chain kept because it continues a kept one (inside a search
+region): about 1 mm of profile, the shortest piece measurement uses
+(`pipeline.profile.measurement.MIN_WINDOW_CHAIN_POINTS`)."""
+CONTINUING_COS = 0.8
+"""A dim chain continues a kept one when the gap between their ends and the dim chain's
+end direction both lie within 37° (cos 0.8) of the kept chain's direction at its end."""
+CONTINUING_OFFSET_PX = 3.0
+"""... and the dim chain's end lies within 3 px of the kept chain's line ahead of its end
+(a flank bends by < 1 px over the 16 px gap; a piece of outline or ghost beside the
+stripe is offset by more)."""
+END_TANGENT_POINTS = 6
+"""Centres over which a chain's direction at its end is taken."""
+
+
+def _chain_ends(x: np.ndarray, y: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
+    """Both ends of each chain: (2·len(chains), 4) rows (x, y, tx, ty), tx, ty the unit
+    direction out of the chain over its last END_TANGENT_POINTS centres."""
+    ends = np.zeros((2 * len(chains), 4))
+    for i, chain in enumerate(chains):
+        k = min(END_TANGENT_POINTS, chain.size) - 1
+        for j, (end, inner) in enumerate(((chain[0], chain[k]), (chain[-1], chain[-1 - k]))):
+            tx, ty = x[end] - x[inner], y[end] - y[inner]
+            norm = max(float(np.hypot(tx, ty)), 1e-9)
+            ends[2 * i + j] = (x[end], y[end], tx / norm, ty / norm)
+    return ends
+
+
+def _continuing(kept: list[bool], chains: list[np.ndarray], x, y) -> list[bool]:
+    """`kept` grown by the dim chains of ≥ CONTINUING_MIN_POINTS that continue a kept chain:
+    an end within CONTINUITY_GAP_PX of a kept chain's end, ahead of it on its line and
+    heading on (`CONTINUING_COS`, `CONTINUING_OFFSET_PX`), until none is added. A dimmed
+    stretch of the laser (a polished flank next to its glare) is linked apart from its
+    bright neighbours and is short; texture ridges and outlines beside the stripe lie
+    beside its chains, not ahead of their ends."""
+    ends = _chain_ends(x, y, chains)
+    owner = np.repeat(np.arange(len(chains)), 2)
+    kept = list(kept)
+    while True:
+        grown = False
+        held = np.flatnonzero(np.repeat(kept, 2))
+        for i, chain in enumerate(chains):
+            if kept[i] or chain.size < CONTINUING_MIN_POINTS or held.size == 0:
+                continue
+            for end in ends[owner == i]:
+                gap = end[None, :2] - ends[held, :2]
+                length = np.hypot(gap[:, 0], gap[:, 1])
+                along = np.einsum("ij,ij->i", gap, ends[held, 2:])
+                across = np.abs(gap[:, 0] * ends[held, 3] - gap[:, 1] * ends[held, 2])
+                ahead = (along >= CONTINUING_COS * length) & (across <= CONTINUING_OFFSET_PX)
+                heading = ends[held, 2:] @ end[2:] <= -CONTINUING_COS
+                if np.any((length <= CONTINUITY_GAP_PX) & ahead & heading):
+                    kept[i] = grown = True
+                    break
+        if not grown:
+            return kept
+
+
 def _bright_chains(
-    chains: list[np.ndarray], height: np.ndarray
+    chains: list[np.ndarray],
+    height: np.ndarray,
+    continuing: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[list[np.ndarray], np.ndarray]:
     """The chains that are long (≥ CHAIN_MIN_POINTS) or whose highest line is at least
     CHAIN_FRACTION of the highest of all (`segmentation`; every chain when the heights are
-    NaN), and the points of the others."""
+    NaN), and the points of the others. With `continuing` (the centres' x, y: inside a
+    search region) the dim chains that continue a kept one are kept too (`_continuing`)."""
     if not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
     least = CHAIN_FRACTION * max(height[c].max() for c in chains)
     kept = [c.size >= CHAIN_MIN_POINTS or height[c].max() >= least for c in chains]
+    if continuing is not None and not all(kept):
+        kept = _continuing(kept, chains, *continuing)
     dim = [c for c, k in zip(chains, kept, strict=True) if not k]
     bright = [c for c, k in zip(chains, kept, strict=True) if k]
     return bright, np.concatenate(dim) if dim else np.zeros(0, np.int64)
@@ -366,11 +433,12 @@ def _assemble(
     normal_fit: bool,
     second_levels: tuple[ScaleLevel, ...],
     path: str,
+    continuing: bool = False,
 ) -> Centres:
     lines = _lines_only(image, candidates, width_min)
     selected, (x, y, nx, ny), height, rejected_x, rejected_y = lines
     chains = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
-    chains, weak = _bright_chains(chains, height)
+    chains, weak = _bright_chains(chains, height, (x, y) if continuing else None)
     rejected_x = np.concatenate([rejected_x, x[weak]])
     rejected_y = np.concatenate([rejected_y, y[weak]])
     _orient_normals(nx, ny, chains)
@@ -490,8 +558,9 @@ def extract_centres(
         Search only this part of the frame (e.g. where the calibration says a wheel's stripe
         can lie, `pipeline.calibration.search_region`); coordinates stay the frame's. Inside
         it every strong stripe candidate is kept, however short beside the longest
-        (`segmentation.stripe_components`, `every_strong`).
-
+        (`segmentation.stripe_components`, `every_strong`), and so is a short, dim chain
+        of centres that continues a kept one (`_continuing`: a polished flank next to
+        its glare).
 
     Returns
     -------
@@ -624,6 +693,7 @@ def _extract(
         normal_fit=bool(matched),
         second_levels=second_levels,
         path=path,
+        continuing=every_strong,
     )
 
 
