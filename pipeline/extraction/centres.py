@@ -376,26 +376,27 @@ def _continuing(kept: list[bool], chains: list[np.ndarray], x, y) -> list[bool]:
     bright neighbours and is short; texture ridges and outlines beside the stripe lie
     beside its chains, not ahead of their ends."""
     ends = _chain_ends(x, y, chains)
-    owner = np.repeat(np.arange(len(chains)), 2)
-    kept = list(kept)
+    kept_ends = np.repeat(np.asarray(kept, bool), 2)
+    long_enough = np.repeat([c.size >= CONTINUING_MIN_POINTS for c in chains], 2)
     while True:
-        grown = False
-        held = np.flatnonzero(np.repeat(kept, 2))
-        for i, chain in enumerate(chains):
-            if kept[i] or chain.size < CONTINUING_MIN_POINTS or held.size == 0:
-                continue
-            for end in ends[owner == i]:
-                gap = end[None, :2] - ends[held, :2]
-                length = np.hypot(gap[:, 0], gap[:, 1])
-                along = np.einsum("ij,ij->i", gap, ends[held, 2:])
-                across = np.abs(gap[:, 0] * ends[held, 3] - gap[:, 1] * ends[held, 2])
-                ahead = (along >= CONTINUING_COS * length) & (across <= CONTINUING_OFFSET_PX)
-                heading = ends[held, 2:] @ end[2:] <= -CONTINUING_COS
-                if np.any((length <= CONTINUITY_GAP_PX) & ahead & heading):
-                    kept[i] = grown = True
-                    break
-        if not grown:
-            return kept
+        dim = np.flatnonzero(~kept_ends & long_enough)
+        held = np.flatnonzero(kept_ends)
+        if dim.size == 0 or held.size == 0:
+            break
+        # Every dim end against every kept end at once: gap (dim × held × 2).
+        gap = ends[dim, None, :2] - ends[None, held, :2]
+        direction = ends[None, held, 2:]
+        length = np.hypot(gap[..., 0], gap[..., 1])
+        along = np.einsum("dhk,dhk->dh", gap, direction)
+        across = np.abs(gap[..., 0] * direction[..., 1] - gap[..., 1] * direction[..., 0])
+        heading = np.einsum("dk,hk->dh", ends[dim, 2:], ends[held, 2:]) <= -CONTINUING_COS
+        joins = (length <= CONTINUITY_GAP_PX) & (along >= CONTINUING_COS * length)
+        joins &= (across <= CONTINUING_OFFSET_PX) & heading
+        grown = np.unique(dim[joins.any(axis=1)] // 2)
+        if grown.size == 0:
+            break
+        kept_ends[2 * grown] = kept_ends[2 * grown + 1] = True
+    return kept_ends[::2].tolist()
 
 
 def _bright_chains(
