@@ -4,6 +4,8 @@
 the service calls it on an upload before storing anything. Zips are treated as hostile:
 member count, sizes and compression ratio are limited, and absolute paths, `..`, symlinks,
 encrypted and duplicated members are refused. Frames are PNG, grey, 8 or 16 bit.
+
+The format: docs/formats.md, "Pass archive".
 """
 
 from __future__ import annotations
