@@ -11,6 +11,7 @@ renders 3 passes with one effect alone and reports what it costs each method.
 from __future__ import annotations
 
 import math
+import os
 import tempfile
 import time
 from dataclasses import replace
@@ -27,8 +28,11 @@ from pipeline.profile.repeatability import (
 from pipeline.simulation.field import FIELD_MODES, FieldEffects
 from pipeline.simulation.passes import read_truth, write_synthetic_passes
 
-REPEATS = 9
-BREAKDOWN_REPEATS = 2
+REPEATS = int(os.environ.get("FIELD_REPEATS", "9"))
+BREAKDOWN_REPEATS = int(os.environ.get("FIELD_BREAKDOWN_REPEATS", "2"))
+"""Passes of the main run and of each breakdown case; FIELD_REPEATS and
+FIELD_BREAKDOWN_REPEATS reduce them on a loaded machine (the section says so)."""
+FULL_RUN = (9, 2)
 SEED = 2027
 VEHICLES, AXLES = 2, 2
 METHODS = (
@@ -126,12 +130,26 @@ def _breakdown() -> list[str]:
 
 def run() -> str:
     """Simulate, measure and tabulate; returns the Markdown section."""
+    started, load_before = time.perf_counter(), os.getloadavg()[0]
     observations, simulated_s, measured_s = _measure(FIELD_MODES["harsh"], REPEATS)
+    breakdown = _breakdown()
+    took = (time.perf_counter() - started, load_before, os.getloadavg()[0])
     wheels, missing = counts(observations)
     per_wheel, pooled = summarise_repeatability(observations)
+    reduced = (REPEATS, BREAKDOWN_REPEATS) != FULL_RUN
     lines = [
         "## Repeatability on field-mode passes (harsh) and the per-effect breakdown",
         "",
+        *(
+            [
+                f"**Reduced run**: {REPEATS} passes (full: {FULL_RUN[0]}) and "
+                f"{BREAKDOWN_REPEATS} per breakdown case (full: {FULL_RUN[1]}), set by "
+                "FIELD_REPEATS / FIELD_BREAKDOWN_REPEATS on a loaded machine.",
+                "",
+            ]
+            if reduced
+            else []
+        ),
         f"{REPEATS} passes of {VEHICLES} vehicles × {AXLES} axles ({wheels} wheels, LMA and "
         f"S1002, worn), seed {SEED}, every field effect on; {len(METHODS)} method variants "
         f"measured on the same frames. Simulation {simulated_s:.0f} s, measurement "
@@ -147,7 +165,10 @@ def run() -> str:
         "",
         f"### Per-effect breakdown ({BREAKDOWN_REPEATS} passes each, one effect alone)",
         "",
-        *_breakdown(),
+        *breakdown,
+        "",
+        f"The whole section took {took[0] / 60:.0f} min (load average {took[1]:.1f} at the "
+        f"start, {took[2]:.1f} at the end, on {os.cpu_count()} cores).",
         "",
         repeatability_markdown(per_wheel, pooled),
     ]

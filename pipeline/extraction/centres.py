@@ -358,12 +358,72 @@ def _lines_only(
     return kept, (x[line], y[line], nx[line], ny[line]), height[line], x[~line], y[~line]
 
 
+CONTINUING_MIN_POINTS = 8
+"""Least centres of a dim chain kept because it continues a kept one (inside a search
+region): about 1 mm of profile, the shortest piece measurement uses
+(`pipeline.profile.measurement.MIN_WINDOW_CHAIN_POINTS`)."""
+CONTINUING_COS = 0.8
+"""A dim chain continues a kept one when the gap between their ends and the dim chain's
+end direction both lie within 37° (cos 0.8) of the kept chain's direction at its end."""
+CONTINUING_OFFSET_PX = 3.0
+"""... and the dim chain's end lies within 3 px of the kept chain's line ahead of its end
+(a flank bends by < 1 px over the 16 px gap; a piece of outline or ghost beside the
+stripe is offset by more)."""
+END_TANGENT_POINTS = 6
+"""Centres over which a chain's direction at its end is taken."""
+
+
+def _chain_ends(x: np.ndarray, y: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
+    """Both ends of each chain: (2·len(chains), 4) rows (x, y, tx, ty), tx, ty the unit
+    direction out of the chain over its last END_TANGENT_POINTS centres."""
+    ends = np.zeros((2 * len(chains), 4))
+    for i, chain in enumerate(chains):
+        k = min(END_TANGENT_POINTS, chain.size) - 1
+        for j, (end, inner) in enumerate(((chain[0], chain[k]), (chain[-1], chain[-1 - k]))):
+            tx, ty = x[end] - x[inner], y[end] - y[inner]
+            norm = max(float(np.hypot(tx, ty)), 1e-9)
+            ends[2 * i + j] = (x[end], y[end], tx / norm, ty / norm)
+    return ends
+
+
+def _continuing(kept: list[bool], chains: list[np.ndarray], x, y) -> list[bool]:
+    """`kept` grown by the dim chains of ≥ CONTINUING_MIN_POINTS that continue a kept chain:
+    an end within CONTINUITY_GAP_PX of a kept chain's end, ahead of it on its line and
+    heading on (`CONTINUING_COS`, `CONTINUING_OFFSET_PX`), until none is added. A dimmed
+    stretch of the laser (a polished flank next to its glare) is linked apart from its
+    bright neighbours and is short; texture ridges and outlines beside the stripe lie
+    beside its chains, not ahead of their ends."""
+    ends = _chain_ends(x, y, chains)
+    kept_ends = np.repeat(np.asarray(kept, bool), 2)
+    long_enough = np.repeat([c.size >= CONTINUING_MIN_POINTS for c in chains], 2)
+    while True:
+        dim = np.flatnonzero(~kept_ends & long_enough)
+        held = np.flatnonzero(kept_ends)
+        if dim.size == 0 or held.size == 0:
+            break
+        # Every dim end against every kept end at once: gap (dim × held × 2).
+        gap = ends[dim, None, :2] - ends[None, held, :2]
+        direction = ends[None, held, 2:]
+        length = np.hypot(gap[..., 0], gap[..., 1])
+        along = np.einsum("dhk,dhk->dh", gap, direction)
+        across = np.abs(gap[..., 0] * direction[..., 1] - gap[..., 1] * direction[..., 0])
+        heading = np.einsum("dk,hk->dh", ends[dim, 2:], ends[held, 2:]) <= -CONTINUING_COS
+        joins = (length <= CONTINUITY_GAP_PX) & (along >= CONTINUING_COS * length)
+        joins &= (across <= CONTINUING_OFFSET_PX) & heading
+        grown = np.unique(dim[joins.any(axis=1)] // 2)
+        if grown.size == 0:
+            break
+        kept_ends[2 * grown] = kept_ends[2 * grown + 1] = True
+    return kept_ends[::2].tolist()
+
+
 def _bright_chains(
     chains: list[np.ndarray],
     height: np.ndarray,
     strength: np.ndarray,
     xy: np.ndarray,
     c_grey: float,
+    continuing: bool = False,
 ) -> tuple[list[np.ndarray], np.ndarray]:
     """The chains of the stripe (`segmentation`; every chain when the heights are NaN) and
     the points of the others.
@@ -372,8 +432,9 @@ def _bright_chains(
     CHAIN_FRACTION of the highest chain's; a dimmer one only when it is long
     (≥ CHAIN_MIN_POINTS) and either strong in itself (`strength` up to STRONG_C_RATIO·c) or
     within CONTINUITY_GAP_PX of a kept chain (a dim stretch of the stripe beside its bright
-    parts, not a flare streak or an outline apart from them), until none is added.
-    `xy` (K, 2) are the centres [px].
+    parts, not a flare streak or an outline apart from them), until none is added. With
+    `continuing` (inside a search region) a short dim chain that continues a kept one is kept
+    too (`_continuing`). `xy` (K, 2) are the centres [px].
     """
     if not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
@@ -392,6 +453,8 @@ def _bright_chains(
         if grown == kept:
             break
         kept = grown
+    if continuing and not all(kept):
+        kept = _continuing(kept, chains, xy[:, 0], xy[:, 1])
     dim = [c for c, k in zip(chains, kept, strict=True) if not k]
     bright = [c for c, k in zip(chains, kept, strict=True) if k]
     return bright, np.concatenate(dim) if dim else np.zeros(0, np.int64)
@@ -442,13 +505,16 @@ def _assemble(
     normal_fit: bool,
     second_levels: tuple[ScaleLevel, ...],
     path: str,
+    continuing: bool = False,
 ) -> Centres:
     lines = _lines_only(image, candidates, width_min)
     selected, (x, y, nx, ny), height, rejected_x, rejected_y = lines
     chains = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
     c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
     xy = np.column_stack([x, y])
-    chains, weak = _bright_chains(chains, height, selected.strength, xy, c_grey)
+    chains, weak = _bright_chains(
+        chains, height, selected.strength, xy, c_grey, continuing=continuing
+    )
     rejected_x = np.concatenate([rejected_x, x[weak]])
     rejected_y = np.concatenate([rejected_y, y[weak]])
     _orient_normals(nx, ny, chains)
@@ -569,8 +635,9 @@ def extract_centres(
         Search only this part of the frame (e.g. where the calibration says a wheel's stripe
         can lie, `pipeline.calibration.search_region`); coordinates stay the frame's. Inside
         it every strong stripe candidate is kept, however short beside the longest
-        (`segmentation.stripe_components`, `every_strong`).
-
+        (`segmentation.stripe_components`, `every_strong`), and so is a short, dim chain
+        of centres that continues a kept one (`_continuing`: a polished flank next to
+        its glare).
 
     Returns
     -------
@@ -705,6 +772,7 @@ def _extract(
         normal_fit=bool(matched),
         second_levels=second_levels,
         path=path,
+        continuing=every_strong,
     )
 
 

@@ -247,12 +247,15 @@ def _gaps(wheel_x, wheel_z, rail_x, rail_z, shifts, phi, axis_z):
     k = np.clip(np.argmin(gap, axis=1), 1, gap.shape[1] - 2)
     rows = np.arange(gap.shape[0])
     a, b, e = gap[rows, k - 1], gap[rows, k], gap[rows, k + 1]
+    # A minimum next to the wheel curve's end (a neighbour off the curve, gap ∞) is taken
+    # at its node: (a − e)·t would be ∞·0 there.
+    spread = np.subtract(a, e, out=np.zeros_like(b), where=np.isfinite(a + e))
     with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.where(np.isfinite(a + e) & (a - 2 * b + e > 0), 0.5 * (a - e) / (a - 2 * b + e), 0.0)
+        t = np.where(np.isfinite(a + e) & (a - 2 * b + e > 0), 0.5 * spread / (a - 2 * b + e), 0.0)
     t = np.clip(t, -1.0, 1.0)
     neighbour = np.where(t > 0, x[rows, k + 1], x[rows, k - 1])
     at = x[rows, k] + np.abs(t) * (neighbour - x[rows, k])
-    smallest = b - 0.25 * (a - e) * t
+    smallest = b - 0.25 * spread * t
     # d(gap)/dφ at the contact: the rail point turns by (z, −x) per radian, so the gap
     # w(x) − z changes by w'(x)·z + x (the lever X and, on a steep flank, the axis height).
     piece = np.clip(np.searchsorted(wheel_x, at) - 1, 0, wheel_x.size - 2)

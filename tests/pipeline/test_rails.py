@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -133,3 +135,15 @@ def test_a_long_gap_in_the_flange_root_is_no_conicity_but_a_reason():
     short = (new.x_mm < root[0]) | (new.x_mm > root[0] + 4.0)
     near = axle_conicity(WheelCurve(new.x_mm[short], new.z_mm[short]), new, 1360.0, rails)
     assert near.conicity_3mm == pytest.approx(whole, abs=0.01)
+
+
+def test_a_minimum_at_the_wheel_curves_end_gives_no_invalid_values():
+    """A tread seen only to x = 75 mm: at some shifts the smallest gap is the curve's last
+    node, whose outer neighbour is off the curve (gap ∞); the parabola's refinement there
+    multiplied ∞ by 0 ("invalid value encountered in multiply" on harsh passes)."""
+    x = np.linspace(20.0, 75.0, 1101)
+    short = WheelCurve(x, 0.05 * (70.0 - x))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = rolling_radius_difference(short, short, 1360.0, track_rails())
+    assert np.all(np.isfinite(result.delta_r_mm))

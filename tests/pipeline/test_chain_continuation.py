@@ -1,0 +1,50 @@
+"""Inside a search region a dim, short chain of centres that continues a kept chain (a
+polished flank dimmed next to its glare) is kept; dim chains beside the stripe, across it
+or off its line are not, and without a region the rule does not apply."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pipeline.extraction.centres import _bright_chains
+
+
+def _chains(*pieces: np.ndarray) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
+    """Chains as index ranges into the stacked (x, y) of the pieces."""
+    points = np.concatenate(pieces)
+    bounds = np.cumsum([0] + [len(p) for p in pieces])
+    chains = [np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    return chains, points[:, 0], points[:, 1]
+
+
+def _line(x0: float, y0: float, dx: float, dy: float, count: int) -> np.ndarray:
+    steps = np.arange(count)[:, None]
+    return np.array([x0, y0]) + steps * np.array([dx, dy])
+
+
+def test_a_dim_chain_ahead_of_a_kept_one_is_kept_inside_a_region() -> None:
+    bright = _line(0.0, 50.0, 1.0, 0.1, 200)  # ends at (199, 69.9), heading (1, 0.1)
+    ahead = _line(209.0, 70.9, 1.0, 0.1, 15)  # 10 px on, on its line
+    beside = _line(60.0, 30.0, 1.0, 0.1, 15)  # parallel, 26 px away from it
+    across = _line(207.0, 60.0, 0.0, 1.0, 15)  # near its end, but across the stripe
+    offset = _line(208.0, 77.0, 1.0, 0.1, 15)  # ahead, but 6 px off its line
+    short = _line(-10.0, 49.0, -1.0, -0.1, 5)  # ahead of the other end, too short
+    chains, x, y = _chains(bright, ahead, beside, across, offset, short)
+    height = np.concatenate([np.full(200, 200.0), np.full(65, 60.0)])  # dim: 0.3 of it
+
+    kept, weak = _bright_chains(chains, height, (x, y))
+    assert [c[0] for c in kept] == [0, 200]
+    assert weak.size == 3 * 15 + 5
+
+    kept_without, _ = _bright_chains(chains, height)
+    assert [c[0] for c in kept_without] == [0]
+
+
+def test_a_run_of_dim_pieces_continues_piece_by_piece() -> None:
+    bright = _line(0.0, 0.0, 1.0, 0.0, 100)
+    first = _line(110.0, 0.0, 1.0, 0.0, 10)
+    second = _line(130.0, 0.5, 1.0, 0.0, 10)  # continues the first, not the bright one
+    chains, x, y = _chains(second, bright, first)  # order does not matter
+    height = np.concatenate([np.full(10, 40.0), np.full(100, 200.0), np.full(10, 40.0)])
+    kept, weak = _bright_chains(chains, height, (x, y))
+    assert len(kept) == 3 and weak.size == 0
