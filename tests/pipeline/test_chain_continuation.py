@@ -22,6 +22,14 @@ def _line(x0: float, y0: float, dx: float, dy: float, count: int) -> np.ndarray:
     return np.array([x0, y0]) + steps * np.array([dx, dy])
 
 
+def _select(
+    chains: list[np.ndarray], height: np.ndarray, x: np.ndarray, y: np.ndarray, continuing: bool
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """`_bright_chains` on chains with no strength of their own (C 0 against c = 1)."""
+    strength = np.zeros(height.size)
+    return _bright_chains(chains, height, strength, np.column_stack([x, y]), 1.0, continuing)
+
+
 def test_a_dim_chain_ahead_of_a_kept_one_is_kept_inside_a_region() -> None:
     bright = _line(0.0, 50.0, 1.0, 0.1, 200)  # ends at (199, 69.9), heading (1, 0.1)
     ahead = _line(209.0, 70.9, 1.0, 0.1, 15)  # 10 px on, on its line
@@ -32,11 +40,11 @@ def test_a_dim_chain_ahead_of_a_kept_one_is_kept_inside_a_region() -> None:
     chains, x, y = _chains(bright, ahead, beside, across, offset, short)
     height = np.concatenate([np.full(200, 200.0), np.full(65, 60.0)])  # dim: 0.3 of it
 
-    kept, weak = _bright_chains(chains, height, (x, y))
+    kept, weak = _select(chains, height, x, y, continuing=True)
     assert [c[0] for c in kept] == [0, 200]
     assert weak.size == 3 * 15 + 5
 
-    kept_without, _ = _bright_chains(chains, height)
+    kept_without, _ = _select(chains, height, x, y, continuing=False)
     assert [c[0] for c in kept_without] == [0]
 
 
@@ -46,5 +54,5 @@ def test_a_run_of_dim_pieces_continues_piece_by_piece() -> None:
     second = _line(130.0, 0.5, 1.0, 0.0, 10)  # continues the first, not the bright one
     chains, x, y = _chains(second, bright, first)  # order does not matter
     height = np.concatenate([np.full(10, 40.0), np.full(100, 200.0), np.full(10, 40.0)])
-    kept, weak = _bright_chains(chains, height, (x, y))
+    kept, weak = _select(chains, height, x, y, continuing=True)
     assert len(kept) == 3 and weak.size == 0
