@@ -180,7 +180,8 @@ export function createActions(api, store) {
   function uploadArchive(file) {
     return guard(`upload of ${file.name} failed`, async () => {
       try {
-        store.set({ upload: { fileName: file.name, bytes: file.size, uploadFraction: 0, job: null } });
+        // a new upload starts without the last one's refusal above it
+        store.set({ upload: { fileName: file.name, bytes: file.size, uploadFraction: 0, job: null }, error: null });
         const onProgress = (/** @type {number} */ f) =>
           store.set({ upload: { ...store.get().upload, uploadFraction: f } });
         const created = await api.uploadPass(file, onProgress);
@@ -233,7 +234,9 @@ const frameCache = new Map();
  * @returns {Promise<{image: ImageBitmap|null, adaptive: any, steger: any}>}
  */
 function frameLayers(api, passId, wheelId, record, sensor, index) {
-  const key = `${passId}/${wheelId}/${sensor}/${index}`;
+  // a measurement by another pipeline version gives other centres: another entry
+  const versions = (record.results ?? []).map((/** @type {any} */ r) => `${r.method}:${r.pipeline_version}`);
+  const key = `${passId}/${wheelId}/${sensor}/${index}/${versions.join(',')}`;
   let entry = frameCache.get(key);
   if (!entry) {
     entry = Promise.all([
