@@ -2,6 +2,8 @@
 
 Precedence: a CLI flag beats the environment, which beats the default. The default runs on
 one machine with nothing to install: SQLite and the frame store under ./data.
+
+Every setting: docs/service.md, "Settings".
 """
 
 from __future__ import annotations

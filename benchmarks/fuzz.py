@@ -7,6 +7,7 @@ Run alone with `python -m benchmarks.fuzz` (prints the Markdown section).
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -24,6 +25,7 @@ _OUTCOME = re.compile(r"^(?P<outcome>PASSED|FAILED) \S+\[(?P<db>\w+)-(?P<caller>
 
 def run() -> str:
     """Run the fuzz test once; the Markdown section with its figures."""
+    load_before = os.getloadavg()[0]
     started_s = time.perf_counter()
     result = subprocess.run(
         [sys.executable, "-m", "pytest", TEST, "-k", "every_operation", "-rA", "-p", "no:warnings",
@@ -47,7 +49,8 @@ def run() -> str:
             f"{total} generated requests in {elapsed_s:.0f} s ({len(counts)} runs, "
             f"{failed} failed): valid and invalid data for every operation of /openapi.json, "
             "and valid data on a stored pass; checks: no 5xx, documented status, content "
-            "type, headers and body schema, invalid data refused.",
+            "type, headers and body schema, invalid data refused. 1-min load average "
+            f"{load_before:.1f} before, {os.getloadavg()[0]:.1f} at the end (2 cores shared).",
             "",
             "| database | caller | operations | cases | 5xx | conformance failures | result |",
             "|---|---|---|---|---|---|---|",

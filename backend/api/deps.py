@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Callable, Iterator, Sequence
-from typing import Annotated, Any, get_args, get_origin, get_type_hints
+from typing import Annotated, Any, TypeVar, get_args, get_origin, get_type_hints
 
 from fastapi import Depends, Path, Query, Request, params
 from fastapi.routing import APIRoute
@@ -19,6 +19,8 @@ from backend.services.auth import authenticate, require_role
 from backend.storage.store import BlobStore
 from db.models import ROLES, ApiToken, Job, Pass, PassWheel, Site, Wheel
 from db.types import MAX_INTEGER
+
+T = TypeVar("T")
 
 
 def get_settings_dep(request: Request) -> Settings:
@@ -125,43 +127,41 @@ def require_route_role(
 CallerDep = Annotated[ApiToken, Depends(require_route_role)]
 
 
+def _found(row: T | None, missing: str) -> T:
+    """`row`, or NotFoundError(`missing`) where the lookup found none."""
+    if row is None:
+        raise NotFoundError(missing)
+    return row
+
+
 def get_pass_or_404(session: SessionDep, pass_id: RowId, _caller: CallerDep) -> Pass:
-    train_pass = session.get(Pass, pass_id)
-    if train_pass is None:
-        raise NotFoundError(f"pass {pass_id} not found")
-    return train_pass
+    return _found(session.get(Pass, pass_id), f"pass {pass_id} not found")
 
 
 def get_job_or_404(session: SessionDep, job_id: RowId, _caller: CallerDep) -> Job:
-    job = session.get(Job, job_id)
-    if job is None:
-        raise NotFoundError(f"job {job_id} not found")
-    return job
+    return _found(session.get(Job, job_id), f"job {job_id} not found")
 
 
 def get_wheel_or_404(session: SessionDep, wheel_id: RowId, _caller: CallerDep) -> Wheel:
-    wheel = session.get(Wheel, wheel_id)
-    if wheel is None:
-        raise NotFoundError(f"wheel {wheel_id} not found")
-    return wheel
+    return _found(session.get(Wheel, wheel_id), f"wheel {wheel_id} not found")
 
 
 def get_site_or_404(session: SessionDep, site_name: str, _caller: CallerDep) -> Site:
-    site = session.scalar(select(Site).where(Site.name == site_name))
-    if site is None:
-        raise NotFoundError(f"site {site_name!r} not found; create it with POST /api/sites")
-    return site
+    return _found(
+        session.scalar(select(Site).where(Site.name == site_name)),
+        f"site {site_name!r} not found; create it with POST /api/sites",
+    )
 
 
 def get_pass_wheel_or_404(
     session: SessionDep, pass_id: RowId, wheel_id: RowId, _viewer: ViewerDep
 ) -> PassWheel:
-    pass_wheel = session.scalar(
-        select(PassWheel).where(PassWheel.pass_id == pass_id, PassWheel.wheel_id == wheel_id)
+    return _found(
+        session.scalar(
+            select(PassWheel).where(PassWheel.pass_id == pass_id, PassWheel.wheel_id == wheel_id)
+        ),
+        f"wheel {wheel_id} is not in pass {pass_id}",
     )
-    if pass_wheel is None:
-        raise NotFoundError(f"wheel {wheel_id} is not in pass {pass_id}")
-    return pass_wheel
 
 
 PassDep = Annotated[Pass, Depends(get_pass_or_404)]

@@ -1,8 +1,11 @@
 """The `wheelscan` command line: one sub-command module per verb group.
 
 Each module in `VERB_MODULES` exposes `register(subparsers)`, which adds its verbs and sets
-`func(args) -> int` on each. Errors a user can fix (`ValueError`, `OSError`) end as one line
-on stderr and exit status 2, never a traceback.
+`func(args) -> int` on each. A command imports only the module of its own verb (`VERBS`), so
+`wheelscan agent` does not load the web service, the PDF renderer and the pipeline's kernels
+(about 3 s of CPU per start); `--help` and an unknown verb load them all. Errors a user can fix
+(`ValueError`, `OSError`) end as one line on stderr and exit status 2, never a traceback. The verbs: README.md;
+where the CLI sits among the layers: docs/service.md, "Layers".
 """
 
 from __future__ import annotations
@@ -13,34 +16,47 @@ import sys
 
 from backend.jobs.allocator import keep_freed_memory
 
-VERB_MODULES: list[str] = [
-    "backend.cli.extract",
-    "backend.cli.agent",
-    "backend.cli.measure",
-    "backend.cli.conicity",
-    "backend.cli.profiles",
-    "backend.cli.worker",
-    "backend.cli.serve",
-    "backend.cli.backup",
-    "backend.cli.retention",
-]
+VERB_MODULES: dict[str, tuple[str, ...]] = {
+    "backend.cli.extract": ("extract",),
+    "backend.cli.agent": ("agent", "agent-replay"),
+    "backend.cli.measure": ("synth-pass", "measure", "calibrate", "synth-calibration", "rr"),
+    "backend.cli.conicity": ("conicity",),
+    "backend.cli.profiles": ("profile-params", "import-reference", "export-profile", "agreement"),
+    "backend.cli.worker": ("worker", "migrate"),
+    "backend.cli.serve": ("serve", "token", "run-demo"),
+    "backend.cli.backup": ("backup", "restore"),
+    "backend.cli.retention": ("retention",),
+}
+"""Each verb module and the verbs it registers (checked against `register` by the tests)."""
+
+VERBS: dict[str, str] = {verb: module for module, verbs in VERB_MODULES.items() for verb in verbs}
+"""The module that registers each verb."""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """Build the argument parser with every registered verb."""
+def build_parser(verb: str | None = None) -> argparse.ArgumentParser:
+    """Build the argument parser: with `verb`'s module only, or (None) with every verb."""
     parser = argparse.ArgumentParser(
         prog="wheelscan",
         description="Wayside railway wheel profile measurement with line-structured light.",
     )
     subparsers = parser.add_subparsers(dest="verb", required=True, metavar="VERB")
-    for module_name in VERB_MODULES:
+    modules = [VERBS[verb]] if verb in VERBS else list(VERB_MODULES)
+    for module_name in modules:
         importlib.import_module(module_name).register(subparsers)
     return parser
 
 
+def _verb_of(argv: list[str]) -> str | None:
+    """The verb `argv` names (its first word), or None for `--help`, nothing or an unknown one."""
+    if not argv or argv[0].startswith("-"):
+        return None
+    return argv[0] if argv[0] in VERBS else None
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI; returns the process exit status."""
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else argv
+    parser = build_parser(_verb_of(argv))
     args = parser.parse_args(argv)
     keep_freed_memory()  # every verb measures, serves or forks workers that do
     try:

@@ -7,7 +7,7 @@ import sys
 from datetime import timedelta
 
 from backend.config import Settings, add_settings_arguments, settings_from_args
-from backend.services.auth import create_token, record_audit
+from backend.services.auth import grant_token
 from db.engine import make_engine, make_session_factory, upgrade_database
 from db.models import ROLES
 from db.types import utc_now
@@ -72,9 +72,7 @@ def issue_token(settings: Settings, role: str, name: str, days: float | None = N
         upgrade_database(engine)
         with make_session_factory(engine)() as session:
             expires_at = utc_now() + timedelta(days=days) if days is not None else None
-            row, plaintext = create_token(session, role=role, name=name, expires_at=expires_at)
-            record_audit(session, None, "token.create", "token", row.id, {"role": role})
-            session.commit()
+            _, plaintext = grant_token(session, None, role=role, name=name, expires_at=expires_at)
     finally:
         engine.dispose()
     return plaintext

@@ -15,6 +15,8 @@ Whoever holds the lease may re-queue a wheel left "running" (its previous owner 
 and measure it; whoever cannot get it knows a live worker is on it. Two live workers never
 hold the same lease, and the results' unique key (pass wheel × method) stores a wheel once
 even if a lease were lost mid-measurement (a PostgreSQL restart).
+
+Where leases sit among the runners and retries: docs/service.md, "Jobs".
 """
 
 from __future__ import annotations

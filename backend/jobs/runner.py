@@ -3,6 +3,8 @@
 A runner only decides *where* `backend.jobs.tasks.measure_pass_wheel` runs; the task itself
 claims its wheel in the database, so any runner (this pool, or Celery workers started by
 the scale-out configuration) can call the same function without measuring a wheel twice.
+
+Process pool vs Celery: docs/service.md, "Jobs".
 """
 
 from __future__ import annotations

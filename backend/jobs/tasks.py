@@ -6,6 +6,8 @@ UPDATE (queued → running), measures it with every method, and writes all resul
 transaction, so a wheel is never measured twice and a crash leaves nothing half-written.
 An exception in one wheel is recorded on that wheel ("failed", with the reason); the pass
 goes on.
+
+Process pool, Celery and leases: docs/service.md, "Jobs".
 """
 
 from __future__ import annotations

@@ -1,4 +1,8 @@
-"""API tokens: creation, lookup by hash, roles, and the audit trail of writes."""
+"""API tokens: creation, lookup by hash, revocation, roles, and the audit trail of writes.
+
+The token routes and `wheelscan token create` call `grant_token` and `revoke_api_token`, which
+commit; docs/service.md, "Entities and access".
+"""
 
 from __future__ import annotations
 
@@ -11,7 +15,7 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from backend.errors import ForbiddenError, InvalidInputError, UnauthorizedError
+from backend.errors import ForbiddenError, InvalidInputError, NotFoundError, UnauthorizedError
 from db.models import ROLES, ApiToken, AuditEvent
 from db.types import utc_now
 
@@ -42,6 +46,49 @@ def create_token(
     session.add(row)
     session.flush()
     return row, plaintext
+
+
+def grant_token(
+    session: Session,
+    actor: ApiToken | None,
+    *,
+    role: str,
+    name: str,
+    expires_at: datetime | None = None,
+) -> tuple[ApiToken, str]:
+    """Create a token, audited as `actor`'s write (None: the CLI), and commit; returns the
+    row and the plaintext, shown only once."""
+    row, plaintext = create_token(session, role=role, name=name, expires_at=expires_at)
+    record_audit(session, actor, "token.create", "token", row.id, {"role": role})
+    session.commit()
+    return row, plaintext
+
+
+def revoke_api_token(session: Session, admin: ApiToken, token_id: int) -> ApiToken:
+    """Revoke token `token_id` at once (idempotent: a revoked token keeps its first
+    revocation time), audited and committed."""
+    row = session.get(ApiToken, token_id)
+    if row is None:
+        raise NotFoundError(f"token {token_id} not found")
+    if row.revoked_at is None:
+        row.revoked_at = utc_now()
+        record_audit(session, admin, "token.revoke", "token", row.id)
+        session.commit()
+    return row
+
+
+def tokens_newest_first(session: Session) -> list[ApiToken]:
+    """Every token row, newest first."""
+    return list(session.scalars(select(ApiToken).order_by(ApiToken.id.desc())))
+
+
+def audit_trail(session: Session, offset: int, limit: int) -> list[AuditEvent]:
+    """`limit` audit events after the `offset` newest, newest first."""
+    return list(
+        session.scalars(
+            select(AuditEvent).order_by(AuditEvent.id.desc()).offset(offset).limit(limit)
+        )
+    )
 
 
 def authenticate(session: Session, token: str | None) -> ApiToken:

@@ -10,8 +10,10 @@ import cv2
 import numpy as np
 from matplotlib import colormaps
 
+from backend.errors import NotFoundError
 from backend.storage.artefacts import FrameArtefacts, load_artefacts
 from backend.storage.store import BlobStore
+from db.models import MeasurementFrame
 from pipeline import Centres
 from pipeline.archive.pass_archive import decode_frame
 from pipeline.extraction.adaptive import stripe_scales
@@ -105,6 +107,36 @@ def layer_png(store: BlobStore, sha256: str, layer: str, max_width_px: int | Non
         raise ValueError(f"artefacts {sha256[:12]}… have no σ map (a fixed-σ method)")
     low, high = SIGMA_RANGE_PX
     return LayerPng(sigma_png(artefacts.sigma_map, low, high, max_width_px), low, high)
+
+
+def sigma_map_of(artefacts: FrameArtefacts, method: str) -> np.ndarray:
+    """The σ map of a frame's artefacts [px]; NotFoundError for a fixed-σ method."""
+    if artefacts.sigma_map is None:
+        raise NotFoundError(f"the {method} method uses one fixed σ and has no σ map")
+    return artefacts.sigma_map
+
+
+def mask_layer(store: BlobStore, row: MeasurementFrame, max_width_px: int | None) -> bytes:
+    """The stripe mask PNG of one stored extraction: the one rendered at measurement time
+    at full size, else rendered now (and cached)."""
+    if max_width_px is None and row.mask_png_sha256 is not None:
+        return store.get(row.mask_png_sha256, ".png")
+    return layer_png(store, row.artefact_sha256, "mask", max_width_px).png
+
+
+def sigma_layer(
+    store: BlobStore, row: MeasurementFrame, method: str, max_width_px: int | None
+) -> LayerPng:
+    """The coloured σ map PNG of one stored extraction and its colour scale, as
+    `mask_layer`; NotFoundError for a fixed-σ method."""
+    if max_width_px is None and row.sigma_png_sha256 is not None:
+        return LayerPng(
+            store.get(row.sigma_png_sha256, ".png"),
+            row.sigma_min_px or 0.0,
+            row.sigma_max_px or 0.0,
+        )
+    sigma_map_of(cached_artefacts(store, row.artefact_sha256), method)
+    return layer_png(store, row.artefact_sha256, "sigma", max_width_px)
 
 
 def prerender_layers(store: BlobStore, centres: Centres) -> dict[str, str | float | None]:

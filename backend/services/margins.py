@@ -10,6 +10,8 @@ the band, and as a fraction of the band: the limits' span where there are two, o
 distance from the one limit to the new wheel's value (the reference profile's) where
 there is one (qR ≥ 6.5 mm: S1002 new is 10.79 mm, so its band is 4.29 mm wide). A value
 within `near_limit_fraction` of the band from a limit is "near" (amber).
+
+Margins, amber and alarms in one hop: docs/numbers.md.
 """
 
 from __future__ import annotations

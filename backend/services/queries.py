@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Literal, cast
 
-from sqlalchemy import Select, func, select
+from sqlalchemy import Select, func, select, text
 from sqlalchemy.orm import Session
 
 from backend.api.schemas import JobProgress, MethodResult, Page, PassSummary, PassWheelRead, Side
@@ -43,6 +43,24 @@ def job_progress(job: Job) -> JobProgress:
         wheels_done=job.wheels_done,
         wheels_total=job.wheels_total,
     )
+
+
+def database_dialect(session: Session) -> str:
+    """The database's dialect name ("sqlite", "postgresql") once it has answered a query."""
+    session.execute(text("SELECT 1"))
+    return session.get_bind().dialect.name
+
+
+def jobs_progress(session: Session, job_id: int | None = None) -> list[JobProgress]:
+    """The progress of job `job_id` (empty if there is none), or with None of every
+    unfinished job, newest first (200 at most)."""
+    if job_id is not None:
+        job = session.get(Job, job_id)
+        return [job_progress(job)] if job else []
+    active = session.scalars(
+        select(Job).where(Job.state != "done").order_by(Job.id.desc()).limit(200)
+    )
+    return [job_progress(job) for job in active]
 
 
 def _alarm_count(session: Session, pass_id: int) -> int:

@@ -1,6 +1,8 @@
 """From a pipeline `WheelMeasurement` to a `Measurement` row: parameters, quality, σ
 statistics, the fused profile with its construction points, the reference profile family
-and the alarms against the fleet's limits."""
+and the alarms against the fleet's limits.
+
+Where each value comes from: docs/numbers.md."""
 
 from __future__ import annotations
 
@@ -11,7 +13,7 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from backend.services.limits import alarms_of, limits_for, profile_family, review_thresholds
-from backend.services.margins import Margin, limit_margins
+from backend.services.margins import REPORTED, Margin, limit_margins
 from db.models import Measurement, MeasurementMargin, Site
 from pipeline.errors import PipelineError
 from pipeline.profile.flange import FlangeParameters
@@ -26,18 +28,9 @@ REFERENCE_POINT_X_MM = 70.0
 """Tread reference point (z = 0) of the profile frame [mm]."""
 STORED_DECIMALS = 4
 """Profile coordinates are stored to 0.1 µm: far below the measurement's resolution."""
-PARAMETER_NAMES = (
-    "flange_height_mm",
-    "flange_thickness_mm",
-    "flange_thickness_en_mm",
-    "qr_mm",
-    "back_to_back_mm",
-    "tread_hollow_mm",
-    "flange_angle_deg",
-    "rim_width_mm",
-    "equivalent_conicity",
-)
-"""The wheel parameters of a measurement: its columns and the API's fields, in mm but for
+PARAMETER_NAMES = tuple(p.key for p in REPORTED)
+"""The wheel parameters of a measurement (`margins.REPORTED`, the one list): its columns and
+the API's fields, in mm but for
 `flange_angle_deg` (°) and the axle's `equivalent_conicity` (no unit, EN 15302 at 3 mm).
 `flange_thickness_en_mm` is the pipeline's `flange_thickness_10_mm` (Sd at the EN height,
 z = 10 mm above the tread reference point); `flange_thickness_mm` is Sd at z = 12 mm."""

@@ -16,6 +16,8 @@ Not covered: an upload or stream that stores a byte-identical frame while a swee
 (its blob is written before its rows, so for that moment nothing refers to it) can lose
 that blob to the sweep. Identical camera frames across passes come from replayed data,
 not from cameras; closing this needs a lock shared by the store's writers and the sweep.
+
+docs/service.md, "Retention, backup".
 """
 
 from __future__ import annotations

@@ -10,7 +10,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from backend.api.schemas import ProfileRead
-from backend.errors import NotFoundError
+from backend.errors import GoneError, NotFoundError
 from backend.services.images import cached_artefacts
 from backend.services.pass_wheels import method_measurement, wheel_frames
 from backend.services.queries import method_result
@@ -28,6 +28,19 @@ def wheel_frame(session: Session, pass_wheel: PassWheel, position: str, index: i
         sensor = f"{pass_wheel.wheel.side}_{position}"
         raise NotFoundError(f"wheel has {len(frames)} {sensor} frame(s); index {index} is beyond")
     return frames[index]
+
+
+def retained_frame(session: Session, pass_wheel: PassWheel, position: str, index: int) -> Frame:
+    """`wheel_frame`, or GoneError once frame retention removed the pass's frames (the
+    results are kept)."""
+    frame = wheel_frame(session, pass_wheel, position, index)
+    removed_at = pass_wheel.train_pass.frames_removed_at
+    if removed_at is not None:
+        raise GoneError(
+            f"frames of pass {pass_wheel.pass_id} were removed by retention on "
+            f"{removed_at:%Y-%m-%d}; the measurement results are kept"
+        )
+    return frame
 
 
 def measurement_or_404(pass_wheel: PassWheel, method: str) -> Measurement:

@@ -4,6 +4,8 @@ A blob lives at `<root>/<sha[:2]>/<sha><suffix>`; writing the same bytes twice i
 and a write is atomic (temporary file in the same folder, fsync, rename), so a reader never
 sees half a file and a crash never leaves one under a real name. A temporary file names its
 host and process; the next start removes those whose process is gone.
+
+docs/service.md, "Storage".
 """
 
 from __future__ import annotations

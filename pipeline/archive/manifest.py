@@ -1,4 +1,7 @@
-"""The manifest of a `wheelscan-pass/1` archive: dataclasses, strict parsing and the JSON form."""
+"""The manifest of a `wheelscan-pass/1` archive: dataclasses, strict parsing and the JSON form.
+
+The format: docs/formats.md, "Pass archive".
+"""
 
 from __future__ import annotations
 

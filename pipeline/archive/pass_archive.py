@@ -4,6 +4,8 @@
 the service calls it on an upload before storing anything. Zips are treated as hostile:
 member count, sizes and compression ratio are limited, and absolute paths, `..`, symlinks,
 encrypted and duplicated members are refused. Frames are PNG, grey, 8 or 16 bit.
+
+The format: docs/formats.md, "Pass archive".
 """
 
 from __future__ import annotations
@@ -40,6 +42,9 @@ _PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 MAX_PNG_CHUNKS = 2**16
 """Chunks of a frame at most: encoders write IDAT in 8–64 KiB chunks (a 64 MiB frame has at
 most 8192), while 12-byte empty chunks would make a 32 MiB body 2.8 million of them."""
+PNG_METADATA_BYTES = 64 * 2**10
+"""Room beside the image data of a frame [bytes]: signature, IHDR, IEND, chunk headers and
+text chunks. Anything else a file carries would be stored with the frame and never read."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -177,8 +182,9 @@ def png_header(data: bytes, name: str) -> tuple[int, int, int]:
     ------
     ArchiveError
         Not a PNG (signature, IHDR first), not grey, not 8 or 16 bit, more than
-        `MAX_FRAME_PIXELS` pixels, chunks running past the data, or bytes after IEND (they
-        would be stored with the frame and never read).
+        `MAX_FRAME_PIXELS` pixels, larger than `largest_png_bytes` of its size, chunks
+        running past the data, or bytes after IEND (they would be stored with the frame and
+        never read).
     """
     if len(data) < 33 or not data.startswith(_PNG_SIGNATURE) or data[12:16] != b"IHDR":
         raise ArchiveError(f"frame {name!r} is not a PNG image")
@@ -191,8 +197,26 @@ def png_header(data: bytes, name: str) -> tuple[int, int, int]:
         raise ArchiveError(
             f"frame {name!r} claims {width}x{height} px; frames have 1 to {MAX_FRAME_PIXELS} pixels"
         )
+    largest = largest_png_bytes(width, height, depth)
+    if len(data) > largest:
+        raise ArchiveError(
+            f"frame {name!r} is {len(data)} bytes, more than a {width}x{height} px {depth} bit "
+            f"PNG needs ({largest} bytes stored uncompressed, with {PNG_METADATA_BYTES} bytes "
+            "of metadata); send the frame without padding chunks"
+        )
     _check_chunks(data, name)
     return width, height, depth
+
+
+def largest_png_bytes(width_px: int, height_px: int, depth_bits: int) -> int:
+    """Largest file a grey PNG of this size may be [bytes]: its filtered rows (a filter byte
+    per row) plus 1/8 for a deflate stream that does not compress, plus PNG_METADATA_BYTES.
+
+    A frame is stored as received; bounding it by its own pixels keeps a small upload of
+    padded frames (chunks of zeros deflate about 1000-fold in a zip) from filling the disk.
+    """
+    raw_bytes = height_px * (1 + width_px * depth_bits // 8)
+    return raw_bytes + raw_bytes // 8 + PNG_METADATA_BYTES
 
 
 def _check_chunks(data: bytes, name: str) -> None:

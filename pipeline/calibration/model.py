@@ -4,6 +4,8 @@ One entry per sensor (`left_inner`, `left_outer`, `right_inner`, `right_outer`):
 intrinsics and distortion (OpenCV model), the laser plane in the camera frame and the
 camera-to-track transform. The image size and bit depth the sensor delivers are part of the
 calibration, so frames can be checked against it before anything is measured.
+
+The format: docs/formats.md, "Calibration"; the frames: docs/coordinate-frames.md.
 """
 
 from __future__ import annotations

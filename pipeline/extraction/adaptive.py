@@ -1,4 +1,7 @@
-"""The multi-scale adaptive analysis: scales from the width range, V = max over scales, σB."""
+"""The multi-scale adaptive analysis: scales from the width range, V = max over scales, σB.
+
+Equations and constants: docs/extraction.md §1 (scales), §3 (V) and §4 (σB).
+"""
 
 from __future__ import annotations
 

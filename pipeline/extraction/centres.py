@@ -1,4 +1,7 @@
-"""Stripe centres of a frame: the `Centres` result and `extract_centres`, the design's contract."""
+"""Stripe centres of a frame: the `Centres` result and `extract_centres`, the design's contract.
+
+The method, its equations and constants: docs/extraction.md.
+"""
 
 from __future__ import annotations
 
@@ -21,8 +24,9 @@ from pipeline.extraction.blocks import all_blocks
 from pipeline.extraction.classic import segment_classic
 from pipeline.extraction.components import band_pixels
 from pipeline.extraction.curvature import (
-    centre_scatter,
+    LocalFits,
     local_curvature,
+    local_fits,
     remove_curvature_bias,
     smooth_along,
 )
@@ -260,7 +264,7 @@ def _refine_on_normals(image, x, y, nx, ny, sigma, widths, polylines, asymmetry)
 
     The points are first freed of their curvature bias, so that a point whose matched fit
     fails keeps an unbiased Steger centre. Each polyline takes the kernel of
-    KERNEL_FACTORS × s whose centres scatter least along it (σl, `centre_scatter`): s where
+    KERNEL_FACTORS × s whose centres scatter least along it (σl, `local_fits`): s where
     the noise is additive, wider where texture or speckle multiplies the stripe (its noise
     is largest at the peak, and a wider kernel weights the flanks). `asymmetry(scale)`
     gives the asymmetry bias along n [px] of a maximum at that kernel scale (None: none).
@@ -272,15 +276,22 @@ def _refine_on_normals(image, x, y, nx, ny, sigma, widths, polylines, asymmetry)
     support = ALONG_SUPPORT * np.maximum(sigma, 4 * s / math.sqrt(3))
     best = np.zeros(x.size)
     least = np.full(x.size, np.inf)
+    fitted, count = np.zeros(x.size), np.zeros(x.size)
     offsets = matched_offsets(image, x, y, nx, ny, s, KERNEL_FACTORS)
     for factor, t in zip(KERNEL_FACTORS, offsets, strict=True):
         if asymmetry is not None:
             t = t - asymmetry(factor * s)
         t = np.where(np.isfinite(t), t, 0.0)
-        scatter = centre_scatter(x + t * nx, y + t * ny, nx, ny, support, polylines)
-        better = scatter < least
-        best[better], least[better] = t[better], scatter[better]
-    return smooth_along(x + best * nx, y + best * ny, nx, ny, support, polylines)
+        fits = local_fits(x + t * nx, y + t * ny, nx, ny, support, polylines)
+        better = fits.scatter < least  # one σl per polyline: a whole polyline's choice
+        best[better], least[better] = t[better], fits.scatter[better]
+        fitted[better], count[better] = fits.offset[better], fits.count[better]
+    # The chosen kernel's fits are those of the centres smoothed below (polylines whose σl
+    # is NaN kept their Steger centres and are fitted anew).
+    chosen = None
+    if polylines and np.isfinite(least[np.concatenate(polylines)]).all():
+        chosen = LocalFits(offset=fitted, count=count, scatter=least)
+    return smooth_along(x + best * nx, y + best * ny, nx, ny, support, polylines, fits=chosen)
 
 
 def _orient_normals(nx: np.ndarray, ny: np.ndarray, chains: list[np.ndarray]) -> None:

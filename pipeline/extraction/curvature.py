@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -175,26 +176,35 @@ def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> 
     return out
 
 
-def _scatter_windows(x, y, nx, ny, sigma, bounds, correlation_px=None) -> np.ndarray:
-    """Window scale per point chosen from the measured centre scatter σl (Lepski's rule).
+def _scatter_windows(
+    x, y, nx, ny, sigma, bounds, correlation_px=None, first=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Window scale per point chosen from the measured centre scatter σl (Lepski's rule),
+    and each point's fitted offset along n [px] on its chosen window.
 
     `correlation_px` (K,) is how far apart along the stripe the centres' errors are
-    independent [px]; default 2σ.
+    independent [px]; default 2σ. `first`, when given, is the (offset, count) of the fits
+    at the first window (SUPPORT_FACTORS[0] × σ) of these points, already made.
 
     σl of each polyline is the robust spread (1.4826 × MAD) of the points about their local
     fits at the base window. Each point's window grows through `SUPPORT_FACTORS` × σ while
     the fitted curve stays within LEPSKI_Z·σl·√(2/N) of its fit on every smaller window
     (N the independent centres in that window: the points over the `correlation_px` the
     smoothing correlates them along the stripe): wider where texture makes the centres scatter and
-    the stripe is smooth, no wider where its shape changes.
+    the stripe is smooth, no wider where its shape changes. A point's fit depends only on
+    its own window, so the fit on the chosen window is the one made while choosing it.
     """
-    fits = []
+    fits: list[tuple[np.ndarray, np.ndarray]] = []
     for factor in SUPPORT_FACTORS:
-        kappa, offset, count = (np.empty(x.size) for _ in range(3))
-        _fit_curvatures(x, y, nx, ny, sigma * factor, bounds, kappa, offset, count)
+        if first is not None and not fits:
+            offset, count = first
+        else:
+            kappa, offset, count = (np.empty(x.size) for _ in range(3))
+            _fit_curvatures(x, y, nx, ny, sigma * factor, bounds, kappa, offset, count)
         fits.append((offset, np.maximum(count, 1.0)))
     scatter = _spread(fits[0][0], bounds)
     chosen = np.full(x.size, SUPPORT_FACTORS[0])
+    fitted = fits[0][0].copy()
     admissible = np.ones(x.size, bool)
     correlation = 2.0 * sigma if correlation_px is None else correlation_px
     for k in range(1, len(SUPPORT_FACTORS)):
@@ -203,7 +213,8 @@ def _scatter_windows(x, y, nx, ny, sigma, bounds, correlation_px=None) -> np.nda
             limit = LEPSKI_Z * scatter * np.sqrt(2.0 / independent)
             admissible &= np.abs(fits[k][0] - fits[j][0]) <= limit
         chosen[admissible] = SUPPORT_FACTORS[k]
-    return sigma * chosen
+        fitted[admissible] = fits[k][0][admissible]
+    return sigma * chosen, fitted
 
 
 def remove_curvature_bias(
@@ -250,7 +261,7 @@ def remove_curvature_bias(
     if not polylines:
         return x_out, y_out
     order, bounds, fx, fy, fnx, fny, fsigma = _chained(polylines, x, y, nx, ny, sigma)
-    window = _scatter_windows(fx, fy, fnx, fny, fsigma, bounds) if scatter_support else fsigma
+    window = _scatter_windows(fx, fy, fnx, fny, fsigma, bounds)[0] if scatter_support else fsigma
     cx, cy = fx.copy(), fy.copy()
     _remove_bias(fx, fy, fnx, fny, fsigma, window, bounds, cx, cy)
     if scatter_support:
@@ -268,13 +279,46 @@ def _chained(polylines: tuple[np.ndarray, ...], *arrays) -> tuple:
     return order, bounds, *(np.ascontiguousarray(a[order], np.float64) for a in arrays)
 
 
+@kernel
 def _spread(offsets: np.ndarray, bounds: np.ndarray) -> np.ndarray:
-    """Per point, 1.4826 × the median absolute deviation of its polyline's `offsets`."""
+    """Per point, 1.4826 × the median absolute deviation of its polyline's `offsets` (NaN
+    where the polyline holds a NaN, as np.median)."""
     scatter = np.empty(offsets.size)
-    for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
+    for c in range(bounds.size - 1):
+        lo, hi = bounds[c], bounds[c + 1]
         a = offsets[lo:hi]
+        if np.isnan(a).any():
+            scatter[lo:hi] = np.nan
+            continue
         scatter[lo:hi] = 1.4826 * np.median(np.abs(a - np.median(a)))
     return scatter
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class LocalFits:
+    """Each centre's local quadratic fit along its polyline; arrays (K,) in the points'
+    order, NaN (count 0) for points in no polyline.
+
+    `offset` is the fitted curve's offset a from the point along n [px], `count` the points
+    in its window, `scatter` σl, the robust spread (1.4826 × MAD) of its polyline's offsets.
+    """
+
+    offset: np.ndarray
+    count: np.ndarray
+    scatter: np.ndarray
+
+
+def local_fits(x, y, nx, ny, support_px, polylines: tuple[np.ndarray, ...]) -> LocalFits:
+    """The centres' local quadratic fits v = a + b·u + (κ/2)·u² along their polylines
+    (Gaussian weight of std `support_px` along the stripe, window ±max(2·support, 4 px))."""
+    offset, count, scatter = (np.full(np.size(x), np.nan) for _ in range(3))
+    if polylines:
+        order, bounds, fx, fy, fnx, fny, fs = _chained(polylines, x, y, nx, ny, support_px)
+        kappa, fitted, inside = (np.empty(fx.size) for _ in range(3))
+        _fit_curvatures(fx, fy, fnx, fny, fs, bounds, kappa, fitted, inside)
+        offset[order], count[order] = fitted, inside
+        scatter[order] = _spread(fitted, bounds)
+    return LocalFits(offset=offset, count=np.nan_to_num(count), scatter=scatter)
 
 
 def centre_scatter(x, y, nx, ny, support_px, polylines: tuple[np.ndarray, ...]) -> np.ndarray:
@@ -283,12 +327,7 @@ def centre_scatter(x, y, nx, ny, support_px, polylines: tuple[np.ndarray, ...]) 
 
     Points in no polyline get NaN.
     """
-    out = np.full(np.size(x), np.nan)
-    if not polylines:
-        return out
-    order, bounds, fx, fy, fnx, fny, fs = _chained(polylines, x, y, nx, ny, support_px)
-    out[order] = _spread(_fitted_offsets(fx, fy, fnx, fny, fs, bounds), bounds)
-    return out
+    return local_fits(x, y, nx, ny, support_px, polylines).scatter
 
 
 def _fitted_offsets(x, y, nx, ny, window, bounds) -> np.ndarray:
@@ -304,6 +343,8 @@ def smooth_along(
     ny,
     support_px,
     polylines: tuple[np.ndarray, ...],
+    *,
+    fits: LocalFits | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Centres moved onto their local quadratic fit along the polyline (no bias removed).
 
@@ -319,6 +360,9 @@ def smooth_along(
         apart).
     polylines : tuple of ndarray of int
         Disjoint ordered index arrays into the points.
+    fits : LocalFits, optional
+        `local_fits` of these same points at `support_px`, if already made (they are the
+        base window's fits, not made again).
 
     Returns
     -------
@@ -338,9 +382,10 @@ def smooth_along(
     if not polylines:
         return x_out, y_out
     order, bounds, fx, fy, fnx, fny, fs = _chained(polylines, x, y, nx, ny, support_px)
-    window = _scatter_windows(
-        fx, fy, fnx, fny, fs, bounds, np.full(fx.size, MATCHED_CORRELATION_PX)
+    first = None if fits is None else (fits.offset[order], fits.count[order])
+    _, fitted = _scatter_windows(
+        fx, fy, fnx, fny, fs, bounds, np.full(fx.size, MATCHED_CORRELATION_PX), first
     )
-    offset = np.nan_to_num(_fitted_offsets(fx, fy, fnx, fny, window, bounds))
+    offset = np.nan_to_num(fitted)
     x_out[order], y_out[order] = fx + offset * fnx, fy + offset * fny
     return x_out, y_out

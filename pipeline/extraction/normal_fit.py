@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from pipeline.extraction.scalespace import cubic_at, cubic_taps
+from pipeline.extraction.scalespace import cubic_at, cubic_taps, interior_taps
 from pipeline.jit import kernel
 
 PROFILE_STEP_PX = 1.0
@@ -83,16 +83,37 @@ def _newton(profile, n, t, sk) -> float:
 
 
 @kernel
-def _matched_offsets(image, x, y, nx, ny, s, factors, out) -> None:
+def _read_profile(image, x, y, nx, ny, n, profile) -> None:
+    """profile[i + n] = Keys cubic grey at (x, y) + i·PROFILE_STEP_PX·(nx, ny), i = −n … n;
+    the taps indexed directly where the whole line's lie inside the frame (a pixel of
+    margin against rounding), else folded (reflect border)."""
     height, width = image.shape
-    for k in range(x.size):
-        widest = max(s[k], MIN_PROFILE_SIGMA_PX) * factors.max()
-        n = int(math.ceil((KERNEL_REACH_SIGMAS * widest + MAX_MOVE_PX) / PROFILE_STEP_PX))
-        profile = np.empty(2 * n + 1)
+    reach = n * PROFILE_STEP_PX
+    xs, ys = (x - reach * nx, x + reach * nx), (y - reach * ny, y + reach * ny)
+    if 2 <= min(xs) and max(xs) < width - 3 and 2 <= min(ys) and max(ys) < height - 3:
         for i in range(-n, n + 1):
             t = i * PROFILE_STEP_PX
-            rows, cols, wv, wu = cubic_taps(x[k] + t * nx[k], y[k] + t * ny[k], height, width)
-            profile[i + n] = cubic_at(image, rows, cols, wv, wu)
+            profile[i + n] = cubic_at(image, *interior_taps(x + t * nx, y + t * ny))
+    else:
+        for i in range(-n, n + 1):
+            t = i * PROFILE_STEP_PX
+            profile[i + n] = cubic_at(image, *cubic_taps(x + t * nx, y + t * ny, height, width))
+
+
+@kernel
+def _matched_offsets(image, x, y, nx, ny, s, factors, out) -> None:
+    """`matched_offsets` into out (F, K): one profile buffer, each centre's profile read once
+    for every factor."""
+    if x.size == 0:
+        return
+    widest = np.empty(x.size)
+    for k in range(x.size):
+        widest[k] = max(s[k], MIN_PROFILE_SIGMA_PX) * factors.max()
+    longest = int(math.ceil((KERNEL_REACH_SIGMAS * widest.max() + MAX_MOVE_PX) / PROFILE_STEP_PX))
+    profile = np.empty(2 * longest + 1)
+    for k in range(x.size):
+        n = int(math.ceil((KERNEL_REACH_SIGMAS * widest[k] + MAX_MOVE_PX) / PROFILE_STEP_PX))
+        _read_profile(image, x[k], y[k], nx[k], ny[k], n, profile)
         for f in range(factors.size):
             out[f, k] = _newton(profile, n, 0.0, max(s[k], MIN_PROFILE_SIGMA_PX) * factors[f])
 

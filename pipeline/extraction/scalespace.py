@@ -131,19 +131,9 @@ def keys_weights(fraction: float) -> tuple[float, float, float, float]:
 
 
 @kernel
-def reflect_index(index: int, size: int) -> int:
-    """An index folded into [0, size) with the edge pixel repeated (the BORDER mode)."""
-    if index < 0:
-        index = -index - 1
-    if index >= size:
-        index = 2 * size - index - 1
-    return index
-
-
-@kernel
 def fold_index(index: int, size: int) -> int:
     """An index folded into [0, size) as cv2.BORDER_REFLECT (edge pixel repeated), as
-    often as it takes."""
+    often as it takes: the one BORDER mode of the pipeline, index by index."""
     if size == 1:
         return 0
     while index < 0 or index >= size:
@@ -160,18 +150,31 @@ def cubic_taps(u: float, v: float, height: int, width: int):
     iu, iv = int(u0), int(v0)
     wu, wv = keys_weights(fu), keys_weights(fv)
     cols = (
-        reflect_index(iu - 1, width),
-        reflect_index(iu, width),
-        reflect_index(iu + 1, width),
-        reflect_index(iu + 2, width),
+        fold_index(iu - 1, width),
+        fold_index(iu, width),
+        fold_index(iu + 1, width),
+        fold_index(iu + 2, width),
     )
     rows = (
-        reflect_index(iv - 1, height),
-        reflect_index(iv, height),
-        reflect_index(iv + 1, height),
-        reflect_index(iv + 2, height),
+        fold_index(iv - 1, height),
+        fold_index(iv, height),
+        fold_index(iv + 1, height),
+        fold_index(iv + 2, height),
     )
     return rows, cols, wv, wu
+
+
+@kernel
+def interior_taps(u: float, v: float):
+    """`cubic_taps` of a point whose 4 × 4 taps all lie inside the grid: no index folding,
+    unsigned indices (no negative-index wrap-around test)."""
+    u0 = np.floor(u)
+    v0 = np.floor(v)
+    c, r = np.uint64(u0) - np.uint64(1), np.uint64(v0) - np.uint64(1)
+    one, two, three = np.uint64(1), np.uint64(2), np.uint64(3)
+    rows = (r, r + one, r + two, r + three)
+    cols = (c, c + one, c + two, c + three)
+    return rows, cols, keys_weights(v - v0), keys_weights(u - u0)
 
 
 @kernel
@@ -238,6 +241,15 @@ def _cubic_at_pixels(fields, stride, rows, cols, outs) -> None:
             outs[f][k] = cubic_at(fields[f], *taps)
 
 
+@kernel
+def _at_pixels(fields, rows, cols, outs) -> None:
+    """outs[f][k] = fields[f][rows[k], cols[k]] (one pass for all fields)."""
+    for k in range(rows.size):
+        r, c = rows[k], cols[k]
+        for f in range(len(fields)):
+            outs[f][k] = fields[f][r, c]
+
+
 def interpolate_cubic_fields(
     fields: tuple[np.ndarray, ...], u: np.ndarray, v: np.ndarray
 ) -> tuple[np.ndarray, ...]:
@@ -283,14 +295,13 @@ def sample_derivatives(
     """
     d = level.derivatives
     fields = (d.ix, d.iy, d.ixx, d.ixy, d.iyy)
+    outs = tuple(np.empty(np.size(rows), np.float32) for _ in fields)
+    taps = (np.asarray(rows, np.int64), np.asarray(cols, np.int64), outs)
     if level.level == 0:
-        ix, iy, ixx, ixy, iyy = (f[rows, cols] for f in fields)
+        _at_pixels(fields, *taps)
     else:
-        outs = tuple(np.empty(np.size(rows), np.float32) for _ in fields)
-        _cubic_at_pixels(
-            fields, level.stride, np.asarray(rows, np.int64), np.asarray(cols, np.int64), outs
-        )
-        ix, iy, ixx, ixy, iyy = outs
+        _cubic_at_pixels(fields, level.stride, *taps)
+    ix, iy, ixx, ixy, iyy = outs
     first = np.float32(1 / level.stride)
     second = np.float32(1 / level.stride**2)
     return GaussianDerivatives(

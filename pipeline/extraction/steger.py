@@ -1,4 +1,7 @@
-"""Steger's sub-pixel line centre: second-order Taylor step along the normal, ±0.5 px test."""
+"""Steger's sub-pixel line centre: second-order Taylor step along the normal, ±0.5 px test.
+
+Equations: docs/extraction.md §5.
+"""
 
 from __future__ import annotations
 

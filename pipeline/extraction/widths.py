@@ -8,8 +8,8 @@ from pipeline.extraction.scalespace import (
     ScaleLevel,
     cubic_at,
     cubic_taps,
-    keys_weights,
-    reflect_index,
+    fold_index,
+    interior_taps,
 )
 from pipeline.jit import kernel
 
@@ -42,8 +42,8 @@ def _gradient_squared(ix, iy, u: float, v: float) -> float:
     if 0 <= c0 < width - 1 and 0 <= r0 < height - 1:
         c1, r1 = c0 + 1, r0 + 1
     else:
-        c1, r1 = reflect_index(c0 + 1, width), reflect_index(r0 + 1, height)
-        c0, r0 = reflect_index(c0, width), reflect_index(r0, height)
+        c1, r1 = fold_index(c0 + 1, width), fold_index(r0 + 1, height)
+        c0, r0 = fold_index(c0, width), fold_index(r0, height)
     return _bilinear_gradient_squared(ix, iy, r0, r1, c0, c1, u - u0, v - v0)
 
 
@@ -65,16 +65,9 @@ def _coarse_interior(ix, iy, x0, y0, dx, dy, steps, origin, scale, values) -> No
 @kernel
 def _cubic_gradient_interior(ix, iy, u: float, v: float) -> float:
     """|∇I| from Keys cubic Ix, Iy at level-grid coordinates (u, v) when all 4 × 4 taps lie
-    inside the grid: `cubic_taps` without index folding, unsigned indices, the taps shared
-    by both fields."""
-    u0 = np.floor(u)
-    v0 = np.floor(v)
-    c, r = np.uint64(u0) - np.uint64(1), np.uint64(v0) - np.uint64(1)
-    one, two, three = np.uint64(1), np.uint64(2), np.uint64(3)
-    rows = (r, r + one, r + two, r + three)
-    cols = (c, c + one, c + two, c + three)
-    wv, wu = keys_weights(v - v0), keys_weights(u - u0)
-    return np.hypot(cubic_at(ix, rows, cols, wv, wu), cubic_at(iy, rows, cols, wv, wu))
+    inside the grid (`interior_taps`, shared by both fields)."""
+    taps = interior_taps(u, v)
+    return np.hypot(cubic_at(ix, *taps), cubic_at(iy, *taps))
 
 
 @kernel

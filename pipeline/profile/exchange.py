@@ -2,9 +2,9 @@
 
 Read: MiniProf-style ASCII (`.whl`, `.prr`: `key=value` header lines, a blank line, then
 one point per row, columns as `ColumnDef` names them) and CSV of x, z (optional header,
-`#` comments). The points are brought into the profile frame of DESIGN.md: ordered from
-the back face to the field side, the flange pointing up (+z), x from the back face and
-z = 0 at x = 70 mm. Write: the same two text formats from a profile in that frame.
+`#` comments). The points are brought into the profile frame (docs/coordinate-frames.md):
+ordered from the back face to the field side, the flange pointing up (+z), x from the back
+face and z = 0 at x = 70 mm. Write: the same two text formats from a profile in that frame.
 
 Handheld gauges sample the flank sparsely (a point every 0.5–1 mm along the contour), so
 `handheld_parameters` falls back from the least-squares fits of the wayside profile to

@@ -112,6 +112,8 @@ def curve_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParamet
     Returns
     -------
     FlangeParameters
+        Read off the polyline (crossings interpolated linearly): the truth of a reference
+        table or a densely sampled contour, which `fit_flange_parameters` is tested against.
 
     Raises
     ------

@@ -6,6 +6,8 @@ datum → flange and tread parameters. `measure_pass` does that for every wheel 
 validated pass archive and adds each axle's back-to-back distance and equivalent conicity.
 A wheel whose frames yield no usable stripe is returned as "not measured" with the reason;
 it never fails the pass.
+
+Each step and the module doing it: docs/data-flow.md.
 """
 
 from __future__ import annotations

@@ -1,6 +1,7 @@
 """Tread and rim parameters of a wheel profile: tread hollow, flange angle, rim width.
 
-Definitions (profile frame of DESIGN.md: x from the back face, z up towards the flange tip):
+Definitions (the profile frame of docs/coordinate-frames.md: x from the back face, z up
+towards the flange tip; docs/numbers.md says where each value is used):
 
 - Tread hollow: the largest depth of the tread below the straight line (a straight edge)
   through the profile at x = 60 mm and x = 120 mm, over 60–120 mm. A straight edge across

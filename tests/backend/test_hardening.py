@@ -25,6 +25,7 @@ from tests.backend.archives import small_archive_bytes as archive_bytes
 from tests.backend.test_security import PATH_VALUES
 from tests.backend.test_stream_protocol import OPEN, open_pass, put
 from tests.backend.test_upload_validation import assert_refused, store_files, stored_rows, upload
+from tests.pipeline.archive_helpers import padded_png
 
 OVERFLOWING_DATES = ("0001-01-01T00:00:00+14:00", "9999-12-31T23:59:59-14:00")
 
@@ -70,6 +71,8 @@ def test_a_token_expiry_beyond_utc_is_refused(client, auth, expires_at) -> None:
     body = {"role": "viewer", "name": "x", "expires_at": expires_at}
     response = client.post("/api/tokens", headers=auth("admin"), json=body)
     assert response.status_code == 422, response.text
+    assert response.json()["code"] == "invalid_input"
+    assert "outside years 1–9999" in response.json()["detail"]
 
 
 def test_a_frame_header_claiming_billions_of_pixels_is_refused(client, auth) -> None:
@@ -86,8 +89,27 @@ def test_a_frame_header_claiming_billions_of_pixels_is_refused(client, auth) -> 
 @pytest.mark.parametrize(
     ("frame", "message"),
     [
+        (frame_png() + bytes(4096), "4096 bytes after its IEND chunk"),
+        (padded_png(frame_png(), 2**19), "send the frame without padding chunks"),
+    ],
+)
+def test_a_streamed_frame_with_trailing_or_padding_bytes_is_refused(
+    client, auth, frame, message
+) -> None:
+    pass_id = open_pass(client, auth)["pass_id"]
+    response = put(client, auth, pass_id, "left_inner", 0, frame)
+    assert response.status_code == 422, response.text
+    assert message in response.json()["detail"]
+    assert count(client, Frame) == count(client, Wheel) == 0
+    assert store_files(client) == []
+
+
+@pytest.mark.parametrize(
+    ("frame", "message"),
+    [
         (png_claiming(60000, 60000), "claims 60000x60000 px"),
         (frame_png() + bytes(4096), "4096 bytes after its IEND chunk"),
+        (padded_png(frame_png(), 2**19), "send the frame without padding chunks"),
     ],
 )
 def test_an_archive_frame_with_a_lying_header_or_trailing_bytes_is_refused(

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import struct
+import zlib
+from dataclasses import fields
 from datetime import UTC, datetime
+from pathlib import Path
 
 import numpy as np
 
 from pipeline.archive.manifest import PassManifest, WheelEntry
+from pipeline.archive.pass_archive import write_pass_archive
 from pipeline.calibration.model import (
     SENSOR_NAMES,
     LaserPlane,
@@ -64,3 +69,33 @@ def small_frames(manifest: PassManifest, dtype: type = np.uint8) -> dict[str, np
     frame = np.zeros((HEIGHT_PX, WIDTH_PX), dtype)
     frame[15, :] = 200
     return {p: frame for w in manifest.wheels for p in w.frames_inner + w.frames_outer}
+
+
+def padded_png(data: bytes, padding_bytes: int, noise: bytes = b"") -> bytes:
+    """`data` (a PNG) with a private chunk of `padding_bytes` (`noise`, then zeros) before
+    its IEND."""
+    iend = data.rindex(b"IEND") - 4
+    body = noise + bytes(padding_bytes - len(noise))
+    crc = zlib.crc32(b"zzPd" + body)
+    padding = struct.pack(">I", padding_bytes) + b"zzPd" + body + struct.pack(">I", crc)
+    return data[:iend] + padding + data[iend:]
+
+
+def many_frames_zip(out: Path, frames_per_sensor: int) -> Path:
+    """A valid zip of one axle whose four sensors have `frames_per_sensor` frames each."""
+    manifest = small_manifest()
+    wheels = tuple(
+        WheelEntry(
+            vehicle_id="V1",
+            axle=1,
+            side=side,
+            frames_inner=tuple(f"{side}_inner/{i}.png" for i in range(frames_per_sensor)),
+            frames_outer=tuple(f"{side}_outer/{i}.png" for i in range(frames_per_sensor)),
+        )
+        for side in ("left", "right")
+    )
+    many = PassManifest(
+        **{f.name: getattr(manifest, f.name) for f in fields(manifest) if f.name != "wheels"},
+        wheels=wheels,
+    )
+    return write_pass_archive(out, many, small_frames(many), calibration=small_calibration())

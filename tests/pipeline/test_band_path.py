@@ -11,9 +11,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import pipeline.extraction.band_analysis as band_analysis
+import pipeline.extraction.centres as centres_module
 from pipeline import extract_centres
+from pipeline.simulation.field import FIELD_MODES
+from pipeline.simulation.passes import build_station, build_train, pass_start_time, simulate_pass
+from tests.pipeline.real_frame_truth import REAL_FRAME_NAMES, load_real_frame
 from tests.pipeline.stripe_images import StripeCase, make_stripe
 from tests.pipeline.test_centres_accuracy import UNIFORM, VARYING
+from tests.pipeline.test_harsh_cases import HARSH
 from tests.pipeline.test_steger import straight_stripe
 
 FULL_FRAME = (1200, 1600)
@@ -33,6 +38,18 @@ def _assert_same_points(band, full) -> None:
     for name in ("x", "y", "nx", "ny", "sigma", "strength", "width_px"):
         np.testing.assert_array_equal(getattr(band, name), getattr(full, name), err_msg=name)
     assert [p.tolist() for p in band.polylines] == [p.tolist() for p in full.polylines]
+
+
+def _assert_band_is_full(image: np.ndarray) -> str:
+    """Band path and full frame give the same mask, σ map and centres on `image`; returns
+    the band path's `path`."""
+    band = extract_centres(image)
+    full = extract_centres(image, full_frame=True)
+    assert full.path == "full"
+    np.testing.assert_array_equal(band.mask, full.mask)
+    np.testing.assert_array_equal(band.sigma_map, full.sigma_map)
+    _assert_same_points(band, full)
+    return band.path
 
 
 @functools.cache
@@ -152,3 +169,54 @@ def test_a_piece_the_band_cuts_takes_the_wider_band_or_the_whole_frame(branch_px
     assert len(full) > 500
     np.testing.assert_array_equal(band.mask, full.mask)
     _assert_same_points(band, full)
+
+
+def _fallback_reasons(monkeypatch) -> list[str]:
+    """Record why every frame analysed from now on took the whole frame (a spy on
+    `analyse_band`; "" for a frame that kept its band)."""
+    reasons = []
+    real = centres_module.analyse_band
+
+    def spy(*args, **kwargs):
+        analysis = real(*args, **kwargs)
+        reasons.append(analysis.reason)
+        return analysis
+
+    monkeypatch.setattr(centres_module, "analyse_band", spy)
+    return reasons
+
+
+def test_a_stripe_component_reaching_the_band_edge_takes_the_whole_frame(monkeypatch) -> None:
+    # The 100 px branch leaves the wider band too: the fallback for this reason, not
+    # because the band would cover most of the frame.
+    reasons = _fallback_reasons(monkeypatch)
+    assert extract_centres(_stripe_with_faint_branch(100)).path == "fallback"
+    assert reasons == ["a stripe component reaches the band's edge"]
+
+
+@pytest.mark.parametrize("case", HARSH, ids=lambda c: c.name)
+def test_band_path_gives_the_full_frame_result_on_the_field_harsh_cases(case) -> None:
+    # Lit scenes fall back (their band would cover most of the frame); ghost and flare take
+    # the wide band; the rest the band (BENCHMARKS.md, field-harsh cases).
+    assert _assert_band_is_full(make_stripe(case).image) in {"band", "wide band", "fallback"}
+
+
+@pytest.mark.parametrize("name", REAL_FRAME_NAMES)
+def test_band_path_gives_the_full_frame_result_on_the_real_frames(name: str) -> None:
+    assert _assert_band_is_full(load_real_frame(name).image) in {"band", "wide band", "fallback"}
+
+
+@pytest.mark.parametrize(
+    ("mode", "seed"),
+    [("clean", 3), pytest.param("harsh", 0, marks=pytest.mark.slow)],
+)
+def test_band_path_gives_the_full_frame_result_on_simulated_frames(mode: str, seed: int) -> None:
+    # One axle (4 frames of 1600×1200 px): the clean pass's seed gives 2 band and 2 wide
+    # band frames, the harsh one 1 wide band and 3 fallbacks (about 2 and 10 s on 2 cores).
+    train_rng, pass_rng = np.random.default_rng(seed).spawn(2)
+    train = build_train(1, train_rng, axles_per_vehicle=1)
+    simulated = simulate_pass(
+        train, build_station(), pass_rng, started_at=pass_start_time(0), field=FIELD_MODES[mode]
+    )
+    paths = [_assert_band_is_full(image) for image in simulated.frames.values()]
+    assert "wide band" in paths, paths

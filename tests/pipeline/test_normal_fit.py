@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -40,3 +41,22 @@ def test_no_maximum_within_reach_is_nan() -> None:
         image, np.array([30.0]), np.array([30.0]), np.ones(1), np.zeros(1), np.full(1, 2.0), (1.0,)
     )
     assert np.isnan(t).all()
+
+
+def test_profiles_past_the_frame_edge_read_the_reflected_frame() -> None:
+    """Normals that run off the frame read it folded (reflect border, the direct-tap path
+    not taken): the same offsets as in the frame padded by reflection, where every read is
+    inside."""
+    rows, cols = np.mgrid[0:60, 0:70].astype(float)
+    image = (12 + 150 * np.exp(-8 * (cols - 0.1 * rows - 8.2) ** 2 / 81.0)).astype(np.uint8)
+    pad = 40
+    padded = cv2.copyMakeBorder(image, pad, pad, pad, pad, cv2.BORDER_REFLECT)
+    norm = np.hypot(1.0, 0.1)
+    y = np.array([1.5, 10.0, 30.0, 58.5])  # the first and last reach past a row edge too
+    x = 8.2 + 0.1 * y
+    nx, ny = np.full(4, 1 / norm), np.full(4, -0.1 / norm)
+    s = np.full(4, 9.0 / 4)
+    at_edge = matched_offsets(image, x, y, nx, ny, s, (1.0, 2.0))
+    inside = matched_offsets(padded, x + pad, y + pad, nx, ny, s, (1.0, 2.0))
+    assert np.isfinite(at_edge).all()
+    np.testing.assert_allclose(at_edge, inside, rtol=0, atol=1e-9)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import asyncio
 
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
-from sqlalchemy import select
 from sqlalchemy.orm import Session, sessionmaker
 from starlette.concurrency import run_in_threadpool
 
@@ -14,8 +13,7 @@ from backend.api.schemas import JobProgress, JobRead
 from backend.api.security import WS_POLICY_VIOLATION
 from backend.errors import ERROR_RESPONSES, ServiceError
 from backend.services.auth import authenticate, require_role
-from backend.services.queries import job_progress
-from db.models import Job
+from backend.services.queries import jobs_progress
 
 router = APIRouter(prefix="/api", tags=["jobs"], responses=ERROR_RESPONSES)
 
@@ -41,13 +39,7 @@ def _authorised(factory: sessionmaker[Session], token: str | None) -> str | None
 
 def _read_progress(factory: sessionmaker[Session], job_id: int | None) -> list[JobProgress]:
     with factory() as session:
-        if job_id is not None:
-            job = session.get(Job, job_id)
-            return [job_progress(job)] if job else []
-        active = session.scalars(
-            select(Job).where(Job.state != "done").order_by(Job.id.desc()).limit(200)
-        )
-        return [job_progress(job) for job in active]
+        return jobs_progress(session, job_id)
 
 
 async def _push_progress(websocket: WebSocket, job_id: int | None) -> None:

@@ -22,21 +22,21 @@ from backend.api.schemas import (
     Sensor,
     WheelTrend,
 )
-from backend.errors import ERROR_RESPONSES, GoneError, NotFoundError
+from backend.errors import ERROR_RESPONSES
 from backend.services.images import (
     SIGMA_COLORMAP,
     SIGMA_SCALES_PX,
-    LayerPng,
-    cached_artefacts,
     frame_png,
-    layer_png,
+    mask_layer,
+    sigma_layer,
+    sigma_map_of,
 )
 from backend.services.queries import pass_wheels
 from backend.services.trends import wheel_trend
 from backend.services.wheel_data import (
+    retained_frame,
     stored_artefacts,
     stored_extraction,
-    wheel_frame,
     wheel_profile,
 )
 from backend.storage.artefacts import FrameArtefacts
@@ -127,13 +127,7 @@ def get_frame_png(
 ) -> Response:
     """A frame of the wheel's inner or outer sensor as PNG (8/16-bit grey as recorded);
     410 once frame retention removed the pass's frames."""
-    frame = wheel_frame(session, pass_wheel, position, index)
-    removed_at = pass_wheel.train_pass.frames_removed_at
-    if removed_at is not None:
-        raise GoneError(
-            f"frames of pass {pass_wheel.pass_id} were removed by retention on "
-            f"{removed_at:%Y-%m-%d}; the measurement results are kept"
-        )
+    frame = retained_frame(session, pass_wheel, position, index)
     etag = f'"{frame.sha256[:24]}-{max_width}"'
     if (cached := _revalidated(request, etag)) is not None:
         return cached
@@ -155,17 +149,8 @@ def get_mask_png(
     etag = f'"{row.artefact_sha256[:24]}-mask-{max_width}"'
     if (cached := _revalidated(request, etag)) is not None:
         return cached
-    if max_width is None and row.mask_png_sha256 is not None:
-        data = layer.store.get(row.mask_png_sha256, ".png")
-    else:
-        data = layer_png(layer.store, row.artefact_sha256, "mask", max_width).png
+    data = mask_layer(layer.store, row, max_width)
     return Response(data, media_type="image/png", headers={"ETag": etag, **REVALIDATE})
-
-
-def _sigma_map(artefacts: FrameArtefacts, method: str) -> np.ndarray:
-    if artefacts.sigma_map is None:
-        raise NotFoundError(f"the {method} method uses one fixed σ and has no σ map")
-    return artefacts.sigma_map
 
 
 @router.get(WHEEL + "/sigma/{position}.png", response_class=Response, responses=PNG)
@@ -180,15 +165,7 @@ def get_sigma_png(
     width range, the same for every frame), the scales σ1, σ2, σ3 in X-Sigma-Scales-Px."""
     _frame_row, row = layer.extraction()
     etag = f'"{row.artefact_sha256[:24]}-sigma-{max_width}"'
-    if max_width is None and row.sigma_png_sha256 is not None:
-        png = LayerPng(
-            layer.store.get(row.sigma_png_sha256, ".png"),
-            row.sigma_min_px or 0.0,
-            row.sigma_max_px or 0.0,
-        )
-    else:
-        _sigma_map(cached_artefacts(layer.store, row.artefact_sha256), layer.method)
-        png = layer_png(layer.store, row.artefact_sha256, "sigma", max_width)
+    png = sigma_layer(layer.store, row, layer.method, max_width)
     headers = {
         "X-Colormap": SIGMA_COLORMAP,
         "X-Sigma-Min-Px": f"{png.sigma_min_px}",
@@ -215,7 +192,7 @@ def get_sigma_raw(
     """The raw σ map [px]: row-major little-endian float32, 0 outside the mask; the size
     is in the headers X-Width-Px and X-Height-Px (a Float32Array in the browser)."""
     _frame_row, artefacts = layer.artefacts()
-    sigma_map = _sigma_map(artefacts, layer.method)
+    sigma_map = sigma_map_of(artefacts, layer.method)
     height_px, width_px = sigma_map.shape
     return Response(
         np.ascontiguousarray(sigma_map, "<f4").tobytes(),
