@@ -11,6 +11,7 @@ Run alone with `python -m benchmarks.review` (prints the Markdown section).
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
@@ -126,7 +127,12 @@ def _time(session: Session, where: WorstWheelFilter) -> tuple[float, float, int]
     return 1e3 * float(np.median(times)), 1e3 * float(np.max(times)), page.total
 
 
-def _measure(backend: str, folder: Path) -> tuple[list[str], float, int]:
+def _load_1min() -> float:
+    with open("/proc/loadavg") as loadavg:
+        return float(loadavg.read().split()[0])
+
+
+def _measure(backend: str, folder: Path) -> tuple[list[str], float, int, tuple[float, float]]:
     with throwaway_database(backend, folder) as url:
         engine = make_engine(url)
         upgrade_database(engine)
@@ -138,14 +144,16 @@ def _measure(backend: str, folder: Path) -> tuple[list[str], float, int]:
                 session.connection().exec_driver_sql("ANALYZE")
                 session.commit()
             rows = []
+            load_before = _load_1min()
             for name, where in QUERIES.items():
                 median_ms, max_ms, total = _time(session, where)
                 verdict = "ok" if median_ms <= BAR_MS else "**over**"
                 rows.append(
                     f"| {backend} | {name} | {total} | {median_ms:.0f} | {max_ms:.0f} | {verdict} |"
                 )
+            loads = (load_before, _load_1min())
         engine.dispose()
-    return rows, fill_s, margin_rows
+    return rows, fill_s, margin_rows, loads
 
 
 def run() -> str:
@@ -163,10 +171,14 @@ def run() -> str:
     notes = []
     with tempfile.TemporaryDirectory() as folder:
         for backend in BACKENDS:
-            rows, fill_s, margin_rows = _measure(backend, Path(folder))
+            rows, fill_s, margin_rows, loads = _measure(backend, Path(folder))
             lines.extend(rows)
-            notes.append(f"{backend}: {margin_rows:,} margin rows written in {fill_s:.0f} s")
-    return "\n".join([*lines, "", "; ".join(notes) + ".", ""])
+            notes.append(
+                f"{backend}: {margin_rows:,} margin rows written in {fill_s:.0f} s, 1-min load "
+                f"average {loads[0]:.1f} before its queries and {loads[1]:.1f} after"
+            )
+    cores = f"{os.cpu_count()} cores, shared with other work"
+    return "\n".join([*lines, "", "; ".join(notes) + f" ({cores}).", ""])
 
 
 if __name__ == "__main__":

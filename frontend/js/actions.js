@@ -94,6 +94,7 @@ export function createActions(api, store) {
         try {
           await loadWheel(api, store, passId, wheelId, sensor, index);
         } catch (err) {
+          if (err instanceof DOMException && err.name === 'AbortError') return; // another wheel opened
           store.set({ wheel: { passId, wheelId, loading: false, failed: true } });
           throw err;
         }
@@ -179,7 +180,8 @@ export function createActions(api, store) {
   function uploadArchive(file) {
     return guard(`upload of ${file.name} failed`, async () => {
       try {
-        store.set({ upload: { fileName: file.name, bytes: file.size, uploadFraction: 0, job: null } });
+        // a new upload starts without the last one's refusal above it
+        store.set({ upload: { fileName: file.name, bytes: file.size, uploadFraction: 0, job: null }, error: null });
         const onProgress = (/** @type {number} */ f) =>
           store.set({ upload: { ...store.get().upload, uploadFraction: f } });
         const created = await api.uploadPass(file, onProgress);
@@ -215,8 +217,60 @@ function jobUpdate(store, msg) {
   store.set({ liveJobs, upload });
 }
 
+/** Frames (image and both methods' centres) fetched ahead, kept for the last few wheels. */
+const FRAME_CACHE_SIZE = 4;
+/** @type {Map<string, Promise<{image: ImageBitmap|null, adaptive: any, steger: any}>>} */
+const frameCache = new Map();
+
 /**
- * Load everything the wheel page shows, timing it (the bar: < 1 s on loopback).
+ * One frame's image and both methods' centres, from the cache of frames fetched ahead or
+ * the service (a failed image is not kept, so the next look asks again).
+ * @param {import('./api.js').Api} api
+ * @param {string} passId
+ * @param {string} wheelId
+ * @param {any} record the wheel's PassWheelRead (is its camera frame still kept?)
+ * @param {string} sensor
+ * @param {number} index
+ * @returns {Promise<{image: ImageBitmap|null, adaptive: any, steger: any}>}
+ */
+function frameLayers(api, passId, wheelId, record, sensor, index) {
+  // a measurement by another pipeline version gives other centres: another entry
+  const versions = (record.results ?? []).map((/** @type {any} */ r) => `${r.method}:${r.pipeline_version}`);
+  const key = `${passId}/${wheelId}/${sensor}/${index}/${versions.join(',')}`;
+  let entry = frameCache.get(key);
+  if (!entry) {
+    entry = Promise.all([
+      record.frames_removed_at ? null : api.frameImage(passId, wheelId, sensor, index),
+      ...METHODS.map((m) => api.centres(passId, wheelId, sensor, index, m).catch((err) => ({ error: err.message }))),
+    ]).then(([image, adaptive, steger]) => ({ image, adaptive, steger }));
+    entry.catch(() => frameCache.delete(key));
+  }
+  frameCache.delete(key); // most recently used last
+  frameCache.set(key, entry);
+  while (frameCache.size > FRAME_CACHE_SIZE) frameCache.delete(/** @type {string} */ (frameCache.keys().next().value));
+  return entry;
+}
+
+/**
+ * The frames of a wheel from its record's count per sensor, inner before outer.
+ * @param {any} record a PassWheelRead
+ * @returns {Array<{sensor: string, index: number}>}
+ */
+function framesOf(record) {
+  return Object.entries(record.frames ?? {})
+    .sort(([a], [b]) => a.localeCompare(b))
+    .flatMap(([sensor, count]) => Array.from({ length: Number(count) }, (_, index) => ({ sensor, index })));
+}
+
+/** @returns {Promise<void>} resolved after the next animation frame (the frame drawn) */
+const nextAnimationFrame = () => new Promise((resolve) => requestAnimationFrame(() => resolve()));
+
+/**
+ * Load everything the wheel page shows, timing it (the bar: < 1 s on loopback), in two
+ * steps: the frame with both methods' centres and the parameter table first (drawn at
+ * once), then the side panels (profiles, trend, handheld comparison, dispositions) after
+ * that draw; `loading` stays true until both are in. The pass's wheel list, once fetched,
+ * gives the record; the next wheel's frame is fetched ahead while this one is on screen.
  * @param {import('./api.js').Api} api
  * @param {import('./state.js').Store<any>} store
  * @param {string} passId
@@ -227,14 +281,17 @@ function jobUpdate(store, msg) {
 async function loadWheel(api, store, passId, wheelId, sensor, index) {
   const started = performance.now();
   const previous = store.get().wheel;
-  previous?.sideLayers?.abort();
+  previous?.requests?.abort(); // the last wheel's panels and layers still on their way
+  const requests = new AbortController();
+  const { signal } = requests;
   const sameWheel = previous && previous.passId === passId && previous.wheelId === wheelId;
-  store.set({ wheel: { ...(sameWheel ? previous : {}), passId, wheelId, loading: true, viewerUrl: null } });
+  store.set({ wheel: { ...(sameWheel ? previous : {}), passId, wheelId, loading: true, viewerUrl: null, requests } });
   const byId = (/** @type {any[]} */ list) => list.find((w) => String(w.wheel_id) === String(wheelId));
   // the pass's wheel list is fetched once per pass (for prev/next), never per wheel change
   const listed = store.get().pass?.id === passId && store.get().pass.wheels?.length ? store.get().pass.wheels : null;
-  const recordLoad = api.getWheel(passId, wheelId);
-  const record = (listed ? byId(listed) : null) ?? (await recordLoad);
+  const known = listed ? byId(listed) : null;
+  const recordLoad = known ? null : api.getWheel(passId, wheelId, signal);
+  const record = known ?? (await recordLoad);
   const frames = framesOf(record);
   const frame = frames.find((f) => f.sensor === (sensor ?? frames[0]?.sensor) && f.index === index);
   if (!frame && frames.length) {
@@ -249,23 +306,25 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
   }
   if (!frame) throw new ApiError(`no frames are stored for wheel ${wheelId} of pass ${passId}`, 404, 'no_frames');
   const { sensor: s, index: i } = frame;
-  const [fresh, dispositions, limits, profiles, trend, comparison, image, adaptive, steger] = await Promise.all([
-    recordLoad,
-    api.dispositions(passId, wheelId).catch(() => []),
-    store.get().limits ?? api.getLimits(),
-    Promise.all(METHODS.map((m) => api.profile(passId, wheelId, m).catch((err) => ({ error: err.message })))),
-    api.trend(wheelId).catch((err) => ({ error: err.message })),
-    api.referenceComparison(passId, wheelId).catch((err) => ({ error: err.message })),
-    record.frames_removed_at ? null : api.frameImage(passId, wheelId, s, i),
-    ...METHODS.map((m) => api.centres(passId, wheelId, s, i, m).catch((err) => ({ error: err.message }))),
+  // the frame's requests go first: the browser holds six connections to the service
+  const layers = frameLayers(api, passId, wheelId, record, s, i);
+  const panels = Promise.all([
+    recordLoad ?? api.getWheel(passId, wheelId, signal),
+    api.dispositions(passId, wheelId, signal).catch(() => []),
+    Promise.all(METHODS.map((m) => api.profile(passId, wheelId, m, signal).catch((err) => ({ error: err.message })))),
+    api.trend(wheelId, signal).catch((err) => ({ error: err.message })),
+    api.referenceComparison(passId, wheelId, signal).catch((err) => ({ error: err.message })),
   ]);
-  const sideLayers = new AbortController();
-  const wheels = (listed ?? [fresh]).map((/** @type {any} */ w) =>
-    String(w.wheel_id) === String(wheelId) ? fresh : w,
-  );
+  panels.catch(() => {}); // awaited below; a failure must not go unhandled meanwhile
+  const [limits, { image, adaptive, steger }] = await Promise.all([store.get().limits ?? api.getLimits(), layers]);
+  if (signal.aborted) return; // another wheel or frame was opened meanwhile
+  const current = () => {
+    const w = store.get().wheel;
+    return w?.passId === passId && w?.wheelId === wheelId && w?.sensor === s && w?.index === i ? w : null;
+  };
+  // first the frame, its centres and the table: drawn before the side panels are built
   store.set({
     limits,
-    pass: { ...(store.get().pass?.id === passId ? store.get().pass : { id: passId, data: null }), wheels },
     wheel: {
       ...store.get().wheel,
       passId,
@@ -273,13 +332,32 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
       frames,
       sensor: s,
       index: i,
-      loading: false,
-      record: fresh,
-      sideLayers,
-      dispositions,
+      record,
       layers: { image: image ?? (await blankFrame(adaptive, steger)), mask: null, sigma: null },
       sigmaScale: null,
       centres: { adaptive, steger },
+    },
+  });
+  // what `]` opens next is fetched while this frame is looked at (before its side panels)
+  if (listed) prefetchNext(api, store, passId, wheelId);
+  const [[fresh, dispositions, profiles, trend, comparison]] = await Promise.all([panels, nextAnimationFrame()]).catch(
+    (err) => {
+      if (signal.aborted) return [[]]; // another wheel or frame was opened meanwhile
+      throw err;
+    },
+  );
+  const shown = current();
+  if (!shown || signal.aborted) return;
+  const wheels = (listed ?? [fresh]).map((/** @type {any} */ w) =>
+    String(w.wheel_id) === String(wheelId) ? fresh : w,
+  );
+  store.set({
+    pass: { ...(store.get().pass?.id === passId ? store.get().pass : { id: passId, data: null }), wheels },
+    wheel: {
+      ...shown,
+      loading: false,
+      record: fresh,
+      dispositions,
       profiles: {
         adaptive: profiles[0],
         steger: profiles[1],
@@ -296,11 +374,28 @@ async function loadWheel(api, store, passId, wheelId, sensor, index) {
     api
       .listWheels(passId)
       .then((all) => {
-        if (store.get().pass?.id === passId) store.set({ pass: { ...store.get().pass, wheels: all } });
+        if (store.get().pass?.id !== passId) return;
+        store.set({ pass: { ...store.get().pass, wheels: all } });
+        prefetchNext(api, store, passId, wheelId);
       })
       .catch(() => {});
   }
-  await loadSideLayers(api, store, passId, wheelId, s, i, sideLayers.signal);
+  await loadSideLayers(api, store, passId, wheelId, s, i, signal);
+}
+
+/**
+ * Fetch the first frame of the wheel after this one in the pass (what `]` opens) while this
+ * one is on screen (kept in the frame cache).
+ * @param {import('./api.js').Api} api
+ * @param {import('./state.js').Store<any>} store
+ * @param {string} passId
+ * @param {string} wheelId
+ */
+function prefetchNext(api, store, passId, wheelId) {
+  const wheels = store.get().pass?.id === passId ? (store.get().pass.wheels ?? []) : [];
+  const next = wheels[wheels.findIndex((/** @type {any} */ w) => String(w.wheel_id) === String(wheelId)) + 1];
+  const first = next ? framesOf(next)[0] : null;
+  if (next && first) frameLayers(api, passId, String(next.wheel_id), next, first.sensor, first.index).catch(() => {});
 }
 
 /**
@@ -350,17 +445,6 @@ async function loadSideLayers(api, store, passId, wheelId, sensor, index, signal
 function blankFrame(...centres) {
   const size = centres.find((c) => c?.width_px > 0) ?? { width_px: 1, height_px: 1 };
   return createImageBitmap(new ImageData(size.width_px, size.height_px));
-}
-
-/**
- * The frames of a wheel from its record's count per sensor, inner before outer.
- * @param {any} record a PassWheelRead
- * @returns {Array<{sensor: string, index: number}>}
- */
-function framesOf(record) {
-  return Object.entries(record.frames ?? {})
-    .sort(([a], [b]) => a.localeCompare(b))
-    .flatMap(([sensor, count]) => Array.from({ length: Number(count) }, (_, index) => ({ sensor, index })));
 }
 
 /**

@@ -32,6 +32,19 @@ const layerPath = (p, w, layer, sensor, index, suffix, method) =>
   `${wheelPath(p, w)}/${layer}/${sensor.split('_')[1]}${suffix}?${new URLSearchParams({ index: String(index), ...(method ? { method } : {}) })}`;
 
 /**
+ * A frame and its centres: what the wheel page draws first. The browser keeps six
+ * connections to the service; its queue serves high before low.
+ * @type {RequestInit}
+ */
+const FIRST = { priority: 'high' };
+/**
+ * The side panels' requests, after the frame's, dropped when the page moves on.
+ * @param {AbortSignal} [signal]
+ * @returns {RequestInit}
+ */
+const after = (signal) => ({ priority: 'low', signal });
+
+/**
  * @typedef {object} Api
  * @property {() => Promise<import('./api-types').Me>} me
  * @property {(filter: Record<string, string>) => Promise<import('./api-types').Page_PassSummary_>} listPasses
@@ -42,18 +55,18 @@ const layerPath = (p, w, layer, sensor, index, suffix, method) =>
  * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<ImageBitmap>} maskImage
  * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string, signal?: AbortSignal) => Promise<{bitmap: ImageBitmap, sigma_min_px: number, sigma_max_px: number, scales_px: number[], colormap: string}>} sigmaImage
  * @property {(p: number|string, w: number|string, sensor: string, index: number, method: string) => Promise<import('./api-types').CentresRead>} centres
- * @property {(passId: number|string, wheelId: number|string, method: string) => Promise<import('./api-types').ProfileRead>} profile
- * @property {(wheelId: number|string) => Promise<import('./api-types').WheelTrend>} trend
+ * @property {(passId: number|string, wheelId: number|string, method: string, signal?: AbortSignal) => Promise<import('./api-types').ProfileRead>} profile
+ * @property {(wheelId: number|string, signal?: AbortSignal) => Promise<import('./api-types').WheelTrend>} trend
  * @property {(passId: number|string, wheelId: number|string|null, format: string) => Promise<{blob: Blob, filename: string}>} report
  * @property {(passId: number|string, wheelId: number|string, method: string, format: string) => Promise<{blob: Blob, filename: string}>} profileFile
- * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').ReferenceComparison>} referenceComparison
+ * @property {(passId: number|string, wheelId: number|string, signal?: AbortSignal) => Promise<import('./api-types').ReferenceComparison>} referenceComparison
  * @property {(wheelId: number|string, file: File) => Promise<import('./api-types').ReferenceRead>} importReference
  * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').ViewerRead>} viewer
- * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').PassWheelRead>} getWheel
+ * @property {(passId: number|string, wheelId: number|string, signal?: AbortSignal) => Promise<import('./api-types').PassWheelRead>} getWheel
  * @property {(query: Record<string, string>) => Promise<import('./api-types').Page_WorstWheelRead_>} worstWheels
  * @property {(text: string) => Promise<string[]>} searchVehicles
  * @property {(vehicleId: string) => Promise<import('./api-types').VehicleHistory>} vehicle
- * @property {(passId: number|string, wheelId: number|string) => Promise<import('./api-types').DispositionRead[]>} dispositions
+ * @property {(passId: number|string, wheelId: number|string, signal?: AbortSignal) => Promise<import('./api-types').DispositionRead[]>} dispositions
  * @property {(passId: number|string, wheelId: number|string, body: {kind: string, comment?: string}) => Promise<import('./api-types').DispositionRead>} addDisposition
  * @property {(jobId: number|string) => Promise<import('./api-types').JobRead>} getJob
  * @property {(file: File, onProgress: (fraction: number) => void) => Promise<{pass_id: number, job_id: number}>} uploadPass
@@ -76,13 +89,14 @@ export function createApi(getToken, base = '') {
     try {
       response = await fetch(base + path, { ...init, headers });
     } catch (err) {
+      if (init.signal?.aborted) throw err; // the caller moved on: not a failure to report
       throw new ApiError(`cannot reach the service (${String(err)}); is it running?`, 0, 'network');
     }
     if (!response.ok) throw await errorFrom(response, path);
     return response;
   };
-  /** @param {string} path */
-  const json = async (path) => (await request(path)).json();
+  /** @param {string} path @param {RequestInit} [init] */
+  const json = async (path, init) => (await request(path, init)).json();
   /** @param {Response} response @param {string} path */
   const decode = async (response, path) => {
     try {
@@ -97,17 +111,17 @@ export function createApi(getToken, base = '') {
     const match = /filename="?([^";]+)"?/.exec(response.headers.get('Content-Disposition') ?? '');
     return { blob: await response.blob(), filename: match ? match[1] : fallback };
   };
-  /** @param {string} path @param {AbortSignal} [signal] */
-  const bitmap = async (path, signal) => decode(await request(path, { signal }), path);
+  /** @param {string} path @param {RequestInit} [init] */
+  const bitmap = async (path, init) => decode(await request(path, init), path);
   return {
     me: () => json('/api/me'),
     listPasses: (filter) => json(`/api/passes?${new URLSearchParams(filter)}`),
     getPass: (passId) => json(`/api/passes/${passId}`),
     listWheels: (passId) => json(`/api/passes/${passId}/wheels`),
     getLimits: () => json('/api/limits'),
-    frameImage: (p, w, sensor, index) => bitmap(layerPath(p, w, 'frames', sensor, index, '.png')),
+    frameImage: (p, w, sensor, index) => bitmap(layerPath(p, w, 'frames', sensor, index, '.png'), FIRST),
     maskImage: (p, w, sensor, index, method, signal) =>
-      bitmap(layerPath(p, w, 'mask', sensor, index, '.png', method), signal),
+      bitmap(layerPath(p, w, 'mask', sensor, index, '.png', method), { signal }),
     sigmaImage: async (p, w, sensor, index, method, signal) => {
       const path = layerPath(p, w, 'sigma', sensor, index, '.png', method);
       const response = await request(path, { signal });
@@ -119,9 +133,10 @@ export function createApi(getToken, base = '') {
         bitmap: await decode(response, path),
       };
     },
-    centres: (p, w, sensor, index, method) => json(layerPath(p, w, 'centres', sensor, index, '', method)),
-    profile: (p, w, method) => json(`${wheelPath(p, w)}/profile?method=${encodeURIComponent(method)}`),
-    trend: (wheelId) => json(`/api/wheels/${wheelId}/trend`),
+    centres: (p, w, sensor, index, method) => json(layerPath(p, w, 'centres', sensor, index, '', method), FIRST),
+    profile: (p, w, method, signal) =>
+      json(`${wheelPath(p, w)}/profile?method=${encodeURIComponent(method)}`, after(signal)),
+    trend: (wheelId, signal) => json(`/api/wheels/${wheelId}/trend`, after(signal)),
     report: (p, w, format) =>
       download(
         `${w === null ? `/api/passes/${p}` : wheelPath(p, w)}/report.${format}`,
@@ -132,18 +147,18 @@ export function createApi(getToken, base = '') {
         `${wheelPath(p, w)}/profile.${format}?method=${encodeURIComponent(method)}`,
         `wheelscan-pass-${p}-wheel-${w}-${method}.${format}`,
       ),
-    referenceComparison: (p, w) => json(`${wheelPath(p, w)}/reference-comparison`),
+    referenceComparison: (p, w, signal) => json(`${wheelPath(p, w)}/reference-comparison`, after(signal)),
     importReference: async (wheelId, file) => {
       const body = new FormData();
       body.append('file', file, file.name);
       return (await request(`/api/wheels/${wheelId}/references`, { method: 'POST', body })).json();
     },
     viewer: (p, w) => json(`${wheelPath(p, w)}/viewer`),
-    getWheel: (p, w) => json(wheelPath(p, w)),
+    getWheel: (p, w, signal) => json(wheelPath(p, w), after(signal)),
     worstWheels: (query) => json(`/api/review/worst-wheels?${new URLSearchParams(query)}`),
     searchVehicles: (text) => json(`/api/vehicles?${new URLSearchParams({ q: text })}`),
     vehicle: (vehicleId) => json(`/api/vehicles/${encodeURIComponent(vehicleId)}`),
-    dispositions: (p, w) => json(`${wheelPath(p, w)}/dispositions`),
+    dispositions: (p, w, signal) => json(`${wheelPath(p, w)}/dispositions`, after(signal)),
     addDisposition: async (p, w, body) =>
       (
         await request(`${wheelPath(p, w)}/dispositions`, {

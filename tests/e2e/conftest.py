@@ -4,6 +4,7 @@ driven by Playwright."""
 
 from __future__ import annotations
 
+import io
 import os
 import socket
 import subprocess
@@ -13,9 +14,12 @@ import zipfile
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import httpx
+import numpy as np
 import pytest
+from PIL import Image
 
 ROOT = Path(__file__).resolve().parents[2]
 SCREENSHOTS = Path(__file__).resolve().parent / "screenshots"
@@ -172,6 +176,50 @@ def zip_pass(folder: Path, archive: Path) -> Path:
             if path.is_file() and path.name != "truth.json":
                 zf.write(path, path.relative_to(folder).as_posix())
     return archive
+
+
+SCENE_LIT_FRACTION = 0.005
+"""Share of the 3D view's pixels brighter than grey 100 once the wheel is drawn (the light
+grey wheel, the cameras and planes fill some 10 % of it; the empty scene is dark)."""
+
+
+SCENE_TOP = 0.3
+"""The top of the 3D view left out of the comparisons: viser's notices (the software
+WebGL toast, which goes after a while, and the connection panel) sit there."""
+
+
+def grey(png: bytes) -> np.ndarray:
+    """The scene part of a 3D view's picture (below SCENE_TOP) in grey levels, 0–255."""
+    levels = np.asarray(Image.open(io.BytesIO(png)).convert("L")).astype(np.int16)
+    return levels[int(SCENE_TOP * levels.shape[0]) :]
+
+
+def changed_fraction(a: bytes, b: bytes) -> float:
+    """Share of the scene's pixels two pictures of one size differ in by more than 8 grey
+    levels (their common part: the view's size may round to a pixel more or less)."""
+    first, second = grey(a), grey(b)
+    rows, cols = min(first.shape[0], second.shape[0]), min(first.shape[1], second.shape[1])
+    return float(np.mean(np.abs(first[:rows, :cols] - second[:rows, :cols]) > 8))
+
+
+def wait_for_3d_scene(page: Any, timeout_s: float = 120.0) -> bytes:
+    """Wait until the wheel page's embedded 3D view shows a scene: viser connected, the
+    view lit by the wheel, and two successive pictures of it alike to 1 % of their pixels
+    (the scene streamed and faded in); returns that picture (PNG). Conditions, not sleeps:
+    the machine may be loaded."""
+    page.frame_locator("iframe.viewer-frame").get_by_text("Connected").wait_for(
+        timeout=timeout_s * 1000
+    )
+    view = page.locator("iframe.viewer-frame")
+    deadline = time.monotonic() + timeout_s
+    previous = None
+    while time.monotonic() < deadline:
+        picture = view.screenshot(animations="disabled", timeout=timeout_s * 1000)
+        lit = float(np.mean(grey(picture) > 100))
+        if previous and lit > SCENE_LIT_FRACTION and changed_fraction(previous, picture) < 0.01:
+            return picture
+        previous = picture
+    pytest.fail(f"the 3D view showed no settled scene in {timeout_s:.0f} s")
 
 
 @pytest.fixture(scope="session")

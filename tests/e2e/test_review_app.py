@@ -19,7 +19,7 @@ import httpx
 import pytest
 
 from pipeline.profile.exchange import parse_profile_file
-from tests.e2e.conftest import Service
+from tests.e2e.conftest import Service, wait_for_3d_scene
 from tests.e2e.marks import drawn_after
 from tests.pipeline.test_profile_exchange import contour_samples, gauge_file
 
@@ -398,10 +398,8 @@ def test_3d_view_embeds_the_viser_scene(
     wheel_id = measured_wheel(service, measured_pass)
     open_wheel(page, service, measured_pass, wheel_id)
     page.locator("button[data-action='open-3d']").click()
-    frame = page.frame_locator("iframe.viewer-frame")
-    frame.locator("canvas").first.wait_for(timeout=60_000)
-    page.wait_for_timeout(3000)  # viser streams the scene, then fades it in
-    page.screenshot(path=str(screenshots / "12-wheel-3d.png"))
+    wait_for_3d_scene(page)
+    page.screenshot(path=str(screenshots / "12-wheel-3d.png"), timeout=60_000)
     page.locator(".viewer-bar button[data-action='close-3d']").click()
     page.locator(".viewer-overlay").wait_for(state="hidden")
     assert int(page.locator(".frame-canvas").get_attribute("data-points-drawn")) > 0

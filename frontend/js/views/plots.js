@@ -200,6 +200,8 @@ function parameterPlot(box, p, x, columns, forecast, limits) {
   const lowMm = limits?.limits_mm?.[`${limitStemOf(p.key)}_min_mm`] ?? null;
   const highMm = limits?.limits_mm?.[`${limitStemOf(p.key)}_max_mm`] ?? null;
   const band = lowMm != null && highMm != null ? (highMm - lowMm) * (limits?.near_limit_fraction ?? 0.1) : null;
+  // the limit lines and the amber band on the element, in mm, for whoever checks them
+  Object.assign(box.dataset, { lowMm: String(lowMm ?? ''), highMm: String(highMm ?? ''), bandMm: String(band ?? '') });
   const series = [
     {},
     {
