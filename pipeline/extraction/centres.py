@@ -433,15 +433,18 @@ def _bright_chains(
     (≥ CHAIN_MIN_POINTS) and either strong in itself (`strength` up to STRONG_C_RATIO·c) or
     within CONTINUITY_GAP_PX of a kept chain (a dim stretch of the stripe beside its bright
     parts, not a flare streak or an outline apart from them), until none is added. With
-    `continuing` (inside a search region) a short dim chain that continues a kept one is kept
-    too (`_continuing`). `xy` (K, 2) are the centres [px].
+    `continuing` (inside a search region, where the calibration says the stripe lies) every
+    long chain is kept (a clean wheel's dim flank can lie further than CONTINUITY_GAP_PX from
+    its tread's chain) and a short dim chain that continues a kept one too (`_continuing`).
+    `xy` (K, 2) are the centres [px].
     """
     if not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
     least = CHAIN_FRACTION * max(height[c].max() for c in chains)
     long = [c.size >= CHAIN_MIN_POINTS for c in chains]
     kept = [
-        height[c].max() >= least or (g and strength[c].max() >= STRONG_C_RATIO * c_grey)
+        height[c].max() >= least
+        or (g and (continuing or strength[c].max() >= STRONG_C_RATIO * c_grey))
         for c, g in zip(chains, long, strict=True)
     ]
     while any(kept):
