@@ -467,8 +467,8 @@ def test_defect_3_cards_show_the_sd_their_limit_set_checks_with_units(
 ) -> None:
     page = viewer
     checks = {  # limit set → the Sd it checks, the Sd it does not, the height of its Sd
-        "EN": ("flange_thickness_en_mm", "flange_thickness_mm", "10 mm"),
-        "LM": ("flange_thickness_mm", "flange_thickness_en_mm", "12 mm"),
+        "EN": ("flange_thickness_10_mm", "flange_thickness_mm", "10 mm"),
+        "LM": ("flange_thickness_mm", "flange_thickness_10_mm", "12 mm"),
     }
     for pass_id, limits in ((en_pass, "EN"), (depot.newest, "LM")):
         measured = [w for w in wheels(service, pass_id) if w["state"] == "measured"]
@@ -490,7 +490,7 @@ def test_defect_3_cards_show_the_sd_their_limit_set_checks_with_units(
     open_wheel(page, service, en_pass, en_wheel)
     table = page.locator(".param-table table").first
     assert "Limits EN (mm)" in table.locator("thead").inner_text()
-    limit = table.locator("tr[data-parameter=flange_thickness_en_mm] td").nth(3).inner_text()
+    limit = table.locator("tr[data-parameter=flange_thickness_10_mm] td").nth(3).inner_text()
     assert limit != "–", "the EN limit on Sd at 10 mm is shown"
     assert table.locator("tr[data-parameter=flange_thickness_mm] td").nth(3).inner_text() == "–"
 
