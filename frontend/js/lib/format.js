@@ -85,7 +85,7 @@ export const PARAMETERS = [
     digits: 1,
     families: [],
     card: true,
-    colour: '#fb7185',
+    colour: '#22d3ee',
     definition:
       "Steepest angle of the flange flank to the horizontal, from lines over 10 mm of flank height (centred from 6 mm to Sh − 6 mm) on the flank resampled every 0.25 mm; it sets Nadal's derailment limit Y/Q = (tan δ − μ)/(1 + μ tan δ). Gaps up to 2.5 mm are bridged; not measured where the flank's points leave a longer gap.",
   },

@@ -251,7 +251,12 @@ function parameterPlot(box, p, x, columns, forecast, limits) {
       tzDate: (/** @type {number} */ ts) => uPlot.tzDate(new Date(ts * 1000), 'Etc/UTC'),
       axes: [
         { stroke: '#c9d1db', grid: { stroke: '#262d37' }, space: 90, values: utcDays },
-        { stroke: '#c9d1db', grid: { stroke: '#262d37' }, label: `${p.label} (${p.unit})`, size: 50 },
+        {
+          stroke: '#c9d1db',
+          grid: { stroke: '#262d37' },
+          label: p.unit ? `${p.label} (${p.unit})` : p.label,
+          size: 50,
+        },
       ],
       legend: { live: true },
       hooks: {
