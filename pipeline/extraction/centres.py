@@ -333,16 +333,16 @@ def _subpixel(selected: _Selected) -> tuple[np.ndarray, ...]:
 
 
 def _lines_only(
-    image: np.ndarray, selected: _Selected, width_min: float | None
+    image: np.ndarray, selected: _Selected, width_min: float | None, c_grey: float
 ) -> tuple[_Selected, tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray]:
     """The candidates that are bright lines (`line_test.is_line`; all when `width_min` is
     None), their sub-pixel centres, normals and heights above the brighter side [grey
-    levels; NaN when not tested], and the rejected ones' centres (x, y)."""
+    levels; NaN when not tested], and the rejected ones' centres (x, y). `c_grey` is the
+    ridge response's structure constant [grey levels]."""
     x, y, nx, ny = _subpixel(selected)
     line = np.ones(x.size, bool)
     height = np.full(x.size, np.nan)
     if width_min is not None:
-        c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
         profiles = line_profiles(
             image, x, y, nx, ny, selected.sigma, width_min_px=width_min, c_grey=c_grey
         )
@@ -386,7 +386,9 @@ def _chain_ends(x: np.ndarray, y: np.ndarray, chains: list[np.ndarray]) -> np.nd
     return ends
 
 
-def _continuing(kept: list[bool], chains: list[np.ndarray], x, y) -> list[bool]:
+def _continuing(
+    kept: list[bool], chains: list[np.ndarray], x: np.ndarray, y: np.ndarray
+) -> list[bool]:
     """`kept` grown by the dim chains of ≥ CONTINUING_MIN_POINTS that continue a kept chain:
     an end within CONTINUITY_GAP_PX of a kept chain's end, ahead of it on its line and
     heading on (`CONTINUING_COS`, `CONTINUING_OFFSET_PX`), until none is added. A dimmed
@@ -417,6 +419,23 @@ def _continuing(kept: list[bool], chains: list[np.ndarray], x, y) -> list[bool]:
     return kept_ends[::2].tolist()
 
 
+def _grown_near(
+    kept: list[bool], chains: list[np.ndarray], long: list[bool], xy: np.ndarray
+) -> list[bool]:
+    """`kept` grown by the `long` chains with a centre within CONTINUITY_GAP_PX of a kept
+    chain's, until none is added; `xy` (K, 2) are the centres [px]."""
+    while any(kept):
+        near = cKDTree(xy[np.concatenate([c for c, k in zip(chains, kept, strict=True) if k])])
+        grown = [
+            k or (g and near.query(xy[c], distance_upper_bound=CONTINUITY_GAP_PX)[0].min() < np.inf)
+            for c, k, g in zip(chains, kept, long, strict=True)
+        ]
+        if grown == kept:
+            break
+        kept = grown
+    return kept
+
+
 def _bright_chains(
     chains: list[np.ndarray],
     height: np.ndarray,
@@ -442,22 +461,15 @@ def _bright_chains(
         return chains, np.zeros(0, np.int64)
     least = CHAIN_FRACTION * max(height[c].max() for c in chains)
     long = [c.size >= CHAIN_MIN_POINTS for c in chains]
-    kept = [
-        height[c].max() >= least
-        or (g and (continuing or strength[c].max() >= STRONG_C_RATIO * c_grey))
-        for c, g in zip(chains, long, strict=True)
-    ]
-    while any(kept):
-        near = cKDTree(xy[np.concatenate([c for c, k in zip(chains, kept, strict=True) if k])])
-        grown = [
-            k or (g and near.query(xy[c], distance_upper_bound=CONTINUITY_GAP_PX)[0].min() < np.inf)
-            for c, k, g in zip(chains, kept, long, strict=True)
-        ]
-        if grown == kept:
-            break
-        kept = grown
-    if continuing and not all(kept):
-        kept = _continuing(kept, chains, xy[:, 0], xy[:, 1])
+    bright_enough = [height[c].max() >= least for c in chains]
+    if continuing:
+        kept = [b or g for b, g in zip(bright_enough, long, strict=True)]
+        if not all(kept):
+            kept = _continuing(kept, chains, xy[:, 0], xy[:, 1])
+    else:
+        strong = [strength[c].max() >= STRONG_C_RATIO * c_grey for c in chains]
+        kept = [b or (g and t) for b, g, t in zip(bright_enough, long, strong, strict=True)]
+        kept = _grown_near(kept, chains, long, xy)
     dim = [c for c, k in zip(chains, kept, strict=True) if not k]
     bright = [c for c, k in zip(chains, kept, strict=True) if k]
     return bright, np.concatenate(dim) if dim else np.zeros(0, np.int64)
@@ -508,12 +520,12 @@ def _assemble(
     normal_fit: bool,
     second_levels: tuple[ScaleLevel, ...],
     path: str,
+    c_grey: float,
     continuing: bool = False,
 ) -> Centres:
-    lines = _lines_only(image, candidates, width_min)
+    lines = _lines_only(image, candidates, width_min, c_grey)
     selected, (x, y, nx, ny), height, rejected_x, rejected_y = lines
     chains = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
-    c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
     xy = np.column_stack([x, y])
     chains, weak = _bright_chains(
         chains, height, selected.strength, xy, c_grey, continuing=continuing
@@ -775,6 +787,7 @@ def _extract(
         normal_fit=bool(matched),
         second_levels=second_levels,
         path=path,
+        c_grey=c_grey,
         continuing=every_strong,
     )
 
