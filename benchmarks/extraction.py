@@ -329,7 +329,9 @@ def run() -> str:
                 "Public laser frames with hand-checked truth (tests/pipeline/real_frames/"
                 "PROVENANCE.md): five grey frames of a welding camera behind its filter (lit "
                 "steel, a specular torch, flare, plate edges) and a red laser on a printed board "
-                "converted to grey. Per method (as above), default widths 5–21 px: centres on the "
+                "converted to grey, and the same board taken by its laser's colour (`laser_grey`: "
+                "red minus the brighter of green and blue). Per method (as above), default "
+                "widths 5–21 px: centres on the "
                 "line [%] (within 3 px of a laser pixel) / the line's medial axis covered [%] (a "
                 f"centre within 2.5 px). Bars: adaptive ≥ {REAL_BAR_PCT:.0f} % on both.",
                 "",
