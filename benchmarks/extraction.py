@@ -33,8 +33,14 @@ import numpy as np
 
 from backend.jobs.allocator import keep_freed_memory
 from pipeline import extract_centres
+from pipeline.imaging import laser_grey
 from pipeline.simulation.passes import build_station, build_train, pass_start_time, simulate_pass
-from tests.pipeline.real_frame_truth import REAL_FRAME_NAMES, load_real_frame, score_real_frame
+from tests.pipeline.real_frame_truth import (
+    COLOUR_FRAMES,
+    REAL_FRAME_NAMES,
+    load_real_frame,
+    score_real_frame,
+)
 from tests.pipeline.stripe_images import StripeCase, make_stripe
 from tests.pipeline.stripe_scores import score_centres
 from tests.pipeline.test_centres_accuracy import UNIFORM, VARYING
@@ -144,20 +150,29 @@ def _harsh_rows() -> list[str]:
     return rows
 
 
+def _real_frame_row(label: str, frame, image: np.ndarray) -> str:
+    """One real frame's row: each method on `image`, scored against the frame's truth."""
+    path, scores = _each_method(image, lambda x, y: score_real_frame(frame, x, y))
+    cells = " | ".join(
+        f"{scores[v.label].on_line_pct:.1f} / {scores[v.label].coverage_pct:.1f}"
+        for v in SIDE_BY_SIDE
+    )
+    a = scores["adaptive band"]
+    verdict = "PASS" if min(a.on_line_pct, a.coverage_pct) >= REAL_BAR_PCT else "FAIL"
+    size = "×".join(map(str, frame.image.shape[::-1]))
+    return f"| {label} | {size} | {path} | {cells} | {verdict} |"
+
+
 def _real_frame_rows() -> list[str]:
-    """The real frames, each method on the same frame."""
+    """The real frames, each method on the same frame; colour frames also by their laser's
+    colour (`laser_grey`)."""
     rows = []
     for name in REAL_FRAME_NAMES:
         frame = load_real_frame(name)
-        path, scores = _each_method(frame.image, lambda x, y: score_real_frame(frame, x, y))  # noqa: B023
-        cells = " | ".join(
-            f"{scores[v.label].on_line_pct:.1f} / {scores[v.label].coverage_pct:.1f}"
-            for v in SIDE_BY_SIDE
-        )
-        a = scores["adaptive band"]
-        verdict = "PASS" if min(a.on_line_pct, a.coverage_pct) >= REAL_BAR_PCT else "FAIL"
-        size = "×".join(map(str, frame.image.shape[::-1]))
-        rows.append(f"| {name} | {size} | {path} | {cells} | {verdict} |")
+        rows.append(_real_frame_row(name, frame, frame.image))
+        if frame.colour is not None:
+            grey = laser_grey(frame.colour, COLOUR_FRAMES[name])
+            rows.append(_real_frame_row(f"{name}, laser colour", frame, grey))
     return rows
 
 
@@ -314,7 +329,9 @@ def run() -> str:
                 "Public laser frames with hand-checked truth (tests/pipeline/real_frames/"
                 "PROVENANCE.md): five grey frames of a welding camera behind its filter (lit "
                 "steel, a specular torch, flare, plate edges) and a red laser on a printed board "
-                "converted to grey. Per method (as above), default widths 5–21 px: centres on the "
+                "converted to grey, and the same board taken by its laser's colour (`laser_grey`: "
+                "red minus the brighter of green and blue). Per method (as above), default "
+                "widths 5–21 px: centres on the "
                 "line [%] (within 3 px of a laser pixel) / the line's medial axis covered [%] (a "
                 f"centre within 2.5 px). Bars: adaptive ≥ {REAL_BAR_PCT:.0f} % on both.",
                 "",

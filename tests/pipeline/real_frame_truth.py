@@ -21,16 +21,20 @@ from tests.pipeline.stripe_scores import COVER_DISTANCE_PX, FALSE_DISTANCE_PX
 REAL_FRAMES_DIR = Path(__file__).resolve().parent / "real_frames"
 ON_LINE_DISTANCE_PX = FALSE_DISTANCE_PX
 REAL_FRAME_NAMES = ("weld-1", "weld-2", "weld-5", "weld-8", "weld-9", "charuco-red")
+COLOUR_FRAMES = {"charuco-red": "red"}
+"""Frames also kept in colour (NAME.colour.png) and the colour of their laser."""
 
 
 @dataclass(frozen=True, eq=False)
 class RealFrame:
-    """A grey 8-bit frame, its laser pixels (bool) and its medial points (K, 2) [px]."""
+    """A grey 8-bit frame, its laser pixels (bool) and its medial points (K, 2) [px]; `colour`
+    the RGB frame where one is kept (COLOUR_FRAMES), else None."""
 
     name: str
     image: np.ndarray
     laser_mask: np.ndarray
     medial_xy: np.ndarray
+    colour: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -43,11 +47,15 @@ class RealScore:
 
 
 def load_real_frame(name: str) -> RealFrame:
-    """Read NAME.png, NAME.laser.png and NAME.json from real_frames/."""
+    """Read NAME.png, NAME.laser.png and NAME.json (and NAME.colour.png) from real_frames/."""
     image = cv2.imread(str(REAL_FRAMES_DIR / f"{name}.png"), cv2.IMREAD_GRAYSCALE)
     laser = cv2.imread(str(REAL_FRAMES_DIR / f"{name}.laser.png"), cv2.IMREAD_GRAYSCALE) > 0
     truth = json.loads((REAL_FRAMES_DIR / f"{name}.json").read_text())
-    return RealFrame(name, image, laser, np.asarray(truth["medial_xy"], float))
+    colour = None
+    if name in COLOUR_FRAMES:
+        bgr = cv2.imread(str(REAL_FRAMES_DIR / f"{name}.colour.png"), cv2.IMREAD_COLOR)
+        colour = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+    return RealFrame(name, image, laser, np.asarray(truth["medial_xy"], float), colour)
 
 
 def score_real_frame(frame: RealFrame, x: np.ndarray, y: np.ndarray) -> RealScore:

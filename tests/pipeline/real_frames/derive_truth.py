@@ -15,7 +15,9 @@ Per row (the line runs along the columns) the centroid of the red excess over ma
 blue) above RED_EXCESS, within 6 px of the row's strongest, marks the laser where it is red;
 on each face a quadratic x(y) is fitted to those marks (rejecting marks FIT_REJECT_PX off:
 other red), so the line is continued where its core saturates to white. The medial axis is
-that fit at every row; the laser pixels are those within LASER_HALF_WIDTH_PX of it.
+that fit at every row; the laser pixels are those within LASER_HALF_WIDTH_PX of it. The cut
+colour frame is written too (NAME.colour.png), for the laser-colour path
+(`pipeline.imaging.laser_grey`).
 
 Writes NAME.png (grey), NAME.laser.png (laser pixels, 0/255) and NAME.json (medial points
 x, y [px], pixel centres at integers) beside this file.
@@ -139,7 +141,7 @@ def colour_truth(frame_path: Path, x0: int, x1: int, kink_row: int):
     cols = np.arange(grey.shape[1])[None, :]
     laser = np.abs(cols - medial_x[:, None]) <= LASER_HALF_WIDTH_PX
     keep = ~np.isnan(medial_x)
-    return grey, laser, np.stack([medial_x[keep], rows[keep]], axis=1)
+    return colour, grey, laser, np.stack([medial_x[keep], rows[keep]], axis=1)
 
 
 def write(name: str, frame: np.ndarray, laser: np.ndarray, medial: np.ndarray) -> None:
@@ -157,7 +159,9 @@ def main(argv: list[str]) -> None:
         write(name, frame, laser, _medial_on_ridge(frame, laser))
     else:
         x0, x1, kink_row = (int(a) for a in argv[3:6])
-        write(name, *colour_truth(Path(source), x0, x1, kink_row))
+        colour, *truth = colour_truth(Path(source), x0, x1, kink_row)
+        cv2.imwrite(str(HERE / f"{name}.colour.png"), colour)
+        write(name, *truth)
 
 
 if __name__ == "__main__":
