@@ -13,6 +13,7 @@ from tqdm import tqdm
 
 from pipeline import Centres, extract_centres
 from pipeline.extraction.centres import METHODS
+from pipeline.imaging import LASER_CHANNELS, laser_grey
 
 CSV_HEADER = "x,y,nx,ny,sigma,strength"
 """Column header of the centre CSV (the design's contract)."""
@@ -21,13 +22,27 @@ IMAGE_SUFFIXES = (".png", ".tif", ".tiff", ".bmp", ".pgm", ".jpg", ".jpeg")
 """Files of a folder that are read as frames."""
 
 
-def read_frame(path: Path) -> np.ndarray:
-    """Read a grey frame as stored (8 or 16 bit); OSError when it cannot be read."""
+def read_frame(path: Path, *, laser: str | None = None) -> np.ndarray:
+    """Read a frame as stored (8 or 16 bit); a colour frame as its laser's grey.
+
+    A grey frame is returned as it is (`laser` is then ignored). A colour frame needs
+    `laser` ("red", "green" or "blue"): it becomes `pipeline.imaging.laser_grey` of it, the
+    laser channel's excess over the others (what a bandpass filter would have kept). OSError
+    when the file cannot be read, ValueError for a colour frame without `laser`.
+    """
     if not path.is_file():
         raise OSError(f"no such image file: {path}")
     image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
     if image is None:
         raise OSError(f"cannot read {path} as an image")
+    if image.ndim == 3 and image.shape[2] in (3, 4):
+        if laser is None:
+            raise ValueError(
+                f"{path} is a colour frame: give the laser's colour with --laser "
+                f"({', '.join(LASER_CHANNELS)}), or convert it to grey"
+            )
+        rgb = cv2.cvtColor(image, cv2.COLOR_BGRA2RGB if image.shape[2] == 4 else cv2.COLOR_BGR2RGB)
+        return laser_grey(rgb, laser)
     return image
 
 
@@ -88,7 +103,7 @@ def run_extract(args: argparse.Namespace) -> int:
     summaries = []
     progress = tqdm(pairs, desc="extract", unit="frame", file=sys.stderr, disable=len(pairs) < 2)
     for image_path, csv_path in progress:
-        image = read_frame(image_path)
+        image = read_frame(image_path, laser=args.laser)
         try:
             centres = extract_centres(
                 image,
@@ -115,8 +130,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="extract laser stripe centres from a frame or a folder of frames",
         description="Sub-pixel stripe centres to CSV (header x,y,nx,ny,sigma,strength).",
     )
-    parser.add_argument("image", metavar="IMAGE", help="8/16-bit grey frame, or a folder of them")
+    parser.add_argument(
+        "image", metavar="IMAGE", help="8/16-bit grey (or, with --laser, colour) frame, or a folder"
+    )
     parser.add_argument("--method", choices=METHODS, default="adaptive")
+    parser.add_argument(
+        "--laser",
+        choices=LASER_CHANNELS,
+        default=None,
+        help="a colour frame's laser colour: the frame is taken as that channel's excess",
+    )
     parser.add_argument("--sigma", type=float, default=None, help="fixed σ [px] (steger, classic)")
     parser.add_argument("--width-min", type=float, default=5.0, help="narrowest stripe [px]")
     parser.add_argument("--width-max", type=float, default=21.0, help="widest stripe [px]")

@@ -78,6 +78,24 @@ def test_folder_of_frames_writes_one_csv_each(tmp_path: Path) -> None:
     assert len(json.loads(result.stdout)["frames"]) == 2
 
 
+def test_a_colour_frame_is_taken_by_its_lasers_colour(tmp_path: Path) -> None:
+    """A red line on white paper with grey print: only the line is found, at its true row."""
+    cols = np.arange(120.0)
+    rows = np.arange(80.0)[:, None]
+    red = 170 * np.exp(-8 * (rows - 40.3) ** 2 / 7**2) * np.ones_like(cols)
+    paper = np.full((80, 120), 150.0)
+    paper[20:24, :] = 240.0  # a white printed rule, brighter than the line in grey
+    rgb = np.stack([paper + red * 0.6, paper - red * 0.3, paper - red * 0.3], axis=-1)
+    bgr = np.rint(np.clip(rgb, 0, 254))[..., ::-1].astype(np.uint8)
+    cv2.imwrite(str(tmp_path / "colour.png"), bgr)
+    out = tmp_path / "centres.csv"
+    result = run_cli(str(tmp_path / "colour.png"), "--laser", "red", "-o", str(out))
+    assert result.returncode == 0, result.stderr
+    table = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert len(table) > 60
+    np.testing.assert_allclose(table[:, 1], 40.3, atol=0.1)
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [
@@ -85,7 +103,7 @@ def test_folder_of_frames_writes_one_csv_each(tmp_path: Path) -> None:
         (["notimage.png"], "cannot read"),
         (["frame.png", "--width-min", "30"], "width_min must be ≤ width_max"),
         (["frame.png", "--width-min", "-2"], "width_min must be a positive number"),
-        (["colour.png"], "colour"),
+        (["colour.png"], "colour frame: give the laser's colour with --laser"),
         (["empty"], "holds no image files"),
     ],
 )
