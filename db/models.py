@@ -111,6 +111,8 @@ class Pass(Base):
     state: Mapped[str] = mapped_column(String(10), default="open")
     frames_per_sensor: Mapped[int] = mapped_column(Integer, default=1)
     vehicles: Mapped[list[Any] | None]
+    odometer_km: Mapped[dict[str, Any] | None]
+    """Odometer readings of the pass's vehicles that reported one, {vehicle_id: km}."""
     created_at: Mapped[datetime] = mapped_column(default=utc_now)
     closed_at: Mapped[datetime | None]
     frames_removed_at: Mapped[datetime | None]

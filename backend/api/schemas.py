@@ -227,6 +227,9 @@ class StreamOpen(InputModel):
     started_at: UtcDateTime
     direction: str | None = Field(default=None, max_length=40)
     speed_kmh: float | None = Field(default=None, ge=0, le=500)
+    odometer_km: dict[str, Annotated[float, Field(ge=0, le=1e8)]] | None = Field(
+        default=None, description="odometer readings of the vehicles at this pass {id: km}"
+    )
     frames_per_sensor: int = Field(default=1, ge=1, le=1000)
     calibration: CalibrationDocument | None = None
 
@@ -459,6 +462,9 @@ class ProfileRead(BaseModel):
 class TrendPoint(Sd10Alias):
     pass_id: int
     started_at: datetime
+    odometer_km: float | None = Field(
+        default=None, description="the vehicle's odometer reading at this pass [km]"
+    )
     site: str
     method: str
     status: str
@@ -591,8 +597,19 @@ class TrendForecast(BaseModel):
     reached_earliest: datetime | None
     reached_latest: datetime | None
     note: str
-    intercept_mm: float | None = Field(default=None, description="the fit's value at fit_from")
+    intercept_mm: float | None = Field(
+        default=None, description="the fit's value at fit_from (per day) or fit_from_km"
+    )
     fit_from: datetime | None = Field(default=None, description="origin of the fit's x (UTC)")
+    fit_from_km: float | None = Field(
+        default=None, description="odometer origin of the fit's x, per 1000 km only [km]"
+    )
+    reached_km: float | None = Field(
+        default=None, description="odometer reading where the fit reaches the limit [km]"
+    )
+    reached_km_earliest: float | None = None
+    reached_km_latest: float | None = None
+    last_km: float | None = Field(default=None, description="odometer at the last pass [km]")
 
 
 class WheelLimits(BaseModel):

@@ -49,6 +49,7 @@ def _synth_pass(args: argparse.Namespace) -> int:
             axles_per_vehicle=args.axles,
             frames_per_sensor=args.frames_per_sensor,
             field=FIELD_MODES[args.field],
+            flange_wear_per_pass_mm=args.flange_wear_per_pass,
             progress=lambda done, _total: bar.update(done - bar.n),
         )
     for folder in folders:
@@ -230,6 +231,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="harsh",
         help="harsh: the station's daylit scene and every field effect (default); "
         "clean: the stripe on black",
+    )
+    synth.add_argument(
+        "--flange-wear-per-pass",
+        type=float,
+        default=0.0,
+        metavar="MM",
+        help="flank wear added between repeated passes [mm] (a wear trend; default 0)",
     )
     synth.set_defaults(func=_synth_pass)
 

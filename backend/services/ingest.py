@@ -189,6 +189,7 @@ def _add_pass_rows(
             len(w.frames(p)) for w in manifest.wheels for p in ("inner", "outer")
         ),
         vehicles=list(manifest.vehicles),
+        odometer_km=dict(manifest.odometer_km) or None,
     )
     session.add(train_pass)
     session.flush()

@@ -66,6 +66,7 @@ def open_stream(session: Session, body: StreamOpen, token: ApiToken) -> tuple[Pa
         started_at=body.started_at,
         direction=body.direction,
         speed_kmh=body.speed_kmh,
+        odometer_km=body.odometer_km,
         source="stream",
         state="open",
         frames_per_sensor=body.frames_per_sensor,

@@ -399,6 +399,8 @@ export interface StreamOpen {
   started_at: string;
   direction?: string | null;
   speed_kmh?: number | null;
+  /** odometer readings of the vehicles at this pass {id: km} */
+  odometer_km?: Record<string, number> | null;
   frames_per_sensor?: number;
   calibration?: Record<string, unknown> | null;
 }
@@ -440,15 +442,25 @@ export interface TrendForecast {
   reached_earliest: string | null;
   reached_latest: string | null;
   note: string;
-  /** the fit's value at fit_from */
+  /** the fit's value at fit_from (per day) or fit_from_km */
   intercept_mm?: number | null;
   /** origin of the fit's x (UTC) */
   fit_from?: string | null;
+  /** odometer origin of the fit's x, per 1000 km only [km] */
+  fit_from_km?: number | null;
+  /** odometer reading where the fit reaches the limit [km] */
+  reached_km?: number | null;
+  reached_km_earliest?: number | null;
+  reached_km_latest?: number | null;
+  /** odometer at the last pass [km] */
+  last_km?: number | null;
 }
 
 export interface TrendPoint {
   pass_id: number;
   started_at: string;
+  /** the vehicle's odometer reading at this pass [km] */
+  odometer_km?: number | null;
   site: string;
   method: string;
   status: string;

@@ -69,6 +69,9 @@ class PassManifest:
     vehicles : tuple of str
         Vehicle identifiers in train order.
     wheels : tuple of WheelEntry
+    odometer_km : tuple of (str, float) pairs
+        Odometer readings [km] of the vehicles that reported one at this pass (from the
+        train's data or the fleet's records), in `vehicles` order; empty when none did.
     """
 
     site: str
@@ -77,6 +80,11 @@ class PassManifest:
     speed_kmh: float
     vehicles: tuple[str, ...]
     wheels: tuple[WheelEntry, ...]
+    odometer_km: tuple[tuple[str, float], ...] = ()
+
+    def odometer_of(self, vehicle_id: str) -> float | None:
+        """The odometer reading of a vehicle at this pass [km], None when it gave none."""
+        return dict(self.odometer_km).get(vehicle_id)
 
 
 def _text(value: object, where: str, max_chars: int = MAX_NAME_CHARS) -> str:
@@ -170,6 +178,26 @@ def _vehicles(value: object) -> tuple[str, ...]:
     return vehicles
 
 
+MAX_ODOMETER_KM = 1e8
+"""Largest odometer reading accepted [km] (a vehicle's whole life is some 10⁷ km)."""
+
+
+def _odometer(value: object, vehicles: tuple[str, ...]) -> tuple[tuple[str, float], ...]:
+    if not isinstance(value, dict):
+        raise ArchiveError("manifest odometer_km must be an object {vehicle_id: km}")
+    for vehicle_id, km in value.items():
+        if vehicle_id not in vehicles:
+            raise ArchiveError(f"manifest odometer_km names {vehicle_id!r}, not in 'vehicles'")
+        if isinstance(km, bool) or not isinstance(km, int | float) or not math.isfinite(km):
+            raise ArchiveError(f"manifest odometer_km[{vehicle_id!r}] must be a number, got {km!r}")
+        if not 0 <= km <= MAX_ODOMETER_KM:
+            raise ArchiveError(
+                f"manifest odometer_km[{vehicle_id!r}] must be in [0, {MAX_ODOMETER_KM:.0e}] km, "
+                f"got {km}"
+            )
+    return tuple((v, float(value[v])) for v in vehicles if v in value)
+
+
 def parse_manifest(document: object) -> PassManifest:
     """Validate a parsed `manifest.json` document.
 
@@ -218,6 +246,7 @@ def parse_manifest(document: object) -> PassManifest:
         speed_kmh=float(speed),
         vehicles=vehicles,
         wheels=wheels,
+        odometer_km=_odometer(document.get("odometer_km", {}), vehicles),
     )
 
 
@@ -239,4 +268,4 @@ def manifest_to_document(manifest: PassManifest) -> dict:
             }
             for w in manifest.wheels
         ],
-    }
+    } | ({"odometer_km": dict(manifest.odometer_km)} if manifest.odometer_km else {})

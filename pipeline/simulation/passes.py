@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
@@ -24,7 +24,7 @@ from pipeline.calibration.model import SENSOR_NAMES
 from pipeline.profile.flange import FlangeParameters
 from pipeline.profile.reference import load_reference_profile
 from pipeline.profile.tread import outline_tread_values
-from pipeline.profile.wheelset import outline_conicity
+from pipeline.profile.wheelset import ContactError, outline_conicity
 from pipeline.simulation.field import (
     FieldEffects,
     add_spots_on_stripe,
@@ -77,6 +77,9 @@ class SimWheel:
     appearance: Appearance
     back_to_back_mm: float
     radius_mm: float
+    wear: Wear
+    reference: str
+    """Name of the reference profile the wheel was worn from (LMA, S1002)."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -131,9 +134,62 @@ def build_train(
                 profile = wheel_profile(reference, wear)
                 appearance = wheel_appearance(profile, rng)
                 wheels.append(
-                    SimWheel(vehicle_id, axle, side, profile, appearance, back_to_back, radius)
+                    SimWheel(
+                        vehicle_id,
+                        axle,
+                        side,
+                        profile,
+                        appearance,
+                        back_to_back,
+                        radius,
+                        wear,
+                        family,
+                    )  # fmt: skip
                 )
     return Train(vehicles=ids, wheels=tuple(wheels))
+
+
+MAX_FLANGE_THINNING_MM = 4.0
+"""Most flank wear the wheel model takes (`wheel_profile`)."""
+
+
+def wear_train(train: Train, flange_thinning_mm: float) -> Train:
+    """The same train after more flank wear: every wheel's flange `flange_thinning_mm`
+    thinner (its total capped at the model's 4 mm), the surface following the outline.
+
+    Parameters
+    ----------
+    train : Train
+    flange_thinning_mm : float
+        Added flank wear [mm], ≥ 0.
+
+    Returns
+    -------
+    Train
+        The worn train (identity, axles and surfaces as before).
+
+    Notes
+    -----
+    An LMA wheel thinned beyond some 2.5 mm in all may find no rail contact in the truth's
+    conicity (`outline_conicity` raises ContactError; seed 21's V001 right at 2.8 mm): its
+    truth row then has no conicity.
+    """
+    if not flange_thinning_mm >= 0:
+        raise ValueError(f"flange_thinning_mm must be ≥ 0, got {flange_thinning_mm}")
+    wheels = []
+    for wheel in train.wheels:
+        thinning = min(wheel.wear.flange_thinning_mm + flange_thinning_mm, MAX_FLANGE_THINNING_MM)
+        wear = replace(wheel.wear, flange_thinning_mm=thinning)
+        profile = wheel_profile(load_reference_profile(wheel.reference), wear)
+        # the surface, one value per outline point, moves with the outline's arc fraction
+        old = np.linspace(0.0, 1.0, wheel.profile.x_mm.size)
+        new = np.linspace(0.0, 1.0, profile.x_mm.size)
+        appearance = Appearance(
+            reflectivity=np.interp(new, old, wheel.appearance.reflectivity),
+            scatter_mm=np.interp(new, old, wheel.appearance.scatter_mm),
+        )
+        wheels.append(replace(wheel, profile=profile, appearance=appearance, wear=wear))
+    return Train(vehicles=train.vehicles, wheels=tuple(wheels))
 
 
 def _pose(wheel: SimWheel, offset_mm: float, yaw_rad: float, along_mm: float) -> WheelPose:
@@ -230,19 +286,23 @@ def _truth_row(wheel: SimWheel) -> dict:
 
 
 def _truth_rows(train: Train) -> list[dict]:
-    """Per-wheel truth, each row with its axle's true equivalent conicity at 3 mm."""
+    """Per-wheel truth, each row with its axle's true equivalent conicity at 3 mm (None
+    where the outlines find no contact with the rails: a flange worn thin, see `wear_train`)."""
     rows = [_truth_row(w) for w in train.wheels]
     for left, right, row_left, row_right in zip(
         train.wheels[::2], train.wheels[1::2], rows[::2], rows[1::2], strict=True
     ):
-        conicity = outline_conicity(
-            left.profile.x_mm,
-            left.profile.z_mm,
-            right.profile.x_mm,
-            right.profile.z_mm,
-            left.back_to_back_mm,
-            left.radius_mm,
-        )
+        try:
+            conicity: float | None = outline_conicity(
+                left.profile.x_mm,
+                left.profile.z_mm,
+                right.profile.x_mm,
+                right.profile.z_mm,
+                left.back_to_back_mm,
+                left.radius_mm,
+            )
+        except ContactError:
+            conicity = None
         row_left["conicity_3mm"] = row_right["conicity_3mm"] = conicity
     return rows
 
@@ -338,6 +398,7 @@ def write_synthetic_passes(
     axles_per_vehicle: int = AXLES_PER_VEHICLE,
     frames_per_sensor: int = 1,
     field: FieldEffects | None = None,
+    flange_wear_per_pass_mm: float = 0.0,
     progress: Callable[[int, int], None] | None = None,
 ) -> list[Path]:
     """Simulate `repeat` passes of one train and write them as pass folders with truth.
@@ -362,6 +423,9 @@ def write_synthetic_passes(
         Frames per sensor and wheel.
     field : FieldEffects, optional
         Field effects of every frame (`FIELD_MODES["harsh"]`: all); None: clean frames.
+    flange_wear_per_pass_mm : float
+        Flank wear added between passes [mm]: pass k's flanges are k times this much thinner
+        than the first pass's (`wear_train`; a wear trend with truth). 0: the same wheels.
     progress : callable(done, total), optional
         Called after each pass.
 
@@ -372,6 +436,8 @@ def write_synthetic_passes(
     """
     if repeat < 1:
         raise ValueError(f"repeat must be ≥ 1, got {repeat}")
+    if not flange_wear_per_pass_mm >= 0:
+        raise ValueError(f"flange_wear_per_pass_mm must be ≥ 0, got {flange_wear_per_pass_mm}")
     station = build_station(bit_depth=bit_depth)
     train_rng, *pass_rngs = np.random.default_rng(seed).spawn(repeat + 1)
     train = build_train(vehicles, train_rng, axles_per_vehicle=axles_per_vehicle)
@@ -379,8 +445,11 @@ def write_synthetic_passes(
     folders = []
     for index, rng in enumerate(pass_rngs):
         folder = out if repeat == 1 else out / f"pass-{index + 1:03d}"
+        worn = train
+        if index and flange_wear_per_pass_mm:
+            worn = wear_train(train, index * flange_wear_per_pass_mm)
         simulated = simulate_pass(
-            train,
+            worn,
             station,
             rng,
             started_at=pass_start_time(index),

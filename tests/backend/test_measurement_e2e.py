@@ -152,6 +152,7 @@ def test_the_wheel_views_serve_frames_masks_sigma_centres_and_profile(client, au
     ).json()
     lengths = {len(centres[k]) for k in ("x", "y", "sigma", "strength", "nx", "ny")}
     assert lengths == {centres["count"]} and centres["count"] > 100
+    assert len(centres["rejected_x"]) == len(centres["rejected_y"]), "rejected candidates, x and y"
     profile = client.get(f"{base}/profile", headers=viewer).json()
     assert len(profile["x_mm"]) == len(profile["z_mm"]) > 100
     assert profile["reference_profile"] in ("LMA", "S1002") and len(profile["reference_x_mm"]) > 100

@@ -10,13 +10,15 @@ from db.models import Measurement, PassWheel
 from tests.backend.archives import calibration_document, frame_png
 
 
-def open_pass(client, auth, site: str, started_at: str, vehicle: str) -> int:
+def open_pass(
+    client, auth, site: str, started_at: str, vehicle: str, odometer_km: dict | None = None
+) -> int:
     body = {
         "site": site,
         "started_at": started_at,
         "frames_per_sensor": 2,
         "calibration": calibration_document(),
-    }
+    } | ({"odometer_km": odometer_km} if odometer_km is not None else {})
     pass_id = client.post("/api/passes/stream", headers=auth("operator"), json=body).json()[
         "pass_id"
     ]

@@ -241,6 +241,34 @@ def test_trend_forecasts_when_the_wear_fit_reaches_the_limit(client, auth) -> No
     assert flat["reached_at"] is None and "does not reach" in flat["note"]
 
 
+def test_trend_fits_wear_per_1000_km_when_every_pass_carries_the_odometer(client, auth) -> None:
+    start = datetime(2026, 1, 1, 8)
+    wheel_id = None
+    # Sd thins 0.05 mm per 1,000 km from 27.0 at 120,000 km, at uneven km per day: the EN
+    # 22 mm limit is 100,000 km on, at 220,000 km
+    for day, km in ((0, 120_000), (10, 128_000), (40, 136_000), (45, 144_000), (90, 152_000)):
+        when = (start + timedelta(days=day)).isoformat() + "Z"
+        pass_id = open_pass(client, auth, "S", when, "T1", odometer_km={"T8": km})
+        thickness = 27.0 - 0.05 * (km - 120_000) / 1000
+        wheel_id = add_wheel(client, pass_id, "T8", 1, "left", flange_thickness_10_mm=thickness)
+    trend = client.get(f"/api/wheels/{wheel_id}/trend", headers=auth("viewer")).json()
+    assert [p["odometer_km"] for p in trend["points"][::2]] == [120e3, 128e3, 136e3, 144e3, 152e3]
+    sd = next(f for f in trend["forecasts"] if f["parameter"] == "flange_thickness_10_mm")
+    assert sd["per"] == "1000 km" and sd["rate_mm"] == pytest.approx(-0.05)
+    assert sd["rate_low_mm"] <= sd["rate_mm"] <= sd["rate_high_mm"]
+    assert sd["bound"] == "min" and sd["limit_mm"] == 22.0
+    assert sd["fit_from_km"] == 120e3 and sd["last_km"] == 152e3
+    assert sd["reached_km"] == pytest.approx(220e3)
+    assert sd["reached_at"] is None, "a distance, not a date"
+    assert "220,000 km" in sd["note"]
+    # a pass without the reading: the fit falls back to days
+    pass_id = open_pass(client, auth, "S", (start + timedelta(days=100)).isoformat() + "Z", "T1")
+    add_wheel(client, pass_id, "T8", 1, "left", flange_thickness_10_mm=26.5)
+    trend = client.get(f"/api/wheels/{wheel_id}/trend", headers=auth("viewer")).json()
+    sd = next(f for f in trend["forecasts"] if f["parameter"] == "flange_thickness_10_mm")
+    assert sd["per"] == "day" and sd["reached_km"] is None and sd["reached_at"] is not None
+
+
 def test_vehicles_are_found_by_part_of_their_id_with_their_history(client, auth, depot) -> None:
     found = client.get("/api/vehicles", headers=auth("viewer"), params={"q": "v01"}).json()
     assert found == ["V017"]

@@ -241,9 +241,8 @@ def browser() -> Iterator[object]:
 
 @pytest.fixture(scope="session")
 def screenshots() -> Path:
-    """Where each view's screenshot is saved (git-ignored), emptied once per session; the
-    report pages in its reports/ folder are kept (the report benchmark writes them)."""
+    """Where each view's screenshot is saved (the PNGs are committed, the rest git-ignored).
+    Nothing is emptied: each test writes, and so replaces, only its own files, so a run of
+    some tests leaves the others' pictures as they were."""
     SCREENSHOTS.mkdir(parents=True, exist_ok=True)
-    for old in SCREENSHOTS.glob("*.png"):
-        old.unlink()
     return SCREENSHOTS

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 import httpx
+import numpy as np
 import pytest
 from sqlalchemy import create_engine, update
 
@@ -44,6 +45,10 @@ from tests.e2e.test_retention_page import wait_for_job
 pytestmark = [pytest.mark.e2e, pytest.mark.slow]
 
 VIEWPORT = {"width": 1600, "height": 1000}
+NEXT_FRAMES_JS = "() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)))"
+"""Resolves after the next two animation frames (a requested redraw has happened)."""
+TALL_VIEWPORT = {"width": 1600, "height": 2800}
+"""Tall enough for the wheel page's whole side panel (a trend's screenshot is not cut)."""
 LM_SD_MAX_MM = 31.3
 VEHICLE = "D101"
 """The depot train's vehicle (the simulator names its first vehicle V001)."""
@@ -269,6 +274,9 @@ def test_a_disposition_is_recorded_and_shown_on_wheel_pass_and_worst_wheels(
     target = wheel_at(service, depot.newest, 1, "left")
     open_wheel(page, service, depot.newest, target["wheel_id"])
     form = page.locator(".disposition-form")
+    kinds = form.locator("select option").evaluate_all("os => os.map((o) => o.value)")
+    assert set(kinds) >= {"re_profile", "monitor", "false_alarm", "measurement_doubtful", "comment"}
+    page.locator(".dispositions .current.open", has_text="open").wait_for()  # none yet
     form.locator("select").select_option("false_alarm")
     form.locator("button").click()
     assert "false alarm needs its reason" in page.locator("#banner .error").inner_text()
@@ -310,8 +318,9 @@ def test_a_disposition_is_recorded_and_shown_on_wheel_pass_and_worst_wheels(
 def test_trend_spans_the_passes_with_limits_and_a_forecast_in_utc(
     browser: Any, service: Service, depot: Depot, screenshots: Path
 ) -> None:
-    # a browser in New York: the times must still be UTC
-    context = browser.new_context(viewport=VIEWPORT, timezone_id="America/New_York")
+    # a browser in New York: the times must still be UTC; tall enough for the whole side
+    # panel, so the trend's screenshot is not cut by the panel's scroll
+    context = browser.new_context(viewport=TALL_VIEWPORT, timezone_id="America/New_York")
     page = context.new_page()
     page.goto(f"{service.url}/#token={service.token('viewer')}")
     page.locator("header .role").wait_for()
@@ -347,7 +356,13 @@ def test_trend_spans_the_passes_with_limits_and_a_forecast_in_utc(
     newest = legend_time.element_handle()
     page.wait_for_function("(el) => el.textContent.includes('2026-11-22')", arg=newest)
     assert "8:00" in legend_time.inner_text(), "the newest pass at 08:00 UTC, not New York time"
-    page.locator(".trend:not(.delta-r)").screenshot(path=str(screenshots / "24-wheel-trend.png"))
+    trend = page.locator(".trend:not(.delta-r)")
+    trend.evaluate("(el) => el.scrollIntoView({ block: 'end' })")  # the panel scrolls to it
+    box, panel = trend.bounding_box(), page.locator(".side-panel").bounding_box()
+    assert panel["y"] <= box["y"] and box["y"] + box["height"] <= panel["y"] + panel["height"], (
+        "the trend is cut by the side panel"
+    )
+    trend.screenshot(path=str(screenshots / "24-wheel-trend.png"))
     context.close()
 
 
@@ -384,15 +399,37 @@ def test_method_disagreement_beyond_the_fleets_threshold_is_flagged(
     viewer: Any, service: Service, depot: Depot, screenshots: Path
 ) -> None:
     body = lm_limits(service)
-    tight = body | {"method_disagreement_mm": 0.01}
-    assert api(service, "admin", "PUT", "/api/limits/default/LM", json=tight).is_success
+    page = viewer
     try:
-        page = viewer
-        page.goto(f"{service.url}/#/passes/{depot.newest}")
-        flag = page.locator("a.wheel-card .flag.disagreement").first
-        flag.wait_for()
-        assert flag.inner_text().startswith("methods differ: ")
+        for threshold_mm in (20.0, 0.01):  # the fleet's setting decides what is flagged
+            loose_or_tight = body | {"method_disagreement_mm": threshold_mm}
+            response = api(service, "admin", "PUT", "/api/limits/default/LM", json=loose_or_tight)
+            assert response.is_success
+            page.goto(f"{service.url}/#/passes")  # leave the pass page: it is drawn anew
+            page.locator("tr[data-pass-id]").first.wait_for()
+            page.goto(f"{service.url}/#/passes/{depot.newest}")
+            page.locator("a.wheel-card").first.wait_for()
+            served = {
+                w["wheel_id"]: w["method_disagreement"] for w in wheels(service, depot.newest)
+            }
+            flagged = [w for w, d in served.items() if d]
+            flags = page.locator("a.wheel-card .flag.disagreement")
+            if threshold_mm > 1:
+                assert flagged == [] and flags.count() == 0, "nothing differs by 20 mm"
+                continue
+            assert flagged, "no wheel's methods differ by 0.01 mm"
+            assert flags.count() == len(flagged)
+            for wheel_id in flagged:
+                flag = page.locator(f"a.wheel-card[data-wheel-id='{wheel_id}'] .flag.disagreement")
+                text = flag.inner_text()
+                assert text.startswith("methods differ: "), text
+                first = served[wheel_id][0]
+                size = f"{abs(first['difference_mm']):.1f}"
+                sign = "" if float(size) == 0 else "+" if first["difference_mm"] > 0 else "−"
+                assert f"{sign}{size} mm" in text, (text, first)
         page.screenshot(path=str(screenshots / "26-pass-disagreement.png"))
+        open_wheel(page, service, depot.newest, flagged[0])
+        assert page.locator(".flag.disagreement").first.inner_text().startswith("methods differ: ")
     finally:
         assert api(service, "admin", "PUT", "/api/limits/default/LM", json=body).is_success
 
@@ -495,11 +532,20 @@ def test_defect_3_cards_show_the_sd_their_limit_set_checks_with_units(
     assert table.locator("tr[data-parameter=flange_thickness_mm] td").nth(3).inner_text() == "–"
 
 
+CANVAS_SUM_JS = """(canvas) => {
+  const data = canvas.getContext('2d').getImageData(0, 0, canvas.width, canvas.height).data;
+  let sum = 0;
+  for (let i = 0; i < data.length; i += 4) sum += data[i] + 2 * data[i + 1] + 3 * data[i + 2];
+  return sum;
+}"""
+"""A checksum of a canvas's pixels (colour-weighted sum of R, G, B)."""
+
+
 def test_defect_4_the_sigma_map_has_one_scale_for_every_frame_and_an_opacity(
     viewer: Any, service: Service, depot: Depot, screenshots: Path
 ) -> None:
     page = viewer
-    ranges = []
+    ranges, legends = [], []
     for axle, side in ((1, "left"), (2, "right")):
         target = wheel_at(service, depot.newest, axle, side)
         open_wheel(page, service, depot.newest, target["wheel_id"], "?sigma=1")
@@ -509,11 +555,18 @@ def test_defect_4_the_sigma_map_has_one_scale_for_every_frame_and_an_opacity(
             f"/api/passes/{depot.newest}/wheels/{target['wheel_id']}/sigma/inner.png",
         )  # fmt: skip
         ranges.append((sigma.headers["X-Sigma-Min-Px"], sigma.headers["X-Sigma-Max-Px"]))
+        page.evaluate(NEXT_FRAMES_JS)
+        legends.append(page.locator("canvas.legend").evaluate("(c) => c.toDataURL()"))
     assert ranges[0] == ranges[1], f"the σ colours differ between frames: {ranges}"
     assert float(ranges[0][0]) == pytest.approx(5 / 3**0.5, abs=1e-4)
+    assert legends[0] == legends[1], "the σ legend drawn differently for two frames"
     slider = page.locator("input.sigma-opacity")
     assert slider.is_visible() and slider.input_value() == "55"
+    frame = page.locator(".frame-canvas")
+    before = frame.evaluate(CANVAS_SUM_JS)
     slider.fill("30")
+    page.evaluate(NEXT_FRAMES_JS)
+    assert frame.evaluate(CANVAS_SUM_JS) != before, "the opacity changed nothing on the frame"
     page.screenshot(path=str(screenshots / "34-sigma-fixed-scale.png"))
 
 
@@ -713,3 +766,89 @@ def test_a_card_click_and_the_next_wheel_key_draw_each_wheel_of_the_pass(
         drawn_after(page, started, depot.newest, wheel_id)
         page.locator(f".wheel[data-loaded-wheel='{depot.newest}/{wheel_id}']").wait_for()
         assert int(page.locator(".frame-canvas").get_attribute("data-points-drawn")) > 0
+
+
+REJECTED_RGB = (244, 63, 94)
+"""REJECTED_COLOUR of draw/frame.js (#f43f5e)."""
+PIXELS_AT_JS = """([points]) => {
+  const canvas = document.querySelector('.frame-canvas');
+  const ratio = canvas.width / canvas.clientWidth;
+  const ctx = canvas.getContext('2d');
+  const at = (x, y) => ctx.getImageData(Math.floor(x * ratio), Math.floor(y * ratio), 1, 1);
+  return points.map(([x, y]) => [...at(x, y).data]);
+}"""
+"""The canvas's RGBA at CSS-pixel positions on it."""
+
+
+def rejected_on_canvas(page: Any, xs: list[float], ys: list[float]) -> tuple[int, int]:
+    """How many of these image points lie in the frame's view, and how many of those show
+    the rejected colour (to 40 levels per channel) on the canvas."""
+    vp = json.loads(page.locator(".frame-canvas").get_attribute("data-viewport"))
+    box = page.locator(".frame-canvas").bounding_box()
+    on_screen = [
+        (x * vp["scale"] + vp["offsetX"], y * vp["scale"] + vp["offsetY"])
+        for x, y in zip(xs, ys, strict=True)
+    ]
+    inside = [
+        (sx, sy) for sx, sy in on_screen if 2 < sx < box["width"] - 2 and 2 < sy < box["height"] - 2
+    ]
+    pixels = page.evaluate(PIXELS_AT_JS, [inside])
+    rose = sum(all(abs(p[i] - REJECTED_RGB[i]) <= 40 for i in range(3)) for p in pixels)
+    return len(inside), rose
+
+
+def test_rejected_candidates_are_marked_on_the_frame_in_their_own_colour_with_a_key(
+    viewer: Any, service: Service, depot: Depot, screenshots: Path
+) -> None:
+    page = viewer
+    target = wheel_at(service, depot.newest, 1, "left")
+    base = f"/api/passes/{depot.newest}/wheels/{target['wheel_id']}/centres/inner"
+    served = api(service, "viewer", "GET", base, params={"method": "adaptive"}).json()
+    xs, ys = served["rejected_x"], served["rejected_y"]
+    assert len(xs) == len(ys) > 10, f"the extraction rejected {len(xs)} candidates only"
+    # Steger hidden: its centres may lie where the adaptive method rejected a candidate
+    open_wheel(page, service, depot.newest, target["wheel_id"], "?steger=0")
+    key = page.locator(".overlay-key [data-kind=rejected]")
+    key.wait_for()
+    assert f"rejected candidates ({len(xs)})" in key.inner_text()
+    assert "edge" in key.inner_text(), "the key says what a rejected candidate is"
+    page.wait_for_function(  # the key is drawn again as layers arrive: read it when settled
+        "() => getComputedStyle(document.querySelector('.overlay-key [data-kind=rejected] i'))"
+        ".backgroundColor === 'rgb(244, 63, 94)'"
+    )
+    # zoom onto the rejected candidate with the most others within 30 px until each mark
+    # covers whole pixels (0.8 × scale/3 CSS px wide from scale 7.5 on; smaller marks blend
+    # into their neighbours)
+    points = np.column_stack([xs, ys])
+    near = (np.hypot(*(points[:, None, :] - points[None, :, :]).transpose(2, 0, 1)) < 30).sum(1)
+    x0, y0 = points[int(np.argmax(near))]
+    canvas = page.locator(".frame-canvas")
+    vp = json.loads(canvas.get_attribute("data-viewport"))
+    box = canvas.bounding_box()
+    page.mouse.move(
+        box["x"] + x0 * vp["scale"] + vp["offsetX"], box["y"] + y0 * vp["scale"] + vp["offsetY"]
+    )
+    for _ in range(20):
+        page.mouse.wheel(0, -120)
+        page.evaluate(NEXT_FRAMES_JS)
+        if json.loads(canvas.get_attribute("data-viewport"))["scale"] >= 8:
+            break
+    vp = json.loads(canvas.get_attribute("data-viewport"))  # drag the cluster to the middle
+    page.mouse.move(
+        box["x"] + x0 * vp["scale"] + vp["offsetX"], box["y"] + y0 * vp["scale"] + vp["offsetY"]
+    )
+    page.mouse.down()
+    page.mouse.move(box["x"] + box["width"] / 2, box["y"] + box["height"] / 2, steps=8)
+    page.mouse.up()
+    page.evaluate(NEXT_FRAMES_JS)
+    inside, rose = rejected_on_canvas(page, xs, ys)
+    assert inside >= 3 and rose >= 0.6 * inside, f"{rose} of {inside} rejected points in rose"
+    page.screenshot(path=str(screenshots / "36-wheel-rejected.png"))
+    # they belong to the adaptive method's layer: hidden with it
+    canvas.focus()
+    page.keyboard.press("a")
+    page.wait_for_url("**adaptive=0*")
+    page.evaluate(NEXT_FRAMES_JS)
+    inside_hidden, rose_hidden = rejected_on_canvas(page, xs, ys)
+    assert inside_hidden == inside and rose_hidden == 0, f"{rose_hidden} rose with adaptive hidden"
+    assert key.count() == 0, "no key entry for marks not shown"

@@ -71,12 +71,13 @@ test('passFilterQuery turns dates into UTC day bounds with an exclusive end', ()
 test('trendColumns aligns both methods on pass time, ascending', () => {
   const trend = {
     points: [
-      { pass_id: 2, started_at: '2026-11-02T00:00:00Z', method: 'adaptive', flange_height_mm: 29 },
+      { pass_id: 2, started_at: '2026-11-02T00:00:00Z', odometer_km: 1200, method: 'adaptive', flange_height_mm: 29 },
       { pass_id: 1, started_at: '2026-11-01T00:00:00Z', method: 'steger', flange_height_mm: 28.5 },
       { pass_id: 1, started_at: '2026-11-01T00:00:00Z', method: 'adaptive', flange_height_mm: 28.4 },
     ],
   };
-  const { x, columns } = trendColumns(trend, ['adaptive', 'steger'], ['flange_height_mm']);
+  const { x, km, columns } = trendColumns(trend, ['adaptive', 'steger'], ['flange_height_mm']);
+  assert.deepEqual(km, [null, 1200], 'the odometer per pass, null where the pass has none');
   assert.deepEqual(x, [Date.parse('2026-11-01T00:00:00Z') / 1000, Date.parse('2026-11-02T00:00:00Z') / 1000]);
   assert.deepEqual(columns['adaptive:flange_height_mm'], [28.4, 29]);
   assert.deepEqual(columns['steger:flange_height_mm'], [28.5, null]);

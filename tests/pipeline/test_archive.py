@@ -94,6 +94,15 @@ def test_manifest_document_round_trips() -> None:
     again = parse_manifest(manifest_to_document(manifest))
     assert again.started_at == manifest.started_at
     assert [w.frames_outer for w in again.wheels] == [w.frames_outer for w in manifest.wheels]
+    assert again.odometer_km == () and "odometer_km" not in manifest_to_document(manifest)
+
+
+def test_manifest_carries_the_vehicles_odometer_readings() -> None:
+    document = manifest_to_document(small_manifest()) | {"odometer_km": {"V1": 120_345.5}}
+    manifest = parse_manifest(document)
+    assert manifest.odometer_km == (("V1", 120_345.5),)
+    assert manifest.odometer_of("V1") == 120_345.5 and manifest.odometer_of("V2") is None
+    assert manifest_to_document(manifest)["odometer_km"] == {"V1": 120_345.5}
 
 
 def test_missing_manifest(pass_folder: Path) -> None:
@@ -134,6 +143,13 @@ def test_not_a_zip(tmp_path: Path) -> None:
         (lambda d: d.update(vehicles=["V" * 101]), r"vehicles\[0\] must be a non-empty string"),
         (lambda d: d.update(format="other/2"), "format must be 'wheelscan-pass/1'"),
         (lambda d: d.update(vehicles=[]), "vehicles must be a non-empty list"),
+        (lambda d: d.update(odometer_km=[1]), "odometer_km must be an object"),
+        (lambda d: d.update(odometer_km={"V9": 1}), "odometer_km names 'V9', not in 'vehicles'"),
+        (lambda d: d.update(odometer_km={"V1": "far"}), r"odometer_km\['V1'\] must be a number"),
+        (
+            lambda d: d.update(odometer_km={"V1": -1}),
+            r"odometer_km\['V1'\] must be in \[0, 1e\+08\]",
+        ),
         (lambda d: d["wheels"][0].update(side="middle"), "side must be 'left' or 'right'"),
         (lambda d: d["wheels"][0].update(axle=0), "axle must be an integer"),
         (lambda d: d["wheels"][0].update(vehicle_id="V9"), "'V9' is not in 'vehicles'"),

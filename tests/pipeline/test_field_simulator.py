@@ -22,7 +22,7 @@ from pipeline.simulation.field import (
     stripe_texture,
 )
 from pipeline.simulation.frame_render import draw_stripe
-from pipeline.simulation.passes import write_synthetic_passes
+from pipeline.simulation.passes import build_train, wear_train, write_synthetic_passes
 from pipeline.simulation.render import StripeSamples, WheelPose, plate_section, wheel_section
 from pipeline.simulation.station import build_station
 from pipeline.simulation.wheel import wheel_profile
@@ -141,3 +141,21 @@ def test_lit_scene_does_not_break_measurement(scene_pass: Path) -> None:
     assert [r.measurement.status for r in results] == [MEASURED] * 4
     quality = results[0].measurement.quality_figures()
     assert 0 < quality["searched_fraction"] < 1 and quality["excluded_bright_px"] > 0
+
+
+def test_a_worn_train_keeps_its_wheels_with_flanges_thinner_by_the_wear() -> None:
+    train = build_train(2, np.random.default_rng(3), axles_per_vehicle=1)
+    worn = wear_train(train, 0.5)
+    for before, after in zip(train.wheels, worn.wheels, strict=True):
+        assert (after.vehicle_id, after.axle, after.side) == (
+            before.vehicle_id,
+            before.axle,
+            before.side,
+        )
+        assert after.back_to_back_mm == before.back_to_back_mm
+        assert after.wear.flange_thinning_mm == pytest.approx(before.wear.flange_thinning_mm + 0.5)
+        thinner = before.profile.truth.flange_thickness_mm - after.profile.truth.flange_thickness_mm
+        assert thinner == pytest.approx(0.5, abs=0.02), "the flank moves by the wear at 12 mm"
+        assert after.appearance.reflectivity.shape == after.profile.x_mm.shape
+    with pytest.raises(ValueError, match="flange_thinning_mm must be ≥ 0"):
+        wear_train(train, -0.1)

@@ -206,9 +206,11 @@ def get_centres(
     layer: FrameLayerDep,
     _viewer: ViewerDep,
 ) -> CentresRead:
-    """Centre points of one frame, columnar: x, y [px], sigma [px], strength, nx, ny."""
+    """Centre points of one frame, columnar: x, y [px], sigma [px], strength, nx, ny, and
+    the candidates the method rejected (rejected_x, rejected_y [px])."""
     frame, artefacts = layer.artefacts()
     points = {name: np.round(values, 4).tolist() for name, values in artefacts.points.items()}
+    rejected = np.round(artefacts.rejected_xy, 4)
     return CentresRead(
         method=layer.method,
         sensor=cast(Sensor, frame.sensor),
@@ -217,6 +219,8 @@ def get_centres(
         height_px=frame.height_px,
         count=len(points["x"]),
         **points,
+        rejected_x=rejected[:, 0].tolist(),
+        rejected_y=rejected[:, 1].tolist(),
     )
 
 

@@ -131,16 +131,19 @@ export function reviewQuery(filter) {
 }
 
 /**
- * A wheel trend as uPlot columns: pass times (s) and one column per method × parameter.
- * @param {any} trend a WheelTrend {points: [{pass_id, started_at, method, ...}]}
+ * A wheel trend as uPlot columns: pass times (s), the vehicle's odometer at each pass (km,
+ * null where the pass carries none) and one column per method × parameter.
+ * @param {any} trend a WheelTrend {points: [{pass_id, started_at, odometer_km, method, ...}]}
  * @param {string[]} methods
  * @param {string[]} keys parameter keys
- * @returns {{x: number[], columns: Record<string, Array<number|null>>}} columns keyed "method:key"
+ * @returns {{x: number[], km: Array<number|null>, columns: Record<string, Array<number|null>>}}
+ *   columns keyed "method:key"
  */
 export function trendColumns(trend, methods, keys) {
   const byPass = new Map();
   for (const point of trend?.points ?? []) {
-    if (!byPass.has(point.pass_id)) byPass.set(point.pass_id, { t: Date.parse(point.started_at) / 1000, methods: {} });
+    if (!byPass.has(point.pass_id))
+      byPass.set(point.pass_id, { t: Date.parse(point.started_at) / 1000, km: point.odometer_km ?? null, methods: {} });
     byPass.get(point.pass_id).methods[point.method] = point;
   }
   const passes = [...byPass.values()].sort((a, b) => a.t - b.t);
@@ -149,7 +152,7 @@ export function trendColumns(trend, methods, keys) {
   for (const m of methods) {
     for (const k of keys) columns[`${m}:${k}`] = passes.map((p) => p.methods[m]?.[k] ?? null);
   }
-  return { x: passes.map((p) => p.t), columns };
+  return { x: passes.map((p) => p.t), km: passes.map((p) => p.km), columns };
 }
 
 /**

@@ -59,9 +59,11 @@ export class FrameView {
       })
     );
     this.opacityLabel = h('label', { class: 'opacity', hidden: true }, 'σ opacity ', this.opacity);
+    /** what each point colour on the frame is */
+    this.key = h('div', { class: 'overlay-key' });
     root.replaceChildren(
       h('div', { class: 'frame-wrap' }, this.canvas),
-      h('div', { class: 'frame-foot' }, this.readout, this.opacityLabel, this.legend),
+      h('div', { class: 'frame-foot' }, this.readout, this.key, this.opacityLabel, this.legend),
     );
     /** @type {FrameData|null} */
     this.data = null;
@@ -101,6 +103,7 @@ export class FrameView {
     }
     if (!this.highlight) this.readout.textContent = 'hover a centre point';
     this.drawLegend();
+    this.renderKey();
     this.request();
   }
 
@@ -109,7 +112,30 @@ export class FrameView {
     this.show = { ...this.show, ...show };
     this.legend.hidden = !this.show.sigma;
     this.drawLegend();
+    this.renderKey();
     this.request();
+  }
+
+  /** The key to the point colours shown: each method's centres and the candidates they rejected. */
+  renderKey() {
+    const centres = Object.entries(this.data?.centres ?? {}).filter(
+      ([method, c]) => c && Array.isArray(c.x) && this.show[/** @type {'adaptive'|'steger'} */ (method)],
+    );
+    const rejected = centres.reduce((n, [, c]) => n + (c.rejected_x?.length ?? 0), 0);
+    // swatches coloured by class (the page's content policy refuses inline styles)
+    const entry = (/** @type {string} */ kind, /** @type {string} */ text) =>
+      h('span', { class: 'key', dataset: { kind } }, h('i', { class: kind }), text);
+    this.key.replaceChildren(
+      ...centres.map(([method, c]) => entry(method, `${method} centres (${c.x.length})`)),
+      ...(rejected
+        ? [
+            entry(
+              'rejected',
+              `rejected candidates (${rejected}): an edge, not a line, or a chain too short, apart or wide`,
+            ),
+          ]
+        : []),
+    );
   }
 
   /** Forget the frame (another wheel is loading): an empty canvas, no read-out. */

@@ -159,7 +159,7 @@ export function renderTrend(root, trend, previous) {
   root.replaceChildren();
   const family = trend?.limits?.wheel_profile ?? 'EN';
   const shown = shownParameters(family);
-  const { x, columns } = trendColumns(
+  const { x, km, columns } = trendColumns(
     trend,
     METHODS,
     shown.map((p) => p.key),
@@ -180,7 +180,7 @@ export function renderTrend(root, trend, previous) {
     const forecast = (trend.forecasts ?? []).find((/** @type {any} */ f) => f.parameter === p.key) ?? null;
     const box = h('div', { class: 'trend-plot', dataset: { parameter: p.key } });
     root.append(box, h('p', { class: 'note forecast', dataset: { parameter: p.key } }, forecastText(p, forecast)));
-    return parameterPlot(box, p, x, columns, forecast, trend.limits);
+    return parameterPlot(box, p, { x, km }, columns, forecast, trend.limits);
   });
   root.append(definitions(shown, 'What the trended values mean'));
   return { destroy: () => plots.forEach((plot) => plot.destroy()) };
@@ -189,14 +189,14 @@ export function renderTrend(root, trend, previous) {
 /**
  * @param {HTMLElement} box
  * @param {any} p a PARAMETERS entry
- * @param {number[]} x pass times [s]
+ * @param {{x: number[], km: Array<number|null>}} passes pass times [s] and odometer [km]
  * @param {Record<string, Array<number|null>>} columns
  * @param {any} forecast a TrendForecast or null
  * @param {any} limits the trend's WheelLimits or null
  * @returns {uPlot}
  */
-function parameterPlot(box, p, x, columns, forecast, limits) {
-  const fit = x.map((t) => (forecast ? fitValue(forecast, t) : null));
+function parameterPlot(box, p, { x, km }, columns, forecast, limits) {
+  const fit = x.map((t, i) => (forecast ? fitValue(forecast, t, km[i]) : null));
   const lowMm = limits?.limits_mm?.[`${limitStemOf(p.key)}_min_mm`] ?? null;
   const highMm = limits?.limits_mm?.[`${limitStemOf(p.key)}_max_mm`] ?? null;
   const band = lowMm != null && highMm != null ? (highMm - lowMm) * (limits?.near_limit_fraction ?? 0.1) : null;
@@ -297,13 +297,19 @@ function limitStemOf(key) {
 }
 
 /**
- * The wear fit's value at pass time t [s] (none without a fit).
+ * The wear fit's value at a pass (none without a fit): at its time t [s] for a fit per
+ * day, at its odometer reading [km] for a fit per 1000 km.
  * @param {any} forecast a TrendForecast
  * @param {number} t
+ * @param {number|null} km
  * @returns {number|null}
  */
-function fitValue(forecast, t) {
+function fitValue(forecast, t, km) {
   if (forecast.intercept_mm == null || !forecast.fit_from) return null;
+  if (forecast.per === '1000 km')
+    return km == null || forecast.fit_from_km == null
+      ? null
+      : forecast.intercept_mm + (forecast.rate_mm * (km - forecast.fit_from_km)) / 1000;
   return forecast.intercept_mm + (forecast.rate_mm * (t - Date.parse(forecast.fit_from) / 1000)) / 86400;
 }
 
@@ -349,10 +355,17 @@ function forecastText(p, forecast) {
   if (forecast.points < 3 || forecast.limit_mm == null) return `${p.label}: ${forecast.note}`;
   const per = forecast.per === 'day' ? 'day' : '1000 km';
   const rate = `${fmtSigned(forecast.rate_mm, 3)} mm/${per} (${fmtSigned(forecast.rate_low_mm, 3)} to ${fmtSigned(forecast.rate_high_mm, 3)})`;
+  const limit = `${forecast.bound === 'max' ? '≤' : '≥'} ${fmtNumber(forecast.limit_mm, 1)} mm`;
+  if (forecast.per === '1000 km' && forecast.reached_km != null) {
+    const odo = (/** @type {number|null} */ v) => (v == null ? 'later' : `${Math.round(v).toLocaleString('en-GB')} km`);
+    const ahead =
+      forecast.last_km != null ? `, ${odo(forecast.reached_km - forecast.last_km)} after the last pass` : '';
+    return (
+      `${p.label}: ${rate}; reaches ${limit} at ${odo(forecast.reached_km)} on the odometer${ahead} ` +
+      `(90 %: ${odo(forecast.reached_km_earliest)} – ${odo(forecast.reached_km_latest)})`
+    );
+  }
   if (!forecast.reached_at) return `${p.label}: ${rate}; ${forecast.note}`;
   const day = (/** @type {string|null} */ iso) => (iso ? iso.slice(0, 10) : 'later');
-  return (
-    `${p.label}: ${rate}; reaches ${forecast.bound === 'max' ? '≤' : '≥'} ${fmtNumber(forecast.limit_mm, 1)} mm ` +
-    `on ${day(forecast.reached_at)} UTC (90 %: ${day(forecast.reached_earliest)} – ${day(forecast.reached_latest)})`
-  );
+  return `${p.label}: ${rate}; reaches ${limit} on ${day(forecast.reached_at)} UTC (90 %: ${day(forecast.reached_earliest)} – ${day(forecast.reached_latest)})`;
 }
