@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from pipeline.extraction.scalespace import fold_index
+from pipeline.extraction.scalespace import bilinear_taps, blend
 from pipeline.jit import kernel
 
 SIDE_REACH_SIGMAS = 2.0 * math.sqrt(1.0 + 3.0 / 16.0)
@@ -87,17 +87,8 @@ def _bilinear_pixel(image, x: float, y: float, inside: bool) -> float:
     """Bilinear grey of the frame at (x, y) [px]; reflect border (folded as often as it
     takes) unless the caller knows all four taps lie `inside` the frame."""
     height, width = image.shape
-    x0, y0 = np.floor(x), np.floor(y)
-    fx, fy = x - x0, y - y0
-    c0, r0 = int(x0), int(y0)
-    if inside:
-        c1, r1 = c0 + 1, r0 + 1
-    else:
-        c1, r1 = fold_index(c0 + 1, width), fold_index(r0 + 1, height)
-        c0, r0 = fold_index(c0, width), fold_index(r0, height)
-    top = float(image[r0, c0]) * (1 - fx) + float(image[r0, c1]) * fx
-    bottom = float(image[r1, c0]) * (1 - fx) + float(image[r1, c1]) * fx
-    return top * (1 - fy) + bottom * fy
+    r0, r1, fy, c0, c1, fx = bilinear_taps(x, y, height, width, inside)
+    return blend(image, r0, r1, fy, c0, c1, fx)
 
 
 @kernel
