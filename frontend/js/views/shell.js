@@ -40,9 +40,9 @@ export function renderShell(els, state, handlers) {
   render(
     html`<a class="brand" href="#/passes">wheelscan</a>
       <nav>
-        <a href="#/passes" class=${active(name === 'passes' || name === 'pass' || name === 'wheel')}>Passes</a>
-        <a href="#/review" class=${active(name === 'review')}>Worst wheels</a>
-        ${role && role !== 'viewer' ? html`<a href="#/upload" class=${active(name === 'upload')}>Upload</a>` : nothing}
+        <a href="#/passes" class=${active(name === 'passes' || name === 'pass' || name === 'wheel')}>Passes</a
+        ><a href="#/review" class=${active(name === 'review')}>Worst wheels</a
+        >${role && role !== 'viewer' ? html`<a href="#/upload" class=${active(name === 'upload')}>Upload</a>` : nothing}
       </nav>
       ${role ? vehicleSearch(state, handlers.findVehicle) : nothing}
       <span class="spacer"></span>
