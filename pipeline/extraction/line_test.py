@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from pipeline.extraction.scalespace import bilinear_taps, blend
+from pipeline.extraction.scalespace import bilinear_at
 from pipeline.jit import kernel
 
 SIDE_REACH_SIGMAS = 2.0 * math.sqrt(1.0 + 3.0 / 16.0)
@@ -83,21 +83,12 @@ averaging enough already."""
 
 
 @kernel
-def _bilinear_pixel(image, x: float, y: float, inside: bool) -> float:
-    """Bilinear grey of the frame at (x, y) [px]; reflect border (folded as often as it
-    takes) unless the caller knows all four taps lie `inside` the frame."""
-    height, width = image.shape
-    r0, r1, fy, c0, c1, fx = bilinear_taps(x, y, height, width, inside)
-    return blend(image, r0, r1, fy, c0, c1, fx)
-
-
-@kernel
 def _profile_at(image, x, y, nx, ny, t, inside) -> float:
     """Mean grey at t [px] along the normal from (x, y), over the lines TANGENT_OFFSETS_PX
     along the tangent."""
     grey = 0.0
     for u in TANGENT_OFFSETS_PX:
-        grey += _bilinear_pixel(image, x + t * nx - u * ny, y + t * ny + u * nx, inside)
+        grey += bilinear_at(image, x + t * nx - u * ny, y + t * ny + u * nx, inside)
     return grey / len(TANGENT_OFFSETS_PX)
 
 
@@ -120,7 +111,7 @@ def _smoothed_at(image, x, y, nx, ny, s, offset, weights, inside) -> float:
     grey = 0.0
     for j in range(-SMOOTHING_TAPS, SMOOTHING_TAPS + 1):
         t = offset + 0.5 * j * s
-        grey += weights[j + SMOOTHING_TAPS] * _bilinear_pixel(image, x + t * nx, y + t * ny, inside)
+        grey += weights[j + SMOOTHING_TAPS] * bilinear_at(image, x + t * nx, y + t * ny, inside)
     return grey
 
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from pipeline.extraction.scalespace import (
     ScaleLevel,
-    bilinear_taps,
+    bilinear_at,
     blend,
     cubic_at,
     cubic_taps,
@@ -36,8 +36,9 @@ def _gradient_squared(ix, iy, u: float, v: float) -> float:
     """|∇I|² from bilinear Ix, Iy at level-grid coordinates (u, v), reflect border."""
     height, width = ix.shape
     inside = 0 <= u < width - 1 and 0 <= v < height - 1
-    r0, r1, fv, c0, c1, fu = bilinear_taps(u, v, height, width, inside)
-    return _bilinear_gradient_squared(ix, iy, r0, r1, c0, c1, fu, fv)
+    gx = bilinear_at(ix, u, v, inside)
+    gy = bilinear_at(iy, u, v, inside)
+    return gx * gx + gy * gy
 
 
 @kernel
