@@ -157,31 +157,25 @@ export class WheelView {
             <a href="#/passes">the passes</a>
           </p>`
         : html`<p class="loading">Loading wheel…</p>`;
-    const panels = w?.profiles
-      ? html`<h2>Disposition</h2>
-          <div class="dispositions">${this.dispositions(w, role)}</div>
-          <h2>Profile vs reference</h2>
-          ${this.profileCanvas}${this.profileNote}
-          <h2>Axle rolling-radius difference Δr(y)</h2>
-          ${this.deltaRRoot}
-          <h2>Handheld gauge</h2>
-          <div class="comparison">
-            ${comparisonTable(w.comparison, role !== 'viewer' ? this.handlers.importReference : null)}
-          </div>
-          <h2>Adaptive − Steger along the stripe</h2>
-          ${this.diffCanvas}${this.diffNote}
-          <h2>Trend across passes</h2>
-          ${this.trendRoot}
-          <h2>3D</h2>
-          <div class="viewer">
-            <button
-              @click=${w.viewerUrl ? this.handlers.closeViewer : this.handlers.openViewer}
-              data-action=${w.viewerUrl ? 'close-3d' : 'open-3d'}
-            >
-              ${w.viewerUrl ? 'Back to the frame' : 'Open 3D view'}</button
-            ><span class="note"> the wheel, the four sensors' points, cameras and laser planes</span>
-          </div>`
-      : nothing;
+    // the panels' frame is always there (the difference plot is drawn with the frame's
+    // data, before the rest); what they show comes with the second step of the load
+    const more = Boolean(w?.profiles);
+    const panels = html`<h2>Disposition</h2>
+      <div class="dispositions">${more ? this.dispositions(w, role) : nothing}</div>
+      <h2>Profile vs reference</h2>
+      ${this.profileCanvas}${this.profileNote}
+      <h2>Axle rolling-radius difference Δr(y)</h2>
+      ${this.deltaRRoot}
+      <h2>Handheld gauge</h2>
+      <div class="comparison">
+        ${more ? comparisonTable(w.comparison, role !== 'viewer' ? this.handlers.importReference : null) : nothing}
+      </div>
+      <h2>Adaptive − Steger along the stripe</h2>
+      ${this.diffCanvas}${this.diffNote}
+      <h2>Trend across passes</h2>
+      ${this.trendRoot}
+      <h2>3D</h2>
+      <div class="viewer">${more ? this.viewerSwitch(w.viewerUrl ?? null) : nothing}</div>`;
     // which wheel is fully on screen (the browser tests wait for it)
     const loaded = w && !w.loading ? `${w.passId}/${w.wheelId}` : '';
     return html`<section class="wheel" data-loaded-wheel=${loaded}>
@@ -194,7 +188,7 @@ export class WheelView {
         <div class="side-panel">
           <h2>Parameters</h2>
           <div class="param-table">${w ? parameterTables(w.record, state.limits, method) : nothing}</div>
-          <div class="side-panels ${w?.profiles ? '' : 'pending'}">${panels}</div>
+          <div class="side-panels ${more ? '' : 'pending'}">${panels}</div>
         </div>
       </div>
     </section>`;
@@ -400,6 +394,19 @@ export class WheelView {
             </ul>`
           : nothing
       }`;
+  }
+
+  /**
+   * The side panel's switch between the frame and the 3D view.
+   * @param {string|null} url the 3D view's, when it is open
+   */
+  viewerSwitch(url) {
+    return html`<button
+        @click=${url ? this.handlers.closeViewer : this.handlers.openViewer}
+        data-action=${url ? 'close-3d' : 'open-3d'}
+      >
+        ${url ? 'Back to the frame' : 'Open 3D view'}</button
+      ><span class="note"> the wheel, the four sensors' points, cameras and laser planes</span>`;
   }
 
   /**
