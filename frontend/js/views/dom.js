@@ -79,6 +79,17 @@ export function filterButtons(filter, applyFilter) {
 }
 
 /**
+ * The one row of a table with nothing to list: `text` across its `columns`.
+ * @param {number} columns
+ * @param {string} text
+ */
+export function emptyRow(columns, text) {
+  return html`<tr>
+    <td colspan=${columns} class="empty">${text}</td>
+  </tr>`;
+}
+
+/**
  * The definitions of `parameters`, one click away: a closed disclosure listing each one's
  * label, title, unit and definition (the pass page's cards, the worst wheels, the trend).
  * @param {any[]} parameters PARAMETERS entries

@@ -7,7 +7,7 @@ import { fmtNumber, fmtPercent, fmtTime } from '../lib/format.js';
 import { passStatus } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { html, nothing, render } from '../../vendor/lit-html-3.3.3.js';
-import { filterButtons } from './dom.js';
+import { emptyRow, filterButtons } from './dom.js';
 
 /** Table columns: title and class (numbers align right under their heading). */
 const COLUMNS = [
@@ -89,11 +89,10 @@ export function renderPasses(root, state, handlers) {
           ${
             rows.length
               ? rows
-              : html`<tr>
-                  <td colspan=${COLUMNS.length} class="empty">
-                    ${passes.loading ? 'Loading passes…' : 'No passes match. Upload one or widen the filters.'}
-                  </td>
-                </tr>`
+              : emptyRow(
+                  COLUMNS.length,
+                  passes.loading ? 'Loading passes…' : 'No passes match. Upload one or widen the filters.',
+                )
           }
         </tbody>
       </table>

@@ -8,7 +8,7 @@ import { fmtDisposition, fmtNumber, fmtTime, PARAMETERS, parameterOf } from '../
 import { REVIEW_PAGE_ROWS } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { html, nothing, render } from '../../vendor/lit-html-3.3.3.js';
-import { definitions, filterButtons } from './dom.js';
+import { definitions, emptyRow, filterButtons } from './dom.js';
 
 const FILTERS = [
   { key: 'site', label: 'Site' },
@@ -108,11 +108,7 @@ export function renderReview(root, state, handlers) {
               ? items.map((/** @type {any} */ item, /** @type {number} */ i) =>
                   row(item, (review.page?.offset ?? 0) + i + 1),
                 )
-              : html`<tr>
-                  <td colspan=${COLUMNS.length} class="empty">
-                    ${review.loading ? 'Loading…' : 'No measured wheels match.'}
-                  </td>
-                </tr>`
+              : emptyRow(COLUMNS.length, review.loading ? 'Loading…' : 'No measured wheels match.')
           }
         </tbody>
       </table>
