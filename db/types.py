@@ -34,16 +34,10 @@ class UtcDateTime(TypeDecorator[datetime]):
             raise ValueError(f"timestamps must be timezone-aware UTC, got naive {value!r}")
         return value.astimezone(UTC)
 
-    def process_result_value(
-        self,
-        value: datetime | None,
-        dialect: Dialect,  # noqa: ARG002 (TypeDecorator API)
-    ) -> datetime | None:
-        if value is None:
-            return None
-        if value.tzinfo is None:
-            return value.replace(tzinfo=UTC)
-        return value.astimezone(UTC)
+    def process_result_value(self, value: datetime | None, dialect: Dialect) -> datetime | None:
+        if value is not None and value.tzinfo is None:
+            return value.replace(tzinfo=UTC)  # SQLite's naive text, written in UTC
+        return self.process_bind_param(value, dialect)
 
 
 def utc_now() -> datetime:

@@ -22,8 +22,11 @@ VERB_MODULES: dict[str, tuple[str, ...]] = {
     "backend.cli.measure": ("synth-pass", "measure", "calibrate", "synth-calibration", "rr"),
     "backend.cli.conicity": ("conicity",),
     "backend.cli.profiles": ("profile-params", "import-reference", "export-profile", "agreement"),
-    "backend.cli.worker": ("worker", "migrate"),
-    "backend.cli.serve": ("serve", "token", "run-demo"),
+    "backend.cli.worker": ("worker",),
+    "backend.cli.migrate": ("migrate",),
+    "backend.cli.serve": ("serve",),
+    "backend.cli.token": ("token",),
+    "backend.cli.demo": ("run-demo",),
     "backend.cli.backup": ("backup", "restore"),
     "backend.cli.retention": ("retention",),
 }

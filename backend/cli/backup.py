@@ -11,11 +11,10 @@ from typing import TypeVar
 
 from sqlalchemy.exc import SQLAlchemyError
 
-from backend.config import add_settings_arguments, settings_from_args
+from backend.config import MIB, add_settings_arguments, settings_from_args
 from backend.ops.snapshot import Manifest
 
 T = TypeVar("T")
-MIB = 1024 * 1024
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

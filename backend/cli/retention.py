@@ -10,12 +10,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from backend.config import add_settings_arguments, settings_from_args
+from backend.config import MIB, add_settings_arguments, settings_from_args
 from backend.services.retention import PassRemoval, remove_expired_frames
 from backend.storage.store import BlobStore
 from db.engine import make_engine, make_session_factory, upgrade_database
-
-MIB = 1024 * 1024
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

@@ -1,5 +1,5 @@
-"""`wheelscan worker` (a Celery worker measuring wheels) and `wheelscan migrate`: the verbs of
-a scale-out deployment (see docker-compose.yml)."""
+"""`wheelscan worker`: a Celery worker measuring wheels, for a scale-out deployment (see
+docker-compose.yml; its database is brought to the newest schema by `wheelscan migrate`)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,6 @@ import sys
 from typing import TYPE_CHECKING
 
 from backend.config import add_settings_arguments, settings_from_args
-from db.engine import make_engine, upgrade_database
 
 if TYPE_CHECKING:
     from celery import Celery
@@ -18,7 +17,7 @@ WORKER_PING_TIMEOUT_S = 5.0
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    """Add the scale-out verbs."""
+    """Add `worker`."""
     worker = subparsers.add_parser(
         "worker",
         help="measure queued wheels from the Celery broker (needs WHEELSCAN_BROKER_URL)",
@@ -44,12 +43,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     worker.add_argument("--loglevel", default="INFO", choices=("DEBUG", "INFO", "WARNING"))
     add_settings_arguments(worker)
     worker.set_defaults(func=run_worker)
-
-    migrate = subparsers.add_parser(
-        "migrate", help="bring the database (WHEELSCAN_DATABASE_URL) to the newest schema"
-    )
-    add_settings_arguments(migrate)
-    migrate.set_defaults(func=run_migrate)
 
 
 def run_worker(args: argparse.Namespace) -> int:
@@ -91,15 +84,4 @@ def _ping(app: Celery, hostname: str) -> int:
     if not replies:
         raise OSError(f"worker {hostname} did not answer within {WORKER_PING_TIMEOUT_S} s")
     sys.stdout.write(f"{hostname}: ok\n")
-    return 0
-
-
-def run_migrate(args: argparse.Namespace) -> int:
-    settings = settings_from_args(args)
-    engine = make_engine(settings.resolved_database_url)
-    try:
-        upgrade_database(engine)
-    finally:
-        engine.dispose()
-    sys.stderr.write("wheelscan migrate: database at the newest schema\n")
     return 0

@@ -20,7 +20,7 @@ from sqlalchemy.orm import Session
 from backend.config import Settings
 from backend.errors import InvalidInputError, PayloadTooLargeError
 from backend.services.auth import record_audit
-from backend.services.pass_wheels import create_job, get_or_create_wheel
+from backend.services.pass_wheels import create_job, create_pass, get_or_create_wheel
 from backend.services.sites import add_calibration_version, current_calibration, get_or_create_site
 from backend.storage.store import BlobStore, temporary_prefix
 from db.models import ApiToken, Calibration, Frame, Job, Pass, PassWheel, Site
@@ -176,12 +176,11 @@ def _add_pass_rows(
         calibration = current_calibration(session, site)
     if calibration is None:
         raise InvalidInputError(f"site {site.name!r} has no registered calibration")
-    train_pass = Pass(
-        site_id=site.id,
-        calibration_id=calibration.id,
-        started_at=manifest.started_at,
-        direction=manifest.direction,
-        speed_kmh=manifest.speed_kmh,
+    train_pass = create_pass(
+        session,
+        site.id,
+        calibration.id,
+        manifest,
         source="upload",
         archive_sha256=archive_sha256,
         state="closed",
@@ -191,8 +190,6 @@ def _add_pass_rows(
         vehicles=list(manifest.vehicles),
         odometer_km=dict(manifest.odometer_km) or None,
     )
-    session.add(train_pass)
-    session.flush()
     train_pass.closed_at = train_pass.created_at
     next_seq: dict[str, int] = {}
     pass_wheel_ids = []

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, cast
+from datetime import datetime
+from typing import Any, Protocol, cast
 
 from sqlalchemy import CursorResult, Executable, func, select, update
 from sqlalchemy.exc import IntegrityError
@@ -36,6 +37,52 @@ def get_or_create_wheel(session: Session, vehicle_id: str, axle: int, side: str)
     except IntegrityError:
         wheel = session.scalars(query).one()
     return wheel
+
+
+class PassHeader(Protocol):
+    """When and how a train passed: an archive's manifest or a streamed pass's request."""
+
+    @property
+    def started_at(self) -> datetime: ...
+    @property
+    def direction(self) -> str | None: ...
+    @property
+    def speed_kmh(self) -> float | None: ...
+
+
+def create_pass(
+    session: Session,
+    site_id: int,
+    calibration_id: int,
+    header: PassHeader,
+    *,
+    source: str,
+    state: str,
+    frames_per_sensor: int,
+    vehicles: list[str],
+    archive_sha256: str | None = None,
+    odometer_km: dict[str, float] | None = None,
+) -> Pass:
+    """A new pass at a site, measured with one of its calibrations (added and flushed).
+
+    `odometer_km` holds the vehicles' odometer readings at this pass {vehicle id: km}, if given.
+    """
+    train_pass = Pass(
+        site_id=site_id,
+        calibration_id=calibration_id,
+        started_at=header.started_at,
+        direction=header.direction,
+        speed_kmh=header.speed_kmh,
+        odometer_km=odometer_km,
+        source=source,
+        archive_sha256=archive_sha256,
+        state=state,
+        frames_per_sensor=frames_per_sensor,
+        vehicles=vehicles,
+    )
+    session.add(train_pass)
+    session.flush()
+    return train_pass
 
 
 def create_job(session: Session, train_pass: Pass, *, wheels_total: int) -> Job:

@@ -17,7 +17,13 @@ from sqlalchemy.orm import Session
 from backend.api.schemas import MissingSensor, StreamOpen
 from backend.errors import ConflictError, InvalidInputError
 from backend.services.auth import record_audit
-from backend.services.pass_wheels import create_job, get_or_create_wheel, refresh_job, rows_changed
+from backend.services.pass_wheels import (
+    create_job,
+    create_pass,
+    get_or_create_wheel,
+    refresh_job,
+    rows_changed,
+)
 from backend.services.sites import (
     add_calibration_version,
     current_calibration,
@@ -60,20 +66,17 @@ def open_stream(session: Session, body: StreamOpen, token: ApiToken) -> tuple[Pa
             f"site {body.site!r} has no registered calibration: send one in 'calibration' "
             f"or register it (POST /api/sites/{body.site}/calibrations)"
         )
-    train_pass = Pass(
-        site_id=site.id,
-        calibration_id=calibration.id,
-        started_at=body.started_at,
-        direction=body.direction,
-        speed_kmh=body.speed_kmh,
-        odometer_km=body.odometer_km,
+    train_pass = create_pass(
+        session,
+        site.id,
+        calibration.id,
+        body,
         source="stream",
+        odometer_km=body.odometer_km,
         state="open",
         frames_per_sensor=body.frames_per_sensor,
         vehicles=[],
     )
-    session.add(train_pass)
-    session.flush()
     job = create_job(session, train_pass, wheels_total=0)
     record_audit(session, token, "pass.stream.open", "pass", train_pass.id)
     session.commit()

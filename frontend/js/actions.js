@@ -118,18 +118,22 @@ export function createActions(api, store) {
           });
         }
       }),
-    addDisposition: (
+    addDisposition: async (
       /** @type {string} */ passId,
       /** @type {string} */ wheelId,
       /** @type {{kind: string, comment?: string}} */ body,
-    ) =>
-      guard('could not record the disposition', async () => {
+    ) => {
+      let recorded = false;
+      await guard('could not record the disposition', async () => {
         await api.addDisposition(passId, wheelId, body);
+        recorded = true;
         const [record, history] = await Promise.all([api.getWheel(passId, wheelId), api.dispositions(passId, wheelId)]);
         const w = store.get().wheel;
         if (w?.passId === passId && w?.wheelId === wheelId)
           store.set({ wheel: { ...w, record, dispositions: history } });
-      }),
+      });
+      return recorded; // the form clears once it is recorded
+    },
     patchWheel: (/** @type {object} */ patch) => store.set({ wheel: { ...store.get().wheel, ...patch } }),
     openViewer: (/** @type {string} */ passId, /** @type {string} */ wheelId) =>
       guard('could not open the 3D view', async () => {

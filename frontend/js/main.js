@@ -6,7 +6,7 @@
 import { createActions } from './actions.js';
 import { createApi } from './api.js';
 import { buildHash, parseHash } from './lib/route.js';
-import { h } from './views/dom.js';
+import { html, render } from '../vendor/lit-html-3.3.3.js';
 import { createStore } from './state.js';
 import { renderPass } from './views/pass.js';
 import { renderPasses } from './views/passes.js';
@@ -26,6 +26,8 @@ const els = {
   view: /** @type {HTMLElement} */ (document.getElementById('view')),
   help: /** @type {HTMLElement} */ (document.getElementById('help')),
 };
+// the shell renders the header from here on (index.html's brand shows until this script runs)
+els.header.replaceChildren();
 
 const store = createStore({
   token: window.localStorage.getItem(TOKEN_KEY),
@@ -53,6 +55,24 @@ let wheelView = null;
 /** @type {(() => void)|null} */
 let stopWatching = null;
 let lastLoadKey = '';
+/** The element the page on screen renders into, and which page that is. */
+let page = { name: '', root: document.createElement('div') };
+
+/**
+ * The element page `name` renders into: a new one whenever the page changes, so the views
+ * (lit-html templates, patched in place) never patch another page's DOM.
+ * @param {string} name
+ * @returns {HTMLElement}
+ */
+function pageRoot(name) {
+  if (page.name !== name) {
+    const root = document.createElement('div');
+    root.className = 'page';
+    els.view.replaceChildren(root);
+    page = { name, root };
+  }
+  return page.root;
+}
 
 window.addEventListener('error', (e) => store.set({ error: `the page hit a bug: ${e.message}` }));
 window.addEventListener('unhandledrejection', (e) =>
@@ -183,7 +203,7 @@ function setQuery(patch) {
 }
 
 /** Render the shell and the page of the current route from the state. */
-function render() {
+function renderApp() {
   const state = store.get();
   renderShell(els, state, {
     dismissError: () => store.set({ error: null }),
@@ -207,7 +227,7 @@ function render() {
   }
   if (!state.me) {
     if (!state.signingIn) {
-      renderSignIn(els.view, async (token) => {
+      renderSignIn(pageRoot('sign-in'), async (token) => {
         window.localStorage.setItem(TOKEN_KEY, token);
         await actions.signIn(token);
         if (!store.get().me) return;
@@ -215,32 +235,32 @@ function render() {
         lastLoadKey = '';
         onHashChange();
       });
-    } else els.view.replaceChildren('Signing in…');
+    } else pageRoot('signing-in').replaceChildren('Signing in…');
     return;
   }
   const { route } = state;
   if (route.name === 'passes') {
-    renderPasses(els.view, state, {
+    renderPasses(pageRoot('passes'), state, {
       applyFilter: (filter) => {
         window.location.hash = buildHash(['passes'], filter);
       },
       select: (index) => store.set({ selectedRow: index }),
     });
   } else if (route.name === 'pass') {
-    renderPass(els.view, state, {
+    renderPass(pageRoot('pass'), state, {
       setMode: (mode) => setQuery({ mode }),
       exportReport: (format) => actions.exportReport(route.params.passId, null, format),
     });
   } else if (route.name === 'review') {
-    renderReview(els.view, state, {
+    renderReview(pageRoot('review'), state, {
       applyFilter: (filter) => {
         window.location.hash = buildHash(['review'], filter);
       },
     });
   } else if (route.name === 'vehicle') {
-    renderVehicle(els.view, state);
+    renderVehicle(pageRoot('vehicle'), state);
   } else if (route.name === 'wheel') {
-    wheelView ??= new WheelView(els.view, {
+    wheelView ??= new WheelView(pageRoot('wheel'), {
       setQuery,
       exportReport: (format) =>
         actions.exportReport(store.get().route.params.passId, store.get().route.params.wheelId, format),
@@ -264,16 +284,13 @@ function render() {
     });
     wheelView.update(state);
   } else if (route.name === 'upload') {
-    renderUpload(els.view, state, { upload: actions.upload });
+    renderUpload(pageRoot('upload'), state, { upload: actions.upload });
   } else {
-    els.view.replaceChildren(
-      h(
-        'p',
-        { class: 'not-found' },
-        `Nothing lives at "${route.params.path}". `,
-        h('a', { href: '#/passes' }, 'Go back to the passes list'),
-        '.',
-      ),
+    render(
+      html`<p class="not-found">
+        Nothing lives at "${route.params.path}". <a href="#/passes">Go back to the passes list</a>.
+      </p>`,
+      pageRoot('not-found'),
     );
   }
 }
@@ -347,7 +364,7 @@ function wheelKey(e, state) {
   }
 }
 
-store.subscribe(render);
+store.subscribe(renderApp);
 window.addEventListener('hashchange', onHashChange);
 window.addEventListener('keydown', onKey);
 // the help closes on a click anywhere outside it
@@ -361,5 +378,5 @@ window.addEventListener('pointerdown', (e) => {
     if (store.get().me) startWatching();
   }
   await onHashChange();
-  render();
+  renderApp();
 })();

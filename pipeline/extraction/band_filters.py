@@ -82,57 +82,45 @@ def _passes(radius: int) -> tuple[Callable[..., None], ...]:
                 o = out_at + i
                 f0[o], f1[o], f2[o] = s0, s1, s2
 
-    @kernel
-    def y_pass(t, g_even, g_odd, blocks, out_even, out_odd) -> None:
-        """Convolve x-pass rows along y with one even and one odd kernel on the band's
-        blocks.
+    def y_pass_with(odd: bool) -> Callable[..., None]:
+        """The y pass with one even and (`odd`) one odd kernel; `odd` is a compile-time
+        constant, so the even-only pass carries no odd sums and no branch."""
 
-        Two outputs of one input per call: more arrays in one loop exceed the alias checks
-        the compiler will make, and the loop stops vectorising. Indices are unsigned flat
-        offsets, as in `x_pass`.
-        """
-        height, width = out_even.shape
-        flat, even, odd = t.ravel(), out_even.ravel(), out_odd.ravel()
-        row_step = np.uint64(width)
-        for br, bc0, bc1 in block_runs(blocks):
-            c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
-            for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-                # Row r sits at r + radius of the x-pass rows.
-                start = np.uint64(r + radius) * row_step + np.uint64(c0)
-                out_at = np.uint64(r) * row_step + np.uint64(c0)
-                for i in range(c1 - c0):
-                    at = start + np.uint64(i)
-                    s_even = g_even[radius] * flat[at]
-                    s_odd = np.float32(0.0)
-                    for k in range(1, radius + 1):
-                        up = flat[at - np.uint64(k) * row_step]
-                        down = flat[at + np.uint64(k) * row_step]
-                        s_even += g_even[radius + k] * (up + down)
-                        s_odd += g_odd[radius + k] * (up - down)
-                    o = out_at + np.uint64(i)
-                    even[o], odd[o] = s_even, s_odd
+        @kernel
+        def y_pass(t, g_even, g_odd, blocks, out_even, out_odd) -> None:
+            """Convolve x-pass rows along y with an even (and an odd) kernel on the band's
+            blocks; without `odd`, `g_odd` and `out_odd` are not read.
 
-    @kernel
-    def y_even(t, g_even, blocks, out_even) -> None:
-        """`y_pass` with the even kernel only."""
-        height, width = out_even.shape
-        flat, even = t.ravel(), out_even.ravel()
-        row_step = np.uint64(width)
-        for br, bc0, bc1 in block_runs(blocks):
-            c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
-            for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
-                start = np.uint64(r + radius) * row_step + np.uint64(c0)
-                out_at = np.uint64(r) * row_step + np.uint64(c0)
-                for i in range(c1 - c0):
-                    at = start + np.uint64(i)
-                    s_even = g_even[radius] * flat[at]
-                    for k in range(1, radius + 1):
-                        up = flat[at - np.uint64(k) * row_step]
-                        down = flat[at + np.uint64(k) * row_step]
-                        s_even += g_even[radius + k] * (up + down)
-                    even[out_at + np.uint64(i)] = s_even
+            Two outputs of one input per call at most: more arrays in one loop exceed the
+            alias checks the compiler will make, and the loop stops vectorising. Indices are
+            unsigned flat offsets, as in `x_pass`.
+            """
+            height, width = out_even.shape
+            flat, even, odd_out = t.ravel(), out_even.ravel(), out_odd.ravel()
+            row_step = np.uint64(width)
+            for br, bc0, bc1 in block_runs(blocks):
+                c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
+                for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+                    # Row r sits at r + radius of the x-pass rows.
+                    start = np.uint64(r + radius) * row_step + np.uint64(c0)
+                    out_at = np.uint64(r) * row_step + np.uint64(c0)
+                    for i in range(c1 - c0):
+                        at = start + np.uint64(i)
+                        s_even = g_even[radius] * flat[at]
+                        s_odd = np.float32(0.0)
+                        for k in range(1, radius + 1):
+                            up = flat[at - np.uint64(k) * row_step]
+                            down = flat[at + np.uint64(k) * row_step]
+                            s_even += g_even[radius + k] * (up + down)
+                            if odd:
+                                s_odd += g_odd[radius + k] * (up - down)
+                        even[out_at + np.uint64(i)] = s_even
+                        if odd:
+                            odd_out[out_at + np.uint64(i)] = s_odd
 
-    return x_pass, y_pass, y_even
+        return y_pass
+
+    return x_pass, y_pass_with(odd=True), y_pass_with(odd=False)
 
 
 @functools.lru_cache(maxsize=64)
@@ -180,7 +168,7 @@ def band_derivatives(
     x_pass(frame, g0, g1, g2, need, smooth_x, d1_x, d2_x)
     y_pass(d1_x, g0, g1, blocks, ix, ixy)
     y_pass(smooth_x, g2, g1, blocks, iyy, iy)
-    y_even(d2_x, g0, blocks, ixx)
+    y_even(d2_x, g0, g0, blocks, ixx, ixx)  # the odd kernel and output are not read
     # Only the width search reads beyond the band, and only the gradient.
     for field in (ix, iy):
         zero_blocks(field, ring)

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from pipeline.extraction.scalespace import fold_index
+from pipeline.extraction.scalespace import bilinear_at
 from pipeline.jit import kernel
 
 SIDE_REACH_SIGMAS = 2.0 * math.sqrt(1.0 + 3.0 / 16.0)
@@ -83,30 +83,12 @@ averaging enough already."""
 
 
 @kernel
-def _bilinear_pixel(image, x: float, y: float, inside: bool) -> float:
-    """Bilinear grey of the frame at (x, y) [px]; reflect border (folded as often as it
-    takes) unless the caller knows all four taps lie `inside` the frame."""
-    height, width = image.shape
-    x0, y0 = np.floor(x), np.floor(y)
-    fx, fy = x - x0, y - y0
-    c0, r0 = int(x0), int(y0)
-    if inside:
-        c1, r1 = c0 + 1, r0 + 1
-    else:
-        c1, r1 = fold_index(c0 + 1, width), fold_index(r0 + 1, height)
-        c0, r0 = fold_index(c0, width), fold_index(r0, height)
-    top = float(image[r0, c0]) * (1 - fx) + float(image[r0, c1]) * fx
-    bottom = float(image[r1, c0]) * (1 - fx) + float(image[r1, c1]) * fx
-    return top * (1 - fy) + bottom * fy
-
-
-@kernel
 def _profile_at(image, x, y, nx, ny, t, inside) -> float:
     """Mean grey at t [px] along the normal from (x, y), over the lines TANGENT_OFFSETS_PX
     along the tangent."""
     grey = 0.0
     for u in TANGENT_OFFSETS_PX:
-        grey += _bilinear_pixel(image, x + t * nx - u * ny, y + t * ny + u * nx, inside)
+        grey += bilinear_at(image, x + t * nx - u * ny, y + t * ny + u * nx, inside)
     return grey / len(TANGENT_OFFSETS_PX)
 
 
@@ -129,7 +111,7 @@ def _smoothed_at(image, x, y, nx, ny, s, offset, weights, inside) -> float:
     grey = 0.0
     for j in range(-SMOOTHING_TAPS, SMOOTHING_TAPS + 1):
         t = offset + 0.5 * j * s
-        grey += weights[j + SMOOTHING_TAPS] * _bilinear_pixel(image, x + t * nx, y + t * ny, inside)
+        grey += weights[j + SMOOTHING_TAPS] * bilinear_at(image, x + t * nx, y + t * ny, inside)
     return grey
 
 

@@ -348,7 +348,25 @@ def column_taps(fields, strides, width):
 
 @kernel
 def blend(field, v0: int, v1: int, fv: float, u0: int, u1: int, fu: float) -> float:
-    """Bilinear value of `field` between rows v0, v1 and columns u0, u1 (`linear_tap`)."""
+    """Bilinear value of `field` between rows v0, v1 and columns u0, u1 with weights fv, fu
+    of the second row and column (`linear_tap`, `bilinear_at`): the one bilinear read of
+    the pipeline. An integer field is read as float64."""
     top = field[v0, u0] * (1 - fu) + field[v0, u1] * fu
     bottom = field[v1, u0] * (1 - fu) + field[v1, u1] * fu
     return top * (1 - fv) + bottom * fv
+
+
+@kernel
+def bilinear_at(field, u: float, v: float, inside: bool) -> float:
+    """Bilinear value of `field` at grid coordinates (u, v) [px] (`blend`): reflect border
+    (`fold_index`, as often as it takes) unless the caller knows all four taps lie
+    `inside` the grid. An integer field is read as float64."""
+    height, width = field.shape
+    u_floor, v_floor = np.floor(u), np.floor(v)
+    u0, v0 = int(u_floor), int(v_floor)
+    if inside:
+        u1, v1 = u0 + 1, v0 + 1
+    else:
+        u1, v1 = fold_index(u0 + 1, width), fold_index(v0 + 1, height)
+        u0, v0 = fold_index(u0, width), fold_index(v0, height)
+    return blend(field, v0, v1, v - v_floor, u0, u1, u - u_floor)

@@ -6,9 +6,10 @@ import numpy as np
 
 from pipeline.extraction.scalespace import (
     ScaleLevel,
+    bilinear_at,
+    blend,
     cubic_at,
     cubic_taps,
-    fold_index,
     interior_taps,
 )
 from pipeline.jit import kernel
@@ -24,11 +25,9 @@ REFINE_STEP_PX = 0.5
 
 @kernel
 def _bilinear_gradient_squared(ix, iy, r0, r1, c0, c1, fu: float, fv: float) -> float:
-    """|∇I|² from Ix, Iy blended between rows r0, r1 and columns c0, c1."""
-    gx = (ix[r0, c0] * (1 - fu) + ix[r0, c1] * fu) * (1 - fv)
-    gx += (ix[r1, c0] * (1 - fu) + ix[r1, c1] * fu) * fv
-    gy = (iy[r0, c0] * (1 - fu) + iy[r0, c1] * fu) * (1 - fv)
-    gy += (iy[r1, c0] * (1 - fu) + iy[r1, c1] * fu) * fv
+    """|∇I|² from Ix, Iy blended between rows r0, r1 and columns c0, c1 (`blend`)."""
+    gx = blend(ix, r0, r1, fv, c0, c1, fu)
+    gy = blend(iy, r0, r1, fv, c0, c1, fu)
     return gx * gx + gy * gy
 
 
@@ -36,15 +35,10 @@ def _bilinear_gradient_squared(ix, iy, r0, r1, c0, c1, fu: float, fv: float) -> 
 def _gradient_squared(ix, iy, u: float, v: float) -> float:
     """|∇I|² from bilinear Ix, Iy at level-grid coordinates (u, v), reflect border."""
     height, width = ix.shape
-    u0 = np.floor(u)
-    v0 = np.floor(v)
-    c0, r0 = int(u0), int(v0)
-    if 0 <= c0 < width - 1 and 0 <= r0 < height - 1:
-        c1, r1 = c0 + 1, r0 + 1
-    else:
-        c1, r1 = fold_index(c0 + 1, width), fold_index(r0 + 1, height)
-        c0, r0 = fold_index(c0, width), fold_index(r0, height)
-    return _bilinear_gradient_squared(ix, iy, r0, r1, c0, c1, u - u0, v - v0)
+    inside = 0 <= u < width - 1 and 0 <= v < height - 1
+    gx = bilinear_at(ix, u, v, inside)
+    gy = bilinear_at(iy, u, v, inside)
+    return gx * gx + gy * gy
 
 
 @kernel

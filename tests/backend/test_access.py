@@ -7,6 +7,7 @@ from datetime import UTC, datetime, timedelta
 import pytest
 from sqlalchemy import select
 
+from backend.services.limits import DEFAULT_LIMITS_MM
 from db.models import AuditEvent
 
 
@@ -113,15 +114,7 @@ def test_every_write_leaves_an_audit_event(client, auth) -> None:
     client.put(
         "/api/limits/default/EN",
         headers=auth("admin"),
-        json={
-            "flange_height_min_mm": 27.0,
-            "flange_height_max_mm": 36.0,
-            "flange_thickness_min_mm": 22.0,
-            "flange_thickness_max_mm": 33.0,
-            "qr_min_mm": 6.5,
-            "back_to_back_min_mm": 1357.0,
-            "back_to_back_max_mm": 1363.0,
-        },
+        json={**DEFAULT_LIMITS_MM["EN"], "flange_height_min_mm": 27.0},
     )
     with client.app.state.session_factory() as session:
         actions = list(session.scalars(select(AuditEvent.action).order_by(AuditEvent.id)))
@@ -150,15 +143,7 @@ def test_limits_default_to_the_issue_values_and_are_editable(client, auth) -> No
 
 
 def test_limits_with_min_above_max_are_refused(client, auth) -> None:
-    body = {
-        "flange_height_min_mm": 37.0,
-        "flange_height_max_mm": 36.0,
-        "flange_thickness_min_mm": 22.0,
-        "flange_thickness_max_mm": 33.0,
-        "qr_min_mm": 6.5,
-        "back_to_back_min_mm": 1357.0,
-        "back_to_back_max_mm": 1363.0,
-    }
+    body = {**DEFAULT_LIMITS_MM["EN"], "flange_height_min_mm": 37.0}
     response = client.put("/api/limits/default/EN", headers=auth("admin"), json=body)
     assert response.status_code == 422
     assert (

@@ -22,7 +22,7 @@ from typing import Any
 import httpx
 from sqlalchemy import func, select
 
-from backend.cli.serve import issue_token
+from backend.cli.token import issue_token
 from backend.config import Settings
 from db.engine import make_engine, make_session_factory
 from db.models import Frame, Job, Measurement, MeasurementFrame, Pass, PassWheel

@@ -1,5 +1,10 @@
 // @ts-check
-/** A tiny element builder for the views: h('tr', {class: 'x', onclick}, child, ...). */
+/**
+ * DOM helpers of the views: the templates they share (lit-html: rendered again, the DOM is
+ * patched where a value changed), `h` for the few elements made once by hand (canvases, plot
+ * boxes) and canvas sizing.
+ */
+import { html, render } from '../../vendor/lit-html-3.3.3.js';
 
 /**
  * Create an element with properties, attributes, listeners and children.
@@ -60,22 +65,28 @@ export function alarmClass(result) {
  * wheels'); clearing applies the empty filter.
  * @param {Record<string, string>} filter the filter in force
  * @param {(filter: Record<string, string>) => void} applyFilter
- * @returns {HTMLElement[]}
  */
 export function filterButtons(filter, applyFilter) {
-  return [
-    h('button', { type: 'submit' }, 'Apply'),
-    h(
-      'button',
-      {
-        type: 'button',
-        'data-action': 'clear-filters',
-        disabled: Object.keys(filter).length === 0,
-        onclick: () => applyFilter({}),
-      },
-      'Clear filters',
-    ),
-  ];
+  return html`<button type="submit">Apply</button
+    ><button
+      type="button"
+      data-action="clear-filters"
+      ?disabled=${Object.keys(filter).length === 0}
+      @click=${() => applyFilter({})}
+    >
+      Clear filters
+    </button>`;
+}
+
+/**
+ * The one row of a table with nothing to list: `text` across its `columns`.
+ * @param {number} columns
+ * @param {string} text
+ */
+export function emptyRow(columns, text) {
+  return html`<tr>
+    <td colspan=${columns} class="empty">${text}</td>
+  </tr>`;
 }
 
 /**
@@ -83,20 +94,27 @@ export function filterButtons(filter, applyFilter) {
  * label, title, unit and definition (the pass page's cards, the worst wheels, the trend).
  * @param {any[]} parameters PARAMETERS entries
  * @param {string} [summary] the disclosure's text
- * @returns {HTMLElement}
  */
 export function definitions(parameters, summary = 'What the values mean') {
-  return h(
-    'details',
-    { class: 'definitions' },
-    h('summary', {}, summary),
-    h(
-      'dl',
-      {},
-      parameters.map((p) => [
-        h('dt', { dataset: { parameter: p.key } }, `${p.label}: ${p.title}${p.unit ? ` [${p.unit}]` : ''}`),
-        h('dd', { dataset: { parameter: p.key } }, p.definition),
-      ]),
-    ),
-  );
+  return html`<details class="definitions">
+    <summary>${summary}</summary>
+    <dl>
+      ${parameters.map(
+        (p) =>
+          html`<dt data-parameter=${p.key}>${p.label}: ${p.title}${p.unit ? ` [${p.unit}]` : ''}</dt>
+            <dd data-parameter=${p.key}>${p.definition}</dd>`,
+      )}
+    </dl>
+  </details>`;
+}
+
+/**
+ * A template's DOM, made once, for areas built by hand around a plot (`views/plots.js`).
+ * @param {unknown} template
+ * @returns {DocumentFragment}
+ */
+export function nodesOf(template) {
+  const fragment = document.createDocumentFragment();
+  render(template, fragment);
+  return fragment;
 }

@@ -15,7 +15,8 @@ import {
 } from '../lib/format.js';
 import { familyOf, hasAlarmOn, marginOf, passStatus, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
-import { alarmClass, definitions, h } from './dom.js';
+import { html, nothing, render } from '../../vendor/lit-html-3.3.3.js';
+import { alarmClass, definitions } from './dom.js';
 
 /**
  * Render the pass page.
@@ -31,95 +32,84 @@ export function renderPass(root, state, handlers) {
       : pass?.loading
         ? `Loading pass ${pass.id}…`
         : 'No pass loaded.';
-    root.replaceChildren(
-      h('p', { class: 'loading' }, text, pass?.failed ? h('a', { href: '#/passes' }, 'Back to the passes') : ''),
+    render(
+      html`<p class="loading">${text}${pass?.failed ? html`<a href="#/passes">Back to the passes</a>` : nothing}</p>`,
+      root,
     );
     return;
   }
   const mode = state.route.query.mode ?? 'adaptive';
   const p = pass.data;
   const status = passStatus(p, state.liveJobs?.[p.id]);
-  root.replaceChildren(
-    h(
-      'section',
-      { class: 'pass' },
-      h(
-        'div',
-        { class: 'titlebar' },
-        h('h1', {}, h('a', { href: '#/passes' }, 'Passes'), ' › ', `Pass #${p.id}`),
-        h(
-          'span',
-          { class: 'meta' },
-          `${p.site ?? ''} · ${fmtTime(p.started_at)} · ${p.direction ?? '–'} · ${fmtNumber(p.speed_kmh, 1)} km/h`,
-        ),
-        h(
-          'span',
-          { class: `status status-${status.state}` },
-          status.state,
-          status.running && status.progress != null ? ` ${Math.round(status.progress * 100)} %` : null,
-        ),
-        h(
-          'span',
-          { class: 'meta' },
-          `${p.wheels_measured} / ${p.wheels_total} wheels measured · ${p.wheels_not_measured} not measured · `,
-          h('span', { class: p.alarm_count ? 'alarm-text' : null }, `${p.alarm_count} in alarm`),
-          ' · ',
-          h('span', { class: p.near_limit_count ? 'near-text' : null }, `${p.near_limit_count ?? 0} near a limit`),
-        ),
-        h('a', { class: 'button', href: buildHash(['review'], { pass: p.id }) }, 'Worst wheels of this pass'),
-        h('span', { class: 'spacer' }),
-        modeSwitch(mode, handlers.setMode),
-        exportButtons(handlers.exportReport),
-      ),
-      (p.alarm_values ?? []).length
-        ? h('p', { class: 'alarm-values' }, h('strong', {}, 'In alarm: '), p.alarm_values.join(' · '))
-        : null,
-      train(pass.wheels, mode, String(p.id)),
-      definitions(PARAMETERS),
-    ),
+  const highlight = (/** @type {boolean} */ on, /** @type {string} */ cls) => (on ? cls : nothing);
+  render(
+    html`<section class="pass">
+      <div class="titlebar">
+        <h1><a href="#/passes">Passes</a> › Pass #${p.id}</h1>
+        <span class="meta"
+          >${p.site ?? ''} · ${fmtTime(p.started_at)} · ${p.direction ?? '–'} · ${fmtNumber(p.speed_kmh, 1)} km/h</span
+        >
+        <span class="status status-${status.state}"
+          >${status.state}${
+            status.running && status.progress != null ? ` ${Math.round(status.progress * 100)} %` : nothing
+          }</span
+        >
+        <span class="meta"
+          >${p.wheels_measured} / ${p.wheels_total} wheels measured · ${p.wheels_not_measured} not measured ·
+          <span class=${highlight(p.alarm_count, 'alarm-text')}>${p.alarm_count} in alarm</span> ·
+          <span class=${highlight(p.near_limit_count, 'near-text')}>${p.near_limit_count ?? 0} near a limit</span></span
+        >
+        <a class="button" href=${buildHash(['review'], { pass: p.id })}>Worst wheels of this pass</a>
+        <span class="spacer"></span>
+        ${modeSwitch(mode, handlers.setMode)} ${exportButtons(handlers.exportReport)}
+      </div>
+      ${
+        (p.alarm_values ?? []).length
+          ? html`<p class="alarm-values"><strong>In alarm: </strong>${p.alarm_values.join(' · ')}</p>`
+          : nothing
+      }
+      ${train(pass.wheels, mode, String(p.id))} ${definitions(PARAMETERS)}
+    </section>`,
+    root,
   );
 }
 
 /**
  * @param {string} mode
  * @param {(mode: string) => void} setMode
- * @returns {HTMLElement}
  */
 function modeSwitch(mode, setMode) {
-  return h(
-    'div',
-    { class: 'segmented', role: 'group', 'aria-label': 'method' },
-    [
+  return html`<div class="segmented" role="group" aria-label="method">
+    ${[
       ['adaptive', 'Adaptive'],
       ['steger', 'Steger'],
       ['difference', 'Δ adaptive − Steger'],
-    ].map(([key, label]) =>
-      h(
-        'button',
-        { class: mode === key ? 'on' : null, 'aria-pressed': String(mode === key), onclick: () => setMode(key) },
-        label,
-      ),
-    ),
-  );
+    ].map(
+      ([key, label]) =>
+        html`<button
+          class=${mode === key ? 'on' : nothing}
+          aria-pressed=${String(mode === key)}
+          @click=${() => setMode(key)}
+        >
+          ${label}
+        </button>`,
+    )}
+  </div>`;
 }
 
 /**
  * Export buttons calling back with the format; while a file is prepared (a pass PDF takes
  * a second or two) its button is disabled and a progress bar with the elapsed time shows.
+ * The progress is set by the click, on elements with no bindings: updates leave it alone.
  * @param {(format: string) => Promise<void>|void} exportFile
  * @param {'report'|'profile'} [kind] report (PDF, CSV, JSON) or profile (CSV, DXF, .whl) files
- * @returns {HTMLElement}
  */
 export function exportButtons(exportFile, kind = 'report') {
   const formats = kind === 'report' ? ['pdf', 'csv', 'json'] : ['csv', 'dxf', 'whl'];
-  const text = h('span', {});
-  const status = h(
-    'span',
-    { class: 'export-progress', hidden: true, role: 'status' },
-    h('progress', { 'aria-label': 'preparing the file' }),
-    text,
-  );
-  const run = async (/** @type {HTMLButtonElement} */ button, /** @type {string} */ format) => {
+  const run = async (/** @type {MouseEvent} */ e, /** @type {string} */ format) => {
+    const button = /** @type {HTMLButtonElement} */ (e.currentTarget);
+    const status = /** @type {HTMLElement} */ (button.parentElement?.querySelector('.export-progress'));
+    const text = /** @type {HTMLElement} */ (status.querySelector('.export-time'));
     const started = performance.now();
     const tick = () => {
       text.textContent = ` preparing ${format.toUpperCase()}… ${((performance.now() - started) / 1000).toFixed(1)} s`;
@@ -136,33 +126,31 @@ export function exportButtons(exportFile, kind = 'report') {
       status.hidden = true;
     }
   };
-  return h(
-    'div',
-    { class: `exports ${kind}` },
-    kind === 'report' ? 'Export ' : 'Profile ',
-    formats.map((f) =>
-      h(
-        'button',
-        {
-          dataset: kind === 'report' ? { export: f } : { exportProfile: f },
-          title:
-            kind === 'profile'
-              ? `the selected method's profile as ${f === 'whl' ? 'MiniProf-style .whl' : f.toUpperCase()}`
-              : null,
-          onclick: (/** @type {MouseEvent} */ e) => run(/** @type {HTMLButtonElement} */ (e.currentTarget), f),
-        },
-        f === 'whl' ? '.whl' : f.toUpperCase(),
-      ),
-    ),
-    status,
-  );
+  const title = (/** @type {string} */ f) =>
+    kind === 'profile'
+      ? `the selected method's profile as ${f === 'whl' ? 'MiniProf-style .whl' : f.toUpperCase()}`
+      : nothing;
+  return html`<div class="exports ${kind}">
+    ${kind === 'report' ? 'Export ' : 'Profile '}${formats.map(
+      (f) =>
+        html`<button
+          data-export=${kind === 'report' ? f : nothing}
+          data-export-profile=${kind === 'report' ? nothing : f}
+          title=${title(f)}
+          @click=${(/** @type {MouseEvent} */ e) => run(e, f)}
+        >
+          ${f === 'whl' ? '.whl' : f.toUpperCase()}
+        </button>`,
+    )}<span class="export-progress" hidden role="status"
+      ><progress aria-label="preparing the file"></progress><span class="export-time"></span
+    ></span>
+  </div>`;
 }
 
 /**
  * @param {any[]} wheels
  * @param {string} mode
  * @param {string} passId
- * @returns {HTMLElement}
  */
 function train(wheels, mode, passId) {
   /** @type {Map<string, Map<number, any>>} */
@@ -173,34 +161,28 @@ function train(wheels, mode, passId) {
     axles.set(w.axle, { ...(axles.get(w.axle) ?? {}), [w.side]: w });
   }
   if (vehicles.size === 0)
-    return h('p', { class: 'empty' }, 'No wheels yet: frames are still arriving or being measured.');
-  return h(
-    'div',
-    { class: 'train' },
-    [...vehicles].map(([vehicleId, axles]) =>
-      h(
-        'div',
-        { class: 'vehicle' },
-        h('h2', {}, `Vehicle ${vehicleId}`),
-        [...axles]
-          .sort((a, b) => a[0] - b[0])
-          .map(([axle, pair]) =>
-            h(
-              'div',
-              { class: 'axle' },
-              wheelCard(pair.left, 'left', mode, passId),
-              h(
-                'div',
-                { class: 'axle-info' },
-                h('div', {}, `axle ${axle}`),
-                h('div', { class: 'mono', title: 'back-to-back distance' }, `B2B ${backToBack(pair, mode)}`),
-              ),
-              wheelCard(pair.right, 'right', mode, passId),
-            ),
-          ),
-      ),
-    ),
-  );
+    return html`<p class="empty">No wheels yet: frames are still arriving or being measured.</p>`;
+  return html`<div class="train">
+    ${[...vehicles].map(
+      ([vehicleId, axles]) =>
+        html`<div class="vehicle">
+          <h2>Vehicle ${vehicleId}</h2>
+          ${[...axles]
+            .sort((a, b) => a[0] - b[0])
+            .map(
+              ([axle, pair]) =>
+                html`<div class="axle">
+                  ${wheelCard(pair.left, 'left', mode, passId)}
+                  <div class="axle-info">
+                    <div>axle ${axle}</div>
+                    <div class="mono" title="back-to-back distance">B2B ${backToBack(pair, mode)}</div>
+                  </div>
+                  ${wheelCard(pair.right, 'right', mode, passId)}
+                </div>`,
+            )}
+        </div>`,
+    )}
+  </div>`;
 }
 
 /**
@@ -224,10 +206,9 @@ function backToBack(pair, mode) {
  * @param {string} side
  * @param {string} mode
  * @param {string} passId
- * @returns {HTMLElement}
  */
 function wheelCard(wheel, side, mode, passId) {
-  if (!wheel) return h('div', { class: 'wheel-card none' }, `${side}: no wheel`);
+  if (!wheel) return html`<div class="wheel-card none">${side}: no wheel</div>`;
   const adaptive = resultOf(wheel, 'adaptive');
   const steger = resultOf(wheel, 'steger');
   const shown = mode === 'steger' ? steger : adaptive;
@@ -238,51 +219,49 @@ function wheelCard(wheel, side, mode, passId) {
   const disagreement = (wheel.method_disagreement ?? [])
     .map((/** @type {any} */ d) => `${parameterOf(d.parameter).label} ${fmtSigned(d.difference_mm, 1)} mm`)
     .join(', ');
-  return h(
-    'a',
-    {
-      class: `wheel-card ${cls} state-${wheel.state}`,
-      href: buildHash(['passes', passId, 'wheels', wheel.wheel_id], mode === 'difference' ? {} : { method: mode }),
-      title: alarms || wheel.reason || '',
-      dataset: { wheelId: String(wheel.wheel_id), side, level: cls },
-    },
-    h(
-      'div',
-      { class: 'card-head' },
-      h('span', {}, side),
-      h('span', { class: 'limit-set', title: `checked against the ${family} limits` }, `${family} limits`),
-      h('span', { class: 'state' }, wheel.state.replace('_', ' ')),
-    ),
-    reason
-      ? h('div', { class: 'reason' }, reason)
-      : h(
-          'table',
-          {},
-          shownParameters(family).map((p) =>
-            h(
-              'tr',
-              { dataset: { parameter: p.key } },
-              h('th', { title: `${p.title}: ${p.definition}` }, p.label),
-              h(
-                'td',
-                { class: `num ${mode === 'difference' ? '' : valueLevel(wheel, shown, p.key, family, mode)}` },
-                mode === 'difference'
-                  ? fmtSigned(diff(adaptive?.[p.key], steger?.[p.key]), p.digits)
-                  : fmtNumber(shown?.[p.key], p.digits),
-              ),
-              h('td', { class: 'unit' }, p.unit),
-            ),
-          ),
-        ),
-    disagreement
-      ? h(
-          'div',
-          { class: 'flag disagreement', title: "adaptive − Steger beyond the fleet's threshold: check the frame" },
-          `methods differ: ${disagreement}`,
-        )
-      : null,
-    h('div', { class: `disposition ${wheel.disposition ? 'set' : 'open'}` }, fmtDisposition(wheel.disposition)),
-  );
+  const value = (/** @type {any} */ p) =>
+    mode === 'difference'
+      ? fmtSigned(diff(adaptive?.[p.key], steger?.[p.key]), p.digits)
+      : fmtNumber(shown?.[p.key], p.digits);
+  const href = buildHash(['passes', passId, 'wheels', wheel.wheel_id], mode === 'difference' ? {} : { method: mode });
+  return html`<a
+    class="wheel-card ${cls} state-${wheel.state}"
+    href=${href}
+    title=${alarms || wheel.reason || ''}
+    data-wheel-id=${String(wheel.wheel_id)}
+    data-side=${side}
+    data-level=${cls}
+  >
+    <div class="card-head">
+      <span>${side}</span>
+      <span class="limit-set" title="checked against the ${family} limits">${family} limits</span>
+      <span class="state">${wheel.state.replace('_', ' ')}</span>
+    </div>
+    ${
+      reason
+        ? html`<div class="reason">${reason}</div>`
+        : html`<table>
+            ${shownParameters(family).map(
+              (p) =>
+                html`<tr data-parameter=${p.key}>
+                  <th title="${p.title}: ${p.definition}">${p.label}</th>
+                  <td class="num ${mode === 'difference' ? '' : valueLevel(wheel, shown, p.key, family, mode)}">
+                    ${value(p)}
+                  </td>
+                  <td class="unit">${p.unit}</td>
+                </tr>`,
+            )}
+          </table>`
+    }
+    ${
+      disagreement
+        ? html`<div class="flag disagreement" title="adaptive − Steger beyond the fleet's threshold: check the frame">
+            methods differ: ${disagreement}
+          </div>`
+        : nothing
+    }
+    <div class="disposition ${wheel.disposition ? 'set' : 'open'}">${fmtDisposition(wheel.disposition)}</div>
+  </a>`;
 }
 
 /**

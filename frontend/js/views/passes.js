@@ -6,7 +6,8 @@
 import { fmtNumber, fmtPercent, fmtTime } from '../lib/format.js';
 import { passStatus } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
-import { filterButtons, h } from './dom.js';
+import { html, nothing, render } from '../../vendor/lit-html-3.3.3.js';
+import { emptyRow, filterButtons } from './dom.js';
 
 /** Table columns: title and class (numbers align right under their heading). */
 const COLUMNS = [
@@ -43,92 +44,60 @@ const FILTERS = [
 export function renderPasses(root, state, handlers) {
   const passes = state.passes ?? { items: [], filter: {} };
   const filter = passes.filter ?? {};
-  const filterKey = JSON.stringify(filter);
-  const existing = /** @type {HTMLFormElement|null} */ (root.querySelector('form.filters'));
-  // keep the form the user may be typing in unless the applied filter changed
-  const form =
-    existing && existing.dataset.filter === filterKey
-      ? existing
-      : /** @type {HTMLFormElement} */ (
-          h(
-            'form',
-            {
-              class: 'filters',
-              dataset: { filter: filterKey },
-              onsubmit: (/** @type {Event} */ e) => {
-                e.preventDefault();
-                const data = new FormData(/** @type {HTMLFormElement} */ (e.target));
-                const next = /** @type {Record<string, string>} */ ({});
-                for (const [k, v] of data.entries()) if (String(v)) next[k] = String(v);
-                handlers.applyFilter(next);
-              },
-            },
-            FILTERS.map((f) =>
-              h(
-                'label',
-                {},
-                f.label,
-                ' ',
-                h('input', {
-                  name: f.key,
-                  type: f.type,
-                  size: f.size,
-                  placeholder: f.placeholder,
-                  value: filter[f.key] ?? '',
-                }),
-              ),
-            ),
-            h(
-              'label',
-              {},
-              h('input', { type: 'checkbox', name: 'alarm', value: 'true', checked: filter.alarm === 'true' }),
-              ' alarms only',
-            ),
-            ...filterButtons(filter, handlers.applyFilter),
-            h('span', { class: 'count' }),
-          )
-        );
-  /** @type {HTMLElement} */ (form.querySelector('.count')).textContent = passes.loading
-    ? 'loading…'
-    : `${passes.total} pass${passes.total === 1 ? '' : 'es'}`;
+  const onSubmit = (/** @type {Event} */ e) => {
+    e.preventDefault();
+    const data = new FormData(/** @type {HTMLFormElement} */ (e.target));
+    const next = /** @type {Record<string, string>} */ ({});
+    for (const [k, v] of data.entries()) if (String(v)) next[k] = String(v);
+    handlers.applyFilter(next);
+  };
   const rows = passes.items.map((/** @type {any} */ p, /** @type {number} */ i) =>
     passRow(p, state.liveJobs?.[p.id], i === state.selectedRow, () => handlers.select(i)),
   );
-  root.replaceChildren(
-    h(
-      'section',
-      { class: 'passes' },
-      h('h1', {}, 'Passes'),
-      form,
-      h(
-        'table',
-        { class: 'grid' },
-        h(
-          'thead',
-          {},
-          h(
-            'tr',
-            {},
-            COLUMNS.map(([t, cls]) => h('th', { class: cls }, t)),
-          ),
-        ),
-        h(
-          'tbody',
-          {},
-          rows.length
-            ? rows
-            : h(
-                'tr',
-                {},
-                h(
-                  'td',
-                  { colspan: COLUMNS.length, class: 'empty' },
+  // the inputs' values are set only when the applied filter changes them: typing survives updates
+  render(
+    html`<section class="passes">
+      <h1>Passes</h1>
+      <form class="filters" @submit=${onSubmit}>
+        ${FILTERS.map(
+          (f) =>
+            html`<label
+              >${f.label}
+              <input
+                name=${f.key}
+                type=${f.type}
+                size=${f.size ?? nothing}
+                placeholder=${f.placeholder ?? nothing}
+                .value=${filter[f.key] ?? ''}
+            /></label>`,
+        )}
+        <label
+          ><input type="checkbox" name="alarm" value="true" .checked=${filter.alarm === 'true'} /> alarms only</label
+        >
+        ${filterButtons(filter, handlers.applyFilter)}
+        <span class="count"
+          >${passes.loading ? 'loading…' : `${passes.total} pass${passes.total === 1 ? '' : 'es'}`}</span
+        >
+      </form>
+      <table class="grid">
+        <thead>
+          <tr>
+            ${COLUMNS.map(([t, cls]) => html`<th class=${cls ?? nothing}>${t}</th>`)}
+          </tr>
+        </thead>
+        <tbody>
+          ${
+            rows.length
+              ? rows
+              : emptyRow(
+                  COLUMNS.length,
                   passes.loading ? 'Loading passes…' : 'No passes match. Upload one or widen the filters.',
-                ),
-              ),
-        ),
-      ),
-    ),
+                )
+          }
+        </tbody>
+      </table>
+    </section>`,
+    root,
   );
 }
 
@@ -137,58 +106,54 @@ export function renderPasses(root, state, handlers) {
  * @param {any} live the latest job message for it, if any
  * @param {boolean} selected
  * @param {() => void} onSelect
- * @returns {HTMLElement}
+ * @returns {import('../../vendor/lit-html-3.3.3.js').TemplateResult}
  */
 function passRow(p, live, selected, onSelect) {
   const { state: status, progress, running } = passStatus(p, live);
   const job = live ?? p.job;
   const href = buildHash(['passes', p.id]);
-  return h(
-    'tr',
-    {
-      class: [selected ? 'selected' : '', p.alarm_count > 0 ? 'has-alarm' : ''].join(' ').trim() || null,
-      dataset: { passId: String(p.id), href },
-      onclick: onSelect,
-      ondblclick: () => {
-        window.location.hash = href;
-      },
-    },
-    h('td', {}, h('a', { href }, `#${p.id}`)),
-    h('td', { class: 'mono' }, fmtTime(p.started_at)),
-    h('td', {}, p.site ?? '–'),
-    h('td', {}, p.direction ?? '–'),
-    h('td', { class: 'num' }, fmtNumber(p.speed_kmh, 1)),
-    h('td', { class: 'vehicles', title: (p.vehicles ?? []).join(', ') }, vehicleLinks(p.vehicles ?? [])),
-    h('td', { class: 'num' }, `${running ? (job?.wheels_done ?? '–') : p.wheels_measured} / ${p.wheels_total}`),
-    h('td', { class: `num ${p.wheels_not_measured > 0 ? 'warn' : ''}` }, p.wheels_not_measured ?? '–'),
-    h('td', { class: `num ${p.alarm_count > 0 ? 'alarm' : ''}` }, p.alarm_count),
-    h('td', { class: `num ${p.near_limit_count > 0 ? 'near' : ''}` }, p.near_limit_count ?? 0),
-    h(
-      'td',
-      { class: 'alarm-values', title: (p.alarm_values ?? []).join('\n') },
-      (p.alarm_values ?? []).slice(0, 2).join(' · ') +
-        ((p.alarm_values ?? []).length > 2 ? ` (+${p.alarm_values.length - 2})` : ''),
-    ),
-    h(
-      'td',
-      { class: `status status-${status}` },
-      status,
-      running && progress != null
-        ? h(
-            'span',
-            { class: 'bar', title: fmtPercent(progress) },
-            h('span', { style: `width:${Math.round(progress * 100)}%` }),
-          )
-        : null,
-      running && progress != null ? ` ${fmtPercent(progress)}` : null,
-    ),
-  );
+  const alarmValues = p.alarm_values ?? [];
+  const classes = [selected ? 'selected' : '', p.alarm_count > 0 ? 'has-alarm' : ''].join(' ').trim();
+  const bar = running && progress != null;
+  return html`<tr
+    class=${classes || nothing}
+    data-pass-id=${String(p.id)}
+    data-href=${href}
+    @click=${onSelect}
+    @dblclick=${() => {
+      window.location.hash = href;
+    }}
+  >
+    <td><a href=${href}>#${p.id}</a></td>
+    <td class="mono">${fmtTime(p.started_at)}</td>
+    <td>${p.site ?? '–'}</td>
+    <td>${p.direction ?? '–'}</td>
+    <td class="num">${fmtNumber(p.speed_kmh, 1)}</td>
+    <td class="vehicles" title=${(p.vehicles ?? []).join(', ')}>${vehicleLinks(p.vehicles ?? [])}</td>
+    <td class="num">${running ? (job?.wheels_done ?? '–') : p.wheels_measured} / ${p.wheels_total}</td>
+    <td class="num ${p.wheels_not_measured > 0 ? 'warn' : ''}">${p.wheels_not_measured ?? '–'}</td>
+    <td class="num ${p.alarm_count > 0 ? 'alarm' : ''}">${p.alarm_count}</td>
+    <td class="num ${p.near_limit_count > 0 ? 'near' : ''}">${p.near_limit_count ?? 0}</td>
+    <td class="alarm-values" title=${alarmValues.join('\n')}>
+      ${alarmValues.slice(0, 2).join(' · ') + (alarmValues.length > 2 ? ` (+${alarmValues.length - 2})` : '')}
+    </td>
+    <td class="status status-${status}">
+      ${status}${
+        bar
+          ? html`<span class="bar" title=${fmtPercent(progress)}
+                ><span style="width:${Math.round(progress * 100)}%"></span
+              ></span>
+              ${fmtPercent(progress)}`
+          : nothing
+      }
+    </td>
+  </tr>`;
 }
 
 /**
  * The vehicle ids of a pass as links to each vehicle's history, the first few only.
  * @param {string[]} vehicles
- * @returns {Array<HTMLElement|string>}
+ * @returns {unknown[]}
  */
 function vehicleLinks(vehicles) {
   if (vehicles.length === 0) return ['–'];
@@ -196,7 +161,7 @@ function vehicleLinks(vehicles) {
     .slice(0, VEHICLES_SHOWN)
     .flatMap((v, i) => [
       i ? ', ' : '',
-      h('a', { href: buildHash(['vehicles', v]), onclick: (/** @type {Event} */ e) => e.stopPropagation() }, v),
+      html`<a href=${buildHash(['vehicles', v])} @click=${(/** @type {Event} */ e) => e.stopPropagation()}>${v}</a>`,
     ]);
   return vehicles.length > VEHICLES_SHOWN ? [...links, ` +${vehicles.length - VEHICLES_SHOWN}`] : links;
 }

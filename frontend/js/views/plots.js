@@ -9,7 +9,7 @@ import { METHOD_COLOURS } from '../draw/frame.js';
 import { drawProfile } from '../draw/profile.js';
 import { fmtNumber, fmtSigned, METHODS, shownParameters } from '../lib/format.js';
 import { trendColumns } from '../lib/records.js';
-import { definitions, fitCanvas, h } from './dom.js';
+import { definitions, fitCanvas, h, nodesOf } from './dom.js';
 
 /**
  * Draw the profile plot of the methods shown.
@@ -182,7 +182,7 @@ export function renderTrend(root, trend, previous) {
     root.append(box, h('p', { class: 'note forecast', dataset: { parameter: p.key } }, forecastText(p, forecast)));
     return parameterPlot(box, p, { x, km }, columns, forecast, trend.limits);
   });
-  root.append(definitions(shown, 'What the trended values mean'));
+  root.append(nodesOf(definitions(shown, 'What the trended values mean')));
   return { destroy: () => plots.forEach((plot) => plot.destroy()) };
 }
 

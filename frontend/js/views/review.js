@@ -7,7 +7,8 @@
 import { fmtDisposition, fmtNumber, fmtTime, PARAMETERS, parameterOf } from '../lib/format.js';
 import { REVIEW_PAGE_ROWS } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
-import { definitions, filterButtons, h } from './dom.js';
+import { html, nothing, render } from '../../vendor/lit-html-3.3.3.js';
+import { definitions, emptyRow, filterButtons } from './dom.js';
 
 const FILTERS = [
   { key: 'site', label: 'Site' },
@@ -46,165 +47,114 @@ const LEVEL_WORDS = { alarm: 'ALARM', near: 'near limit', ok: 'ok' };
 export function renderReview(root, state, handlers) {
   const review = state.review ?? { page: null, filter: {}, loading: true };
   const filter = review.filter ?? {};
-  const form = /** @type {HTMLFormElement} */ (
-    h(
-      'form',
-      {
-        class: 'filters',
-        onsubmit: (/** @type {Event} */ e) => {
-          e.preventDefault();
-          const next = /** @type {Record<string, string>} */ ({});
-          for (const [k, v] of new FormData(/** @type {HTMLFormElement} */ (e.target)).entries())
-            if (String(v)) next[k] = String(v);
-          handlers.applyFilter(next);
-        },
-      },
-      FILTERS.map((f) =>
-        h(
-          'label',
-          {},
-          f.label,
-          ' ',
-          h('input', { name: f.key, size: 10, placeholder: 'any part', value: filter[f.key] ?? '' }),
-        ),
-      ),
-      h(
-        'label',
-        {},
-        'Parameter ',
-        h(
-          'select',
-          { name: 'parameter' },
-          h('option', { value: '' }, 'nearest limit'),
-          PARAMETERS.filter((p) => p.families.length > 0).map((p) =>
-            h(
-              'option',
-              { value: p.key, selected: filter.parameter === p.key ? true : null },
-              `${p.label} (${p.title})`,
-            ),
-          ),
-        ),
-      ),
-      h(
-        'label',
-        {},
-        h('input', { type: 'checkbox', name: 'open', value: '1', checked: filter.open === '1' }),
-        ' open only',
-      ),
-      h(
-        'label',
-        { title: 'every pass of each wheel, not only its newest' },
-        h('input', { type: 'checkbox', name: 'history', value: '1', checked: filter.history === '1' }),
-        ' all passes',
-      ),
-      filter.pass ? h('input', { type: 'hidden', name: 'pass', value: filter.pass }) : null,
-      ...filterButtons(filter, handlers.applyFilter),
-      h('span', { class: 'count' }, review.loading ? 'loading…' : `${review.page?.total ?? 0} wheels`),
-    )
-  );
+  const onSubmit = (/** @type {Event} */ e) => {
+    e.preventDefault();
+    const next = /** @type {Record<string, string>} */ ({});
+    for (const [k, v] of new FormData(/** @type {HTMLFormElement} */ (e.target)).entries())
+      if (String(v)) next[k] = String(v);
+    handlers.applyFilter(next);
+  };
   const items = review.page?.items ?? [];
-  root.replaceChildren(
-    h(
-      'section',
-      { class: 'review' },
-      h(
-        'h1',
-        {},
-        filter.pass
-          ? [h('a', { href: buildHash(['passes', filter.pass]) }, `Pass #${filter.pass}`), ' › worst wheels']
-          : 'Worst wheels',
-      ),
-      h(
-        'p',
-        { class: 'note' },
-        'Each wheel at its nearest limit (or the chosen parameter), smallest margin first: ',
-        h('span', { class: 'alarm-text' }, 'red'),
-        ' beyond a limit, ',
-        h('span', { class: 'near-text' }, 'amber'),
-        " within the fleet's near-limit band (default the inner 10 % of each limit band). ",
-        filter.pass ? '' : filter.history === '1' ? 'Every pass of each wheel.' : "Each wheel's newest pass.",
-      ),
-      form,
-      h(
-        'table',
-        { class: 'grid worst' },
-        h(
-          'thead',
-          {},
-          h(
-            'tr',
-            {},
-            COLUMNS.map(([t, cls, key]) => {
+  const scope = filter.pass ? '' : filter.history === '1' ? 'Every pass of each wheel.' : "Each wheel's newest pass.";
+  render(
+    html`<section class="review">
+      <h1>
+        ${filter.pass ? html`<a href=${buildHash(['passes', filter.pass])}>Pass #${filter.pass}</a> › worst wheels` : 'Worst wheels'}
+      </h1>
+      <p class="note">
+        Each wheel at its nearest limit (or the chosen parameter), smallest margin first:
+        <span class="alarm-text">red</span> beyond a limit, <span class="near-text">amber</span> within the fleet's
+        near-limit band (default the inner 10 % of each limit band). ${scope}
+      </p>
+      <form class="filters" @submit=${onSubmit}>
+        ${FILTERS.map(
+          (f) =>
+            html`<label
+              >${f.label} <input name=${f.key} size="10" placeholder="any part" .value=${filter[f.key] ?? ''}
+            /></label>`,
+        )}
+        <label
+          >Parameter
+          <select name="parameter" .value=${filter.parameter ?? ''}>
+            <option value="">nearest limit</option>
+            ${PARAMETERS.filter((p) => p.families.length > 0).map(
+              (p) =>
+                html`<option value=${p.key} ?selected=${filter.parameter === p.key}>${p.label} (${p.title})</option>`,
+            )}
+          </select></label
+        >
+        <label><input type="checkbox" name="open" value="1" .checked=${filter.open === '1'} /> open only</label>
+        <label title="every pass of each wheel, not only its newest"
+          ><input type="checkbox" name="history" value="1" .checked=${filter.history === '1'} /> all passes</label
+        >
+        ${filter.pass ? html`<input type="hidden" name="pass" .value=${filter.pass} />` : nothing}
+        ${filterButtons(filter, handlers.applyFilter)}
+        <span class="count">${review.loading ? 'loading…' : `${review.page?.total ?? 0} wheels`}</span>
+      </form>
+      <table class="grid worst">
+        <thead>
+          <tr>
+            ${COLUMNS.map(([t, cls, key]) => {
               const p = key ? parameterOf(key) : null;
-              return h(
-                'th',
-                { class: cls, title: p ? `${p.title}: ${p.definition}` : null },
-                p?.unit ? `${t} ${p.unit}` : t,
-              );
-            }),
-          ),
-        ),
-        h(
-          'tbody',
-          {},
-          items.length
-            ? items.map((/** @type {any} */ item, /** @type {number} */ i) =>
-                row(item, (review.page?.offset ?? 0) + i + 1),
-              )
-            : h(
-                'tr',
-                {},
-                h(
-                  'td',
-                  { colspan: COLUMNS.length, class: 'empty' },
-                  review.loading ? 'Loading…' : 'No measured wheels match.',
-                ),
-              ),
-        ),
-      ),
-      pager(review.page, filter, handlers.applyFilter),
-      definitions(PARAMETERS),
-    ),
+              return html`<th class=${cls ?? nothing} title=${p ? `${p.title}: ${p.definition}` : nothing}>
+                ${p?.unit ? `${t} ${p.unit}` : t}
+              </th>`;
+            })}
+          </tr>
+        </thead>
+        <tbody>
+          ${
+            items.length
+              ? items.map((/** @type {any} */ item, /** @type {number} */ i) =>
+                  row(item, (review.page?.offset ?? 0) + i + 1),
+                )
+              : emptyRow(COLUMNS.length, review.loading ? 'Loading…' : 'No measured wheels match.')
+          }
+        </tbody>
+      </table>
+      ${pager(review.page, filter, handlers.applyFilter)} ${definitions(PARAMETERS)}
+    </section>`,
+    root,
   );
 }
 
 /**
  * @param {any} item a WorstWheelRead
  * @param {number} rank
- * @returns {HTMLElement}
+ * @returns {import('../../vendor/lit-html-3.3.3.js').TemplateResult}
  */
 function row(item, rank) {
   const m = item.margin;
   const p = parameterOf(m.parameter);
   const href = buildHash(['passes', item.pass_id, 'wheels', item.wheel_id]);
-  return h(
-    'tr',
-    {
-      class: `level-${m.level}`,
-      dataset: { wheelId: String(item.wheel_id), passId: String(item.pass_id), level: m.level },
-      onclick: (/** @type {MouseEvent} */ e) => {
-        if (!(/** @type {HTMLElement} */ (e.target).closest('a'))) window.location.hash = href;
-      },
-    },
-    h('td', { class: 'num' }, rank),
-    h('td', {}, h('span', { class: `badge ${m.level}` }, LEVEL_WORDS[/** @type {'ok'} */ (m.level)] ?? m.level)),
-    h('td', {}, h('a', { href: buildHash(['vehicles', item.vehicle_id]) }, item.vehicle_id)),
-    h('td', { class: 'num' }, item.axle),
-    h('td', {}, item.side),
-    h('td', { title: p.title }, p.label),
-    h('td', { class: `num ${m.level === 'ok' ? '' : m.level}` }, `${fmtNumber(m.value_mm)} ${p.unit}`),
-    h('td', { class: 'num' }, `${m.bound === 'min' ? '≥' : '≤'} ${fmtNumber(m.limit_mm, 1)}`),
-    h('td', { class: 'num' }, fmtNumber(m.margin_mm)),
-    h('td', { class: 'num', title: `of a ${fmtNumber(m.band_mm)} mm band` }, fmtNumber(100 * m.margin_fraction, 1)),
-    h('td', {}, item.wheel_profile),
-    VALUE_KEYS.map((key) =>
-      h('td', { class: 'num', dataset: { parameter: key } }, fmtNumber(item[key], parameterOf(key).digits)),
-    ),
-    h('td', { class: `disposition ${item.disposition ? 'set' : 'open'}` }, fmtDisposition(item.disposition)),
-    h('td', {}, h('a', { href }, `#${item.pass_id} wheel`)),
-    h('td', { class: 'mono' }, fmtTime(item.started_at)),
-    h('td', {}, item.site),
-  );
+  const onClick = (/** @type {MouseEvent} */ e) => {
+    if (!(/** @type {HTMLElement} */ (e.target).closest('a'))) window.location.hash = href;
+  };
+  const level = LEVEL_WORDS[/** @type {'ok'} */ (m.level)] ?? m.level;
+  return html`<tr
+    class="level-${m.level}"
+    data-wheel-id=${String(item.wheel_id)}
+    data-pass-id=${String(item.pass_id)}
+    data-level=${m.level}
+    @click=${onClick}
+  >
+    <td class="num">${rank}</td>
+    <td><span class="badge ${m.level}">${level}</span></td>
+    <td><a href=${buildHash(['vehicles', item.vehicle_id])}>${item.vehicle_id}</a></td>
+    <td class="num">${item.axle}</td>
+    <td>${item.side}</td>
+    <td title=${p.title}>${p.label}</td>
+    <td class="num ${m.level === 'ok' ? '' : m.level}">${fmtNumber(m.value_mm)} ${p.unit}</td>
+    <td class="num">${m.bound === 'min' ? '≥' : '≤'} ${fmtNumber(m.limit_mm, 1)}</td>
+    <td class="num">${fmtNumber(m.margin_mm)}</td>
+    <td class="num" title="of a ${fmtNumber(m.band_mm)} mm band">${fmtNumber(100 * m.margin_fraction, 1)}</td>
+    <td>${item.wheel_profile}</td>
+    ${VALUE_KEYS.map((key) => html`<td class="num" data-parameter=${key}>${fmtNumber(item[key], parameterOf(key).digits)}</td>`)}
+    <td class="disposition ${item.disposition ? 'set' : 'open'}">${fmtDisposition(item.disposition)}</td>
+    <td><a href=${href}>#${item.pass_id} wheel</a></td>
+    <td class="mono">${fmtTime(item.started_at)}</td>
+    <td>${item.site}</td>
+  </tr>`;
 }
 
 /**
@@ -212,18 +162,16 @@ function row(item, rank) {
  * @param {any} page the Page the service returned, or null
  * @param {Record<string, string>} filter
  * @param {(filter: Record<string, string>) => void} applyFilter
- * @returns {HTMLElement|string}
+ * @returns {import('../../vendor/lit-html-3.3.3.js').TemplateResult|typeof nothing}
  */
 function pager(page, filter, applyFilter) {
-  if (!page || page.total <= REVIEW_PAGE_ROWS) return '';
+  if (!page || page.total <= REVIEW_PAGE_ROWS) return nothing;
   const at = Math.floor(page.offset / REVIEW_PAGE_ROWS) + 1;
   const pages = Math.ceil(page.total / REVIEW_PAGE_ROWS);
   const go = (/** @type {number} */ n) => applyFilter({ ...filter, page: String(n) });
-  return h(
-    'div',
-    { class: 'pager' },
-    h('button', { disabled: at <= 1, onclick: () => go(at - 1), 'data-action': 'previous-page' }, '‹ previous'),
-    ` page ${at} of ${pages} `,
-    h('button', { disabled: at >= pages, onclick: () => go(at + 1), 'data-action': 'next-page' }, 'next ›'),
-  );
+  return html`<div class="pager">
+    <button ?disabled=${at <= 1} @click=${() => go(at - 1)} data-action="previous-page">‹ previous</button>
+    page ${at} of ${pages}
+    <button ?disabled=${at >= pages} @click=${() => go(at + 1)} data-action="next-page">next ›</button>
+  </div>`;
 }

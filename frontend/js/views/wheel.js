@@ -21,6 +21,7 @@ import {
 } from '../lib/format.js';
 import { framesRemovedNote, hasAlarmOn, limitStem, limitsFor, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
+import { html, nothing, render } from '../../vendor/lit-html-3.3.3.js';
 import { alarmClass, h } from './dom.js';
 import { FrameView } from './frame-view.js';
 import { exportButtons } from './pass.js';
@@ -38,59 +39,24 @@ export const LAYERS = [
 export class WheelView {
   /**
    * @param {HTMLElement} root
-   * @param {{setQuery: (q: Record<string, string>) => void, exportReport: (format: string) => Promise<void>|void, exportProfile: (format: string) => Promise<void>|void, importReference: (file: File) => Promise<void>|void, openViewer: () => void, closeViewer: () => void, addDisposition: (body: {kind: string, comment?: string}) => void}} handlers
+   * @param {{setQuery: (q: Record<string, string>) => void, exportReport: (format: string) => Promise<void>|void, exportProfile: (format: string) => Promise<void>|void, importReference: (file: File) => Promise<void>|void, openViewer: () => void, closeViewer: () => void, addDisposition: (body: {kind: string, comment?: string}) => Promise<boolean>|void}} handlers
    */
   constructor(root, handlers) {
+    this.root = root;
     this.handlers = handlers;
-    this.title = h('div', { class: 'titlebar' });
-    this.toolbar = h('div', { class: 'toolbar' });
-    this.layerNote = h('span', { class: 'note layer-note' });
-    const frameRoot = h('div', { class: 'frame-root' });
-    this.viewerOverlay = h('div', { class: 'viewer-overlay', hidden: true });
-    this.table = h('div', { class: 'param-table' });
+    // what the canvases and plots draw into: made once, placed by the template, drawn below
+    this.frameRoot = h('div', { class: 'frame-root' });
     this.profileCanvas = /** @type {HTMLCanvasElement} */ (
       h('canvas', { class: 'plot profile-plot', 'aria-label': 'profile plot' })
     );
     this.profileNote = h('p', { class: 'note' });
-    this.comparisonRoot = h('div', { class: 'comparison' });
     this.diffCanvas = /** @type {HTMLCanvasElement} */ (
       h('canvas', { class: 'plot diff-plot', 'aria-label': 'difference plot' })
     );
     this.diffNote = h('p', { class: 'note mono' });
     this.deltaRRoot = h('div', { class: 'trend delta-r' });
     this.trendRoot = h('div', { class: 'trend' });
-    this.dispositionRoot = h('div', { class: 'dispositions' });
-    this.viewerRoot = h('div', { class: 'viewer' });
-    // the panels that come with the second step of a wheel's load (hidden until then)
-    this.panels = h(
-      'div',
-      { class: 'side-panels' },
-      h('h2', {}, 'Disposition'),
-      this.dispositionRoot,
-      h('h2', {}, 'Profile vs reference'),
-      this.profileCanvas,
-      this.profileNote,
-      h('h2', {}, 'Axle rolling-radius difference Δr(y)'),
-      this.deltaRRoot,
-      h('h2', {}, 'Handheld gauge'),
-      this.comparisonRoot,
-      h('h2', {}, 'Adaptive − Steger along the stripe'),
-      this.diffCanvas,
-      this.diffNote,
-      h('h2', {}, 'Trend across passes'),
-      this.trendRoot,
-      h('h2', {}, '3D'),
-      this.viewerRoot,
-    );
-    this.grid = h(
-      'div',
-      { class: 'wheel-grid' },
-      h('div', { class: 'frame-panel' }, this.toolbar, frameRoot, this.viewerOverlay),
-      h('div', { class: 'side-panel' }, h('h2', {}, 'Parameters'), this.table, this.panels),
-    );
-    this.section = h('section', { class: 'wheel' }, this.title, this.grid);
-    root.replaceChildren(this.section);
-    this.frame = new FrameView(frameRoot);
+    this.frame = new FrameView(this.frameRoot);
     /** @type {Record<string, any>} */
     this.profiles = {};
     this.profileOrder = ['adaptive', 'steger'];
@@ -108,8 +74,8 @@ export class WheelView {
       const i = this.pairAt(e.offsetX, e.offsetY);
       if (i >= 0 && this.difference) this.frame.centreOn(this.difference.x[i], this.difference.y[i]);
     });
-    /** @type {any} */
-    this.shown = {};
+    /** What the canvases and plots last drew (they redraw only when it changes). @type {any} */
+    this.drawn = {};
     /** @type {any} */
     this.trendPlot = null;
     /** @type {any} */
@@ -117,45 +83,30 @@ export class WheelView {
   }
 
   /**
-   * Bring the page up to date with the state; only parts whose data changed are redrawn.
+   * Bring the page up to date with the state: the template patches the DOM where it
+   * changed; the frame, the profile and difference canvases and the uPlot plots redraw
+   * only when their data changed.
    * @param {any} state
    */
   update(state) {
     const w = state.wheel;
     const method = state.route.query.method === 'steger' ? 'steger' : 'adaptive';
     const { passId, wheelId } = state.route.params;
+    const show = LAYERS.reduce((acc, [key]) => ({ ...acc, [key]: state.layers[key] }), {});
     // never show another wheel's data under this wheel's address (the store may still hold it)
-    if (!w || !w.layers || w.passId !== passId || w.wheelId !== wheelId) {
-      const failed = w?.failed && w.passId === passId && w.wheelId === wheelId;
-      this.title.replaceChildren(
-        failed
-          ? h(
-              'p',
-              { class: 'notice failed' },
-              `Wheel ${wheelId} of pass ${passId} could not be shown (the reason is above). `,
-              h('a', { href: buildHash(['passes', passId]) }, `Back to pass #${passId}`),
-              ' · ',
-              h('a', { href: '#/passes' }, 'the passes'),
-            )
-          : h('p', { class: 'loading' }, 'Loading wheel…'),
-      );
-      // a wheel that cannot be shown shows no empty panels
-      this.grid.hidden = Boolean(failed);
-      this.panels.classList.add('pending');
+    const ready = Boolean(w?.layers && w.passId === passId && w.wheelId === wheelId);
+    const failed = !ready && w?.failed && w.passId === passId && w.wheelId === wheelId;
+    render(this.page(state, ready ? w : null, method, show, Boolean(failed)), this.root);
+    if (!ready) {
       this.frame.clear();
-      this.shown = {};
+      this.drawn = {};
       return;
     }
-    this.grid.hidden = false;
-    const show = LAYERS.reduce((acc, [key]) => ({ ...acc, [key]: state.layers[key] }), {});
     const changed = (/** @type {string} */ key, /** @type {any} */ value) => {
-      if (this.shown[key] === value) return false;
-      this.shown[key] = value;
+      if (this.drawn[key] === value) return false;
+      this.drawn[key] = value;
       return true;
     };
-    if (changed('titleDeps', `${w.loadMs}|${method}|${w.loading}|${state.pass?.wheels?.length}`))
-      this.renderTitle(state, w, method);
-    if (changed('toolbar', JSON.stringify(show))) this.renderToolbar(show);
     if (changed('layers', w.layers)) {
       // this wheel's frame data reached the canvas (the browser tests wait for it, benchmarks/browser.py times from it)
       performance.mark('frame-data', { detail: `${w.passId}/${w.wheelId}` });
@@ -164,16 +115,8 @@ export class WheelView {
       this.drawDifferencePlot(-1);
     }
     this.frame.setShow(show);
-    // which wheel is fully on screen (the browser tests wait for it)
-    this.section.dataset.loadedWheel = w.loading ? '' : `${w.passId}/${w.wheelId}`;
-    this.layerNote.textContent = layerNote(show, w);
-    if (changed('table', `${method}|${w.record?.wheel_id}|${w.loadMs}`))
-      this.renderTable(w.record, state.limits, method);
     // the side panels come with the second step of the load, after the frame is drawn
-    this.panels.classList.toggle('pending', !w.profiles);
     if (!w.profiles) return;
-    if (changed('dispositions', `${JSON.stringify(w.dispositions)}|${state.me?.role}`))
-      this.renderDispositions(w, state.me?.role);
     if (changed('profile', `${method}|${w.loadMs}`)) {
       this.profileOrder = [
         ...(method === 'steger' ? ['steger', 'adaptive'] : ['adaptive', 'steger']),
@@ -183,22 +126,72 @@ export class WheelView {
       this.drawProfilePlot(null);
       this.deltaRPlot = renderDeltaR(this.deltaRRoot, w.profiles, this.profileOrder, this.deltaRPlot);
     }
-    if (changed('comparison', `${w.loadMs}|${w.comparison?.reference?.id}|${state.me?.role}`)) {
-      renderComparison(
-        this.comparisonRoot,
-        w.comparison,
-        state.me?.role !== 'viewer' ? this.handlers.importReference : null,
-      );
-    }
     if (changed('trend', w.trend)) {
       this.trendPlot = w.trend?.error ? null : renderTrend(this.trendRoot, w.trend, this.trendPlot);
       if (w.trend?.error)
         this.trendRoot.replaceChildren(h('p', { class: 'error' }, `trend unavailable: ${w.trend?.error}`));
     }
-    if (changed('viewer', w.viewerUrl ?? null)) this.renderViewer(w.viewerUrl);
     // every panel of this wheel built (benchmarks/browser.py times the whole page to it)
     if (!w.loading && changed('complete', `${w.passId}/${w.wheelId}/${w.loadMs}`))
       performance.mark('wheel-loaded', { detail: `${w.passId}/${w.wheelId}` });
+  }
+
+  /**
+   * The page: title, layer toolbar, frame (or the 3D view over it), parameter table and,
+   * once the second step of the load is in, the side panels.
+   * @param {any} state
+   * @param {any} w the wheel state when it is this address's wheel, else null
+   * @param {string} method
+   * @param {Record<string, boolean>} show
+   * @param {boolean} failed the wheel could not be loaded
+   */
+  page(state, w, method, show, failed) {
+    const { passId, wheelId } = state.route.params;
+    const role = state.me?.role;
+    const title = w
+      ? this.title(state, w, method)
+      : failed
+        ? html`<p class="notice failed">
+            Wheel ${wheelId} of pass ${passId} could not be shown (the reason is above).
+            <a href=${buildHash(['passes', passId])}>Back to pass #${passId}</a> ·
+            <a href="#/passes">the passes</a>
+          </p>`
+        : html`<p class="loading">Loading wheel…</p>`;
+    // the panels' frame is always there (the difference plot is drawn with the frame's
+    // data, before the rest); what they show comes with the second step of the load
+    const more = Boolean(w?.profiles);
+    const panels = html`<h2>Disposition</h2>
+      <div class="dispositions">${more ? this.dispositions(w, role) : nothing}</div>
+      <h2>Profile vs reference</h2>
+      ${this.profileCanvas}${this.profileNote}
+      <h2>Axle rolling-radius difference Δr(y)</h2>
+      ${this.deltaRRoot}
+      <h2>Handheld gauge</h2>
+      <div class="comparison">
+        ${more ? comparisonTable(w.comparison, role !== 'viewer' ? this.handlers.importReference : null) : nothing}
+      </div>
+      <h2>Adaptive − Steger along the stripe</h2>
+      ${this.diffCanvas}${this.diffNote}
+      <h2>Trend across passes</h2>
+      ${this.trendRoot}
+      <h2>3D</h2>
+      <div class="viewer">${more ? this.viewerSwitch(w.viewerUrl ?? null) : nothing}</div>`;
+    // which wheel is fully on screen (the browser tests wait for it)
+    const loaded = w && !w.loading ? `${w.passId}/${w.wheelId}` : '';
+    return html`<section class="wheel" data-loaded-wheel=${loaded}>
+      <div class="titlebar">${title}</div>
+      <div class="wheel-grid" ?hidden=${failed}>
+        <div class="frame-panel">
+          <div class="toolbar">${this.toolbar(show, w ? layerNote(show, w) : '')}</div>
+          ${this.frameRoot}${this.viewerOverlay(w?.viewerUrl ?? null)}
+        </div>
+        <div class="side-panel">
+          <h2>Parameters</h2>
+          <div class="param-table">${w ? parameterTables(w.record, state.limits, method) : nothing}</div>
+          <div class="side-panels ${more ? '' : 'pending'}">${panels}</div>
+        </div>
+      </div>
+    </section>`;
   }
 
   /**
@@ -272,7 +265,7 @@ export class WheelView {
   }
 
   /** @param {any} state @param {any} w @param {string} method */
-  renderTitle(state, w, method) {
+  title(state, w, method) {
     const r = w.record;
     const siblings = state.pass?.wheels ?? [];
     const level =
@@ -287,419 +280,320 @@ export class WheelView {
     const at = siblings.findIndex((/** @type {any} */ s) => String(s.wheel_id) === String(w.wheelId));
     const link = (/** @type {any} */ s, /** @type {string} */ text, /** @type {string} */ rel) =>
       s
-        ? h(
-            'a',
-            { class: 'button', rel, href: buildHash(['passes', w.passId, 'wheels', s.wheel_id], { method }) },
-            text,
-          )
-        : h('span', { class: 'button disabled' }, text);
-    this.title.replaceChildren(
-      h(
-        'h1',
-        {},
-        h('a', { href: '#/passes' }, 'Passes'),
-        ' › ',
-        h('a', { href: buildHash(['passes', w.passId]) }, `Pass #${w.passId}`),
-        ' › ',
-        r ? `Vehicle ${r.vehicle_id} · axle ${r.axle} · ${r.side}` : `Wheel ${w.wheelId}`,
-      ),
-      h(
-        'span',
-        { class: `badge ${level}`, 'data-level': level },
-        r?.reason
-          ? 'not measured'
-          : { ok: 'within limits', near: 'NEAR LIMIT', alarm: 'ALARM', none: r?.state ?? '–' }[level],
-      ),
-      h('span', { class: `disposition ${r?.disposition ? 'set' : 'open'}` }, fmtDisposition(r?.disposition)),
-      disagreement
-        ? h(
-            'span',
-            { class: 'flag disagreement', title: "adaptive and Steger differ by more than the fleet's threshold" },
-            `methods differ: ${disagreement}`,
-          )
-        : '',
-      h(
-        'div',
-        { class: 'segmented', role: 'group', 'aria-label': 'frame' },
-        w.frames.map((/** @type {any} */ f) =>
-          h(
-            'button',
-            {
-              class: f.sensor === w.sensor && f.index === w.index ? 'on' : null,
-              'data-sensor': f.sensor,
-              onclick: () => this.handlers.setQuery({ sensor: f.sensor, frame: String(f.index) }),
-            },
-            fmtSensor(f.sensor),
-            w.frames.filter((/** @type {any} */ g) => g.sensor === f.sensor).length > 1 ? ` ${f.index + 1}` : '',
-          ),
-        ),
-      ),
-      h(
-        'div',
-        { class: 'segmented', role: 'group', 'aria-label': 'method' },
-        METHODS.map((m) =>
-          h(
-            'button',
-            {
-              class: m === method ? 'on' : null,
-              'data-method': m,
-              'aria-pressed': String(m === method),
-              onclick: () => this.handlers.setQuery({ method: m }),
-            },
-            m === 'adaptive' ? 'Adaptive' : 'Steger',
-          ),
-        ),
-      ),
-      h('span', { class: 'spacer' }),
-      link(siblings[at - 1], '[ prev', 'prev'),
-      link(siblings[at + 1], 'next ]', 'next'),
-      exportButtons(this.handlers.exportReport),
-      exportButtons(this.handlers.exportProfile, 'profile'),
-      h(
-        'span',
-        { class: 'meta', 'data-load-ms': String(Math.round(w.loadMs ?? 0)) },
-        w.loading ? 'loading…' : `loaded in ${Math.round(w.loadMs ?? 0)} ms`,
-      ),
-    );
-  }
-
-  /** @param {Record<string, boolean>} show */
-  renderToolbar(show) {
-    this.toolbar.replaceChildren(
-      ...LAYERS.map(([key, label, shortcut]) =>
-        h(
-          'label',
-          { class: `toggle ${key}` },
-          h('input', {
-            type: 'checkbox',
-            'data-layer': key,
-            checked: show[key],
-            onchange: (/** @type {Event} */ e) =>
-              this.handlers.setQuery({ [key]: /** @type {HTMLInputElement} */ (e.target).checked ? '1' : '0' }),
-          }),
-          ` ${label} `,
-          h('kbd', {}, shortcut),
-        ),
-      ),
-      h(
-        'button',
-        { onclick: () => this.frame.fit(), title: 'fit: the stripe, then the whole frame (f)' },
-        'Fit ',
-        h('kbd', {}, 'f'),
-      ),
-      this.layerNote,
-    );
-  }
-
-  /** @param {any} record @param {any} limits @param {string} method */
-  renderTable(record, limits, method) {
-    if (!record) {
-      this.table.replaceChildren(h('p', { class: 'empty' }, 'No results for this wheel.'));
-      return;
-    }
-    const a = resultOf(record, 'adaptive') ?? {};
-    const s = resultOf(record, 'steger') ?? {};
-    const limitRow = limitsFor(limits, (method === 'steger' ? s : a).reference_profile);
-    // a parameter's definition, one click on its name away
-    const definition = h('p', { class: 'note definition', id: 'parameter-definition', hidden: true });
-    this.table.replaceChildren(
-      record.reason ? h('p', { class: 'notice' }, `Not measured: ${record.reason}`) : '',
-      h(
-        'table',
-        { class: 'grid compact' },
-        h(
-          'thead',
-          {},
-          h(
-            'tr',
-            {},
-            ['', 'Adaptive', 'Steger', 'Δ', `Limits ${limitRow?.wheel_profile ?? ''} (mm)`].map((t, i) =>
-              h(
-                'th',
-                { class: (i === 1 && method === 'adaptive') || (i === 2 && method === 'steger') ? 'selected' : null },
-                t,
-              ),
-            ),
-          ),
-        ),
-        h(
-          'tbody',
-          {},
-          PARAMETERS.map((p) =>
-            h(
-              'tr',
-              { dataset: { parameter: p.key } },
-              h(
-                'th',
-                { title: p.title },
-                h(
-                  'button',
-                  {
-                    class: 'definition-link',
-                    'aria-controls': 'parameter-definition',
-                    onclick: () => {
-                      definition.hidden = definition.dataset.key === p.key && !definition.hidden;
-                      definition.dataset.key = p.key;
-                      definition.textContent = `${p.title}: ${p.definition}`;
-                    },
-                  },
-                  p.label,
-                  p.unit && p.unit !== 'mm' ? ` (${p.unit})` : '',
-                ),
-              ),
-              h(
-                'td',
-                { class: `num ${hasAlarmOn(a, p.key, limitRow?.wheel_profile) ? 'alarm' : ''}` },
-                fmtNumber(a[p.key], p.digits),
-              ),
-              h(
-                'td',
-                { class: `num ${hasAlarmOn(s, p.key, limitRow?.wheel_profile) ? 'alarm' : ''}` },
-                fmtNumber(s[p.key], p.digits),
-              ),
-              h(
-                'td',
-                { class: 'num' },
-                fmtSigned(a[p.key] != null && s[p.key] != null ? a[p.key] - s[p.key] : null, p.digits),
-              ),
-              h('td', { class: 'num' }, limitText(limitRow, p.key, p.limitMax)),
-            ),
-          ),
-        ),
-      ),
-      definition,
-      a.tread_reason || s.tread_reason
-        ? h('p', { class: 'note tread-reason' }, `Not measured: ${a.tread_reason ?? s.tread_reason}`)
-        : '',
-      h('p', { class: 'note diameter-note' }, DIAMETER_NOTE),
-      h(
-        'table',
-        { class: 'grid compact quality' },
-        h(
-          'thead',
-          {},
-          h(
-            'tr',
-            {},
-            ['Quality', 'points in / out', 'overlap RMS', 'rejected', 'σ mean (range) px'].map((t) => h('th', {}, t)),
-          ),
-        ),
-        h(
-          'tbody',
-          {},
-          [
-            ['adaptive', a],
-            ['steger', s],
-          ].map(([m, r]) =>
-            h(
-              'tr',
-              {},
-              h('th', {}, m),
-              h('td', { class: 'num' }, `${r.quality?.points_inner ?? '–'} / ${r.quality?.points_outer ?? '–'}`),
-              h(
-                'td',
-                { class: 'num' },
-                r.quality?.overlap_residual_mm == null ? '–' : `${fmtNumber(r.quality.overlap_residual_mm, 3)} mm`,
-              ),
-              h('td', { class: 'num' }, r.quality?.rejected_points ?? '–'),
-              h(
-                'td',
-                { class: 'num' },
-                `${fmtNumber(r.sigma_mean_px)} (${fmtNumber(r.sigma_min_px)}–${fmtNumber(r.sigma_max_px)})`,
-              ),
-            ),
-          ),
-        ),
-      ),
-      h(
-        'ul',
-        { class: 'alarms' },
-        [
-          ...(a.alarms ?? []).map((/** @type {any} */ al) => ['adaptive', al]),
-          ...(s.alarms ?? []).map((/** @type {any} */ al) => ['steger', al]),
-        ].map(([m, al]) => h('li', { class: 'alarm' }, `${m}: ${al.message}`)),
-      ),
-    );
+        ? html`<a class="button" rel=${rel} href=${buildHash(['passes', w.passId, 'wheels', s.wheel_id], { method })}
+            >${text}</a
+          >`
+        : html`<span class="button disabled">${text}</span>`;
+    const badge = r?.reason
+      ? 'not measured'
+      : { ok: 'within limits', near: 'NEAR LIMIT', alarm: 'ALARM', none: r?.state ?? '–' }[level];
+    const frameButton = (/** @type {any} */ f) =>
+      html`<button
+        class=${f.sensor === w.sensor && f.index === w.index ? 'on' : nothing}
+        data-sensor=${f.sensor}
+        @click=${() => this.handlers.setQuery({ sensor: f.sensor, frame: String(f.index) })}
+      >
+        ${fmtSensor(f.sensor)}${
+          w.frames.filter((/** @type {any} */ g) => g.sensor === f.sensor).length > 1 ? ` ${f.index + 1}` : ''
+        }
+      </button>`;
+    return html`<h1>
+        <a href="#/passes">Passes</a> › <a href=${buildHash(['passes', w.passId])}>Pass #${w.passId}</a> ›
+        ${r ? `Vehicle ${r.vehicle_id} · axle ${r.axle} · ${r.side}` : `Wheel ${w.wheelId}`}
+      </h1>
+      <span class="badge ${level}" data-level=${level}>${badge}</span>
+      <span class="disposition ${r?.disposition ? 'set' : 'open'}">${fmtDisposition(r?.disposition)}</span>
+      ${
+        disagreement
+          ? html`<span class="flag disagreement" title="adaptive and Steger differ by more than the fleet's threshold"
+              >methods differ: ${disagreement}</span
+            >`
+          : nothing
+      }
+      <div class="segmented" role="group" aria-label="frame">${w.frames.map(frameButton)}</div>
+      <div class="segmented" role="group" aria-label="method">
+        ${METHODS.map(
+          (m) =>
+            html`<button
+              class=${m === method ? 'on' : nothing}
+              data-method=${m}
+              aria-pressed=${String(m === method)}
+              @click=${() => this.handlers.setQuery({ method: m })}
+            >
+              ${m === 'adaptive' ? 'Adaptive' : 'Steger'}
+            </button>`,
+        )}
+      </div>
+      <span class="spacer"></span>
+      ${link(siblings[at - 1], '[ prev', 'prev')} ${link(siblings[at + 1], 'next ]', 'next')}
+      ${exportButtons(this.handlers.exportReport)} ${exportButtons(this.handlers.exportProfile, 'profile')}
+      <span class="meta" data-load-ms=${String(Math.round(w.loadMs ?? 0))}
+        >${w.loading ? 'loading…' : `loaded in ${Math.round(w.loadMs ?? 0)} ms`}</span
+      >`;
   }
 
   /**
-   * The disposition in force, its history (who, when) and, for operators, the form.
+   * The layer switches, the fit button and why a layer that is on is not drawn yet.
+   * @param {Record<string, boolean>} show
+   * @param {string} note
+   */
+  toolbar(show, note) {
+    return html`${LAYERS.map(
+        ([key, label, shortcut]) =>
+          html`<label class="toggle ${key}"
+            ><input
+              type="checkbox"
+              data-layer=${key}
+              .checked=${show[key]}
+              @change=${(/** @type {Event} */ e) =>
+                this.handlers.setQuery({ [key]: /** @type {HTMLInputElement} */ (e.target).checked ? '1' : '0' })}
+            />
+            ${label} <kbd>${shortcut}</kbd></label
+          >`,
+      )}<button @click=${() => this.frame.fit()} title="fit: the stripe, then the whole frame (f)">
+        Fit <kbd>f</kbd></button
+      ><span class="note layer-note">${note}</span>`;
+  }
+
+  /**
+   * The disposition in force, its history (who, when) and, for operators, the form (cleared
+   * once a disposition is recorded).
    * @param {any} w the wheel state
    * @param {string|undefined} role
    */
-  renderDispositions(w, role) {
+  dispositions(w, role) {
     const history = w.dispositions ?? [];
-    const kind = /** @type {HTMLSelectElement} */ (
-      h(
-        'select',
-        { name: 'kind' },
-        DISPOSITIONS.map(([k, label]) => h('option', { value: k }, label)),
-      )
-    );
-    const comment = /** @type {HTMLInputElement} */ (
-      h('input', { name: 'comment', size: 28, maxlength: 1000, placeholder: 'reason or comment' })
-    );
+    const onSubmit = async (/** @type {Event} */ e) => {
+      e.preventDefault();
+      const form = /** @type {HTMLFormElement} */ (e.target);
+      const kind = /** @type {HTMLSelectElement} */ (form.elements.namedItem('kind')).value;
+      const comment = /** @type {HTMLInputElement} */ (form.elements.namedItem('comment')).value.trim();
+      if (await this.handlers.addDisposition({ kind, ...(comment ? { comment } : {}) })) form.reset();
+    };
     const form =
       role === 'operator' || role === 'admin'
-        ? h(
-            'form',
-            {
-              class: 'disposition-form',
-              onsubmit: (/** @type {Event} */ e) => {
-                e.preventDefault();
-                this.handlers.addDisposition({
-                  kind: kind.value,
-                  ...(comment.value.trim() ? { comment: comment.value.trim() } : {}),
-                });
-              },
-            },
-            kind,
-            ' ',
-            comment,
-            ' ',
-            h('button', { type: 'submit' }, 'Record'),
-          )
-        : h('p', { class: 'note' }, 'Recording a disposition needs an operator token.');
-    this.dispositionRoot.replaceChildren(
-      h(
-        'p',
-        { class: `current disposition ${history.length ? 'set' : 'open'}` },
-        history.length ? fmtDisposition(history[0]) : 'open (no disposition yet)',
-      ),
-      form,
-      history.length
-        ? h(
-            'ul',
-            { class: 'disposition-history' },
-            history.map((/** @type {any} */ d) =>
-              h('li', {}, h('span', { class: 'mono' }, fmtTime(d.created_at)), ` ${d.actor}: `, fmtDisposition(d)),
-            ),
-          )
-        : '',
-    );
+        ? html`<form class="disposition-form" @submit=${onSubmit}>
+            <select name="kind">
+              ${DISPOSITIONS.map(([k, label]) => html`<option value=${k}>${label}</option>`)}
+            </select>
+            <input name="comment" size="28" maxlength="1000" placeholder="reason or comment" />
+            <button type="submit">Record</button>
+          </form>`
+        : html`<p class="note">Recording a disposition needs an operator token.</p>`;
+    return html`<p class="current disposition ${history.length ? 'set' : 'open'}">
+        ${history.length ? fmtDisposition(history[0]) : 'open (no disposition yet)'}
+      </p>
+      ${form}
+      ${
+        history.length
+          ? html`<ul class="disposition-history">
+              ${history.map(
+                (/** @type {any} */ d) =>
+                  html`<li><span class="mono">${fmtTime(d.created_at)}</span> ${d.actor}: ${fmtDisposition(d)}</li>`,
+              )}
+            </ul>`
+          : nothing
+      }`;
   }
 
-  /** @param {string|null} url */
-  renderViewer(url) {
-    // the 3D view takes the frame's place (it needs the room); the side panel keeps the switch
-    this.viewerOverlay.hidden = !url;
-    this.viewerOverlay.replaceChildren(
-      ...(url
-        ? [
-            h(
-              'div',
-              { class: 'viewer-bar' },
-              h('strong', {}, '3D'),
-              ' drag to orbit, scroll to zoom · wheel from its profile at a nominal 460 mm rolling radius (the diameter is not measured) ',
-              h('a', { href: url, target: '_blank', rel: 'noopener' }, 'open full size'),
-              h('span', { class: 'spacer' }),
-              h(
-                'button',
-                { onclick: this.handlers.closeViewer, 'data-action': 'close-3d' },
-                'Back to the frame ',
-                h('kbd', {}, 'Esc'),
-              ),
-            ),
-            h('iframe', { src: url, title: '3D view of the wheel', class: 'viewer-frame' }),
-          ]
-        : []),
-    );
-    this.viewerRoot.replaceChildren(
-      h(
-        'button',
-        {
-          onclick: url ? this.handlers.closeViewer : this.handlers.openViewer,
-          'data-action': url ? 'close-3d' : 'open-3d',
-        },
-        url ? 'Back to the frame' : 'Open 3D view',
-      ),
-      h('span', { class: 'note' }, " the wheel, the four sensors' points, cameras and laser planes"),
-    );
+  /**
+   * The side panel's switch between the frame and the 3D view.
+   * @param {string|null} url the 3D view's, when it is open
+   */
+  viewerSwitch(url) {
+    return html`<button
+        @click=${url ? this.handlers.closeViewer : this.handlers.openViewer}
+        data-action=${url ? 'close-3d' : 'open-3d'}
+      >
+        ${url ? 'Back to the frame' : 'Open 3D view'}</button
+      ><span class="note"> the wheel, the four sensors' points, cameras and laser planes</span>`;
   }
+
+  /**
+   * The 3D view in the frame's place (it needs the room), hidden without a URL.
+   * @param {string|null} url
+   */
+  viewerOverlay(url) {
+    return html`<div class="viewer-overlay" ?hidden=${!url}>
+      ${
+        url
+          ? html`<div class="viewer-bar">
+                <strong>3D</strong> drag to orbit, scroll to zoom · wheel from its profile at a nominal 460 mm rolling
+                radius (the diameter is not measured) <a href=${url} target="_blank" rel="noopener">open full size</a
+                ><span class="spacer"></span
+                ><button @click=${this.handlers.closeViewer} data-action="close-3d">
+                  Back to the frame <kbd>Esc</kbd>
+                </button>
+              </div>
+              <iframe src=${url} title="3D view of the wheel" class="viewer-frame"></iframe>`
+          : nothing
+      }
+    </div>`;
+  }
+}
+
+/**
+ * The parameter table (both methods, their difference and the limits; a parameter's name
+ * shows its definition), the quality table and the alarms.
+ * @param {any} record
+ * @param {any} limits
+ * @param {string} method
+ */
+function parameterTables(record, limits, method) {
+  if (!record) return html`<p class="empty">No results for this wheel.</p>`;
+  const a = resultOf(record, 'adaptive') ?? {};
+  const s = resultOf(record, 'steger') ?? {};
+  const limitRow = limitsFor(limits, (method === 'steger' ? s : a).reference_profile);
+  const define = (/** @type {Event} */ e, /** @type {any} */ p) => {
+    const definition = /** @type {HTMLElement} */ (
+      /** @type {HTMLElement} */ (e.currentTarget).closest('.param-table')?.querySelector('#parameter-definition')
+    );
+    definition.hidden = definition.dataset.key === p.key && !definition.hidden;
+    definition.dataset.key = p.key;
+    definition.textContent = `${p.title}: ${p.definition}`;
+  };
+  const headings = ['', 'Adaptive', 'Steger', 'Δ', `Limits ${limitRow?.wheel_profile ?? ''} (mm)`];
+  const selected = (/** @type {number} */ i) =>
+    (i === 1 && method === 'adaptive') || (i === 2 && method === 'steger') ? 'selected' : nothing;
+  const alarmOn = (/** @type {any} */ r, /** @type {string} */ key) =>
+    hasAlarmOn(r, key, limitRow?.wheel_profile) ? 'alarm' : '';
+  const alarms = [
+    ...(a.alarms ?? []).map((/** @type {any} */ al) => ['adaptive', al]),
+    ...(s.alarms ?? []).map((/** @type {any} */ al) => ['steger', al]),
+  ];
+  // the definition paragraph has no bindings: the buttons set it, updates leave it alone
+  return html`${record.reason ? html`<p class="notice">Not measured: ${record.reason}</p>` : nothing}
+    <table class="grid compact">
+      <thead>
+        <tr>
+          ${headings.map((t, i) => html`<th class=${selected(i)}>${t}</th>`)}
+        </tr>
+      </thead>
+      <tbody>
+        ${PARAMETERS.map(
+          (p) =>
+            html`<tr data-parameter=${p.key}>
+              <th title=${p.title}>
+                <button
+                  class="definition-link"
+                  aria-controls="parameter-definition"
+                  @click=${(/** @type {Event} */ e) => define(e, p)}
+                >
+                  ${p.label}${p.unit && p.unit !== 'mm' ? ` (${p.unit})` : ''}
+                </button>
+              </th>
+              <td class="num ${alarmOn(a, p.key)}">${fmtNumber(a[p.key], p.digits)}</td>
+              <td class="num ${alarmOn(s, p.key)}">${fmtNumber(s[p.key], p.digits)}</td>
+              <td class="num">
+                ${fmtSigned(a[p.key] != null && s[p.key] != null ? a[p.key] - s[p.key] : null, p.digits)}
+              </td>
+              <td class="num">${limitText(limitRow, p.key, p.limitMax)}</td>
+            </tr>`,
+        )}
+      </tbody>
+    </table>
+    <p class="note definition" id="parameter-definition" hidden></p>
+    ${
+      a.tread_reason || s.tread_reason
+        ? html`<p class="note tread-reason">Not measured: ${a.tread_reason ?? s.tread_reason}</p>`
+        : nothing
+    }
+    <p class="note diameter-note">${DIAMETER_NOTE}</p>
+    <table class="grid compact quality">
+      <thead>
+        <tr>
+          ${['Quality', 'points in / out', 'overlap RMS', 'rejected', 'σ mean (range) px'].map((t) => html`<th>${t}</th>`)}
+        </tr>
+      </thead>
+      <tbody>
+        ${[
+          ['adaptive', a],
+          ['steger', s],
+        ].map(
+          ([m, r]) =>
+            html`<tr>
+              <th>${m}</th>
+              <td class="num">${r.quality?.points_inner ?? '–'} / ${r.quality?.points_outer ?? '–'}</td>
+              <td class="num">
+                ${r.quality?.overlap_residual_mm == null ? '–' : `${fmtNumber(r.quality.overlap_residual_mm, 3)} mm`}
+              </td>
+              <td class="num">${r.quality?.rejected_points ?? '–'}</td>
+              <td class="num">
+                ${fmtNumber(r.sigma_mean_px)} (${fmtNumber(r.sigma_min_px)}–${fmtNumber(r.sigma_max_px)})
+              </td>
+            </tr>`,
+        )}
+      </tbody>
+    </table>
+    <ul class="alarms">
+      ${alarms.map(([m, al]) => html`<li class="alarm">${m}: ${al.message}</li>`)}
+    </ul>`;
 }
 
 /**
  * The wheel against its handheld reference: each parameter as the gauge's file gives it
  * (recomputed by the wayside code) and each method's difference from it.
- * @param {HTMLElement} root
  * @param {any} comparison a ReferenceComparison, or {error}
  * @param {((file: File) => Promise<void>|void)|null} importReference for operators and admins
  */
-function renderComparison(root, comparison, importReference) {
+function comparisonTable(comparison, importReference) {
   const reference = comparison?.reference;
+  const onPicked = (/** @type {Event} */ e) => {
+    const input = /** @type {HTMLInputElement} */ (e.target);
+    if (input.files?.[0]) importReference?.(input.files[0]);
+    input.value = '';
+  };
   const picker = importReference
-    ? h(
-        'label',
-        { class: 'button import-reference' },
-        'Import gauge file (.whl, .prr, .csv)',
-        h('input', {
-          type: 'file',
-          accept: '.whl,.prr,.csv',
-          hidden: true,
-          'data-action': 'import-reference',
-          onchange: (/** @type {Event} */ e) => {
-            const input = /** @type {HTMLInputElement} */ (e.target);
-            if (input.files?.[0]) importReference(input.files[0]);
-            input.value = '';
-          },
-        }),
-      )
-    : '';
+    ? html`<label class="button import-reference"
+        >Import gauge file (.whl, .prr, .csv)<input
+          type="file"
+          accept=".whl,.prr,.csv"
+          hidden
+          data-action="import-reference"
+          @change=${onPicked}
+      /></label>`
+    : nothing;
   if (!reference) {
-    root.replaceChildren(
-      h(
-        'p',
-        { class: 'empty' },
-        comparison?.error
-          ? `handheld reference unavailable: ${comparison.error}`
-          : 'No handheld reference for this wheel.',
-      ),
-      picker,
-    );
-    return;
+    return html`<p class="empty">
+        ${
+          comparison?.error
+            ? `handheld reference unavailable: ${comparison.error}`
+            : 'No handheld reference for this wheel.'
+        }
+      </p>
+      ${picker}`;
   }
   const difference = (/** @type {string} */ method, /** @type {string} */ key) =>
     comparison.differences.find((/** @type {any} */ d) => d.method === method && d.parameter === key)?.difference_mm;
   const rows = PARAMETERS.filter((p) => p.key !== 'back_to_back_mm');
-  root.replaceChildren(
-    h(
-      'table',
-      { class: 'grid compact', 'data-comparison': String(reference.id) },
-      h(
-        'thead',
-        {},
-        h(
-          'tr',
-          {},
-          ['', 'Handheld', 'Adaptive − handheld', 'Steger − handheld'].map((t) => h('th', {}, t)),
-        ),
-      ),
-      h(
-        'tbody',
-        {},
-        rows.map((p) =>
-          h(
-            'tr',
-            { dataset: { parameter: p.key } },
-            h('th', { title: p.title }, p.label),
-            h('td', { class: 'num' }, fmtNumber(reference[p.key])),
-            h('td', { class: 'num' }, fmtSigned(difference('adaptive', p.key))),
-            h('td', { class: 'num' }, fmtSigned(difference('steger', p.key))),
-          ),
-        ),
-      ),
-    ),
-    h(
-      'p',
-      { class: 'note' },
-      `${reference.instrument ?? 'gauge'} · ${reference.filename} · measured ${reference.measured_on ?? fmtTime(reference.measured_at)}`,
-      reference.parameter_quality === 'interpolated'
-        ? ' · sparse flank: parameters interpolated between its samples'
-        : '',
-      ' · green curve in the profile plot, mm',
-    ),
-    picker,
-  );
+  return html`<table class="grid compact" data-comparison=${String(reference.id)}>
+      <thead>
+        <tr>
+          ${['', 'Handheld', 'Adaptive − handheld', 'Steger − handheld'].map((t) => html`<th>${t}</th>`)}
+        </tr>
+      </thead>
+      <tbody>
+        ${rows.map(
+          (p) =>
+            html`<tr data-parameter=${p.key}>
+              <th title=${p.title}>${p.label}</th>
+              <td class="num">${fmtNumber(reference[p.key])}</td>
+              <td class="num">${fmtSigned(difference('adaptive', p.key))}</td>
+              <td class="num">${fmtSigned(difference('steger', p.key))}</td>
+            </tr>`,
+        )}
+      </tbody>
+    </table>
+    <p class="note">
+      ${reference.instrument ?? 'gauge'} · ${reference.filename} · measured
+      ${reference.measured_on ?? fmtTime(reference.measured_at)}${
+        reference.parameter_quality === 'interpolated'
+          ? ' · sparse flank: parameters interpolated between its samples'
+          : ''
+      }
+      · green curve in the profile plot, mm
+    </p>
+    ${picker}`;
 }
 
 /**
