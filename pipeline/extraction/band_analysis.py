@@ -214,6 +214,7 @@ def analyse_band_level(
     *,
     c_grey: float,
     frame_shape: tuple[int, int],
+    hint_blocks: np.ndarray,
 ) -> LevelResponse:
     """`pipeline.extraction.adaptive.analyse_level` on the band's blocks of one level, but for the
     ridge-peak strength, which `with_peak_strength` adds once the mask is known.
@@ -230,14 +231,20 @@ def analyse_band_level(
         Structure constant of the ridge response [grey levels].
     frame_shape : tuple of int
         Frame shape (M, N).
+    hint_blocks : ndarray of bool
+        The frame's (level-0) blocks where the hints are read: they are valid there only
+        (the mask lies on these blocks). Clearing a frame-sized array for each scale cost
+        more than the hints themselves.
 
     Returns
     -------
     LevelResponse
-        V and the hints, valid on the band and its ring; `peak_strength` holds C itself.
+        V, valid on the band and its ring, and the hints, valid on `hint_blocks`;
+        `peak_strength` holds C itself.
     """
     d = level.derivatives
-    hints = np.zeros(frame_shape, np.bool_)
+    hints = np.empty(frame_shape, np.bool_)
+    zero_blocks(hints, hint_blocks)
     response, strength = _analyse_blocks(
         d.ix,
         d.iy,
@@ -339,9 +346,10 @@ def _pyramid(image: np.ndarray, sigmas_px: tuple[float, ...], max_level: int) ->
 
 
 def _analysed(
-    pyramid: _Pyramid, sigma_px: float, level: int, blocks, ring, c_grey: float
+    pyramid: _Pyramid, sigma_px: float, level: int, blocks, ring, c_grey: float, hint_blocks
 ) -> LevelResponse:
-    """One scale's V, C and hints on the blocks of its level."""
+    """One scale's V, C and hints on the blocks of its level (the hints valid on the frame's
+    `hint_blocks`)."""
     residual = math.sqrt(sigma_px**2 - decimated_variance(level)) / 2**level
     derivatives = band_derivatives(pyramid.levels[level], residual, blocks, ring)
     return analyse_band_level(
@@ -350,6 +358,7 @@ def _analysed(
         ring,
         c_grey=c_grey,
         frame_shape=pyramid.image.shape,
+        hint_blocks=hint_blocks,
     )
 
 
@@ -370,7 +379,7 @@ def analyse_fixed_scale(
     pyramid = _pyramid(image, (sigma_px,), max_level)
     level = pyramid.scale_levels[0]
     blocks = all_blocks(pyramid.shapes[level])
-    return _analysed(pyramid, sigma_px, level, blocks, ~blocks, c_grey)
+    return _analysed(pyramid, sigma_px, level, blocks, ~blocks, c_grey, all_blocks(image.shape))
 
 
 def _with_peaks(
@@ -420,7 +429,9 @@ def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey, every_strong):
         scales = [
             seed
             if i == seed_index
-            else _analysed(pyramid, sigma, lv, band.blocks[lv], band.rings[lv], c_grey)
+            else _analysed(
+                pyramid, sigma, lv, band.blocks[lv], band.rings[lv], c_grey, band.blocks[0]
+            )
             for i, (sigma, lv) in enumerate(zip(sigmas_px, pyramid.scale_levels, strict=True))
         ]
         return (
@@ -501,7 +512,9 @@ def analyse_band(
         reason = "no scale on a decimated grid"
     elif not full_frame:
         grid = everywhere[levels[seed_index]]
-        seed = _analysed(pyramid, sigmas_px[seed_index], levels[seed_index], grid, ~grid, c_grey)
+        seed = _analysed(
+            pyramid, sigmas_px[seed_index], levels[seed_index], grid, ~grid, c_grey, everywhere[0]
+        )
         found = _in_band(pyramid, sigmas_px, seed_index, seed, c_grey, every_strong)
         if not isinstance(found, str):
             band, scales, inside, widened = found
@@ -517,7 +530,7 @@ def analyse_band(
     scales = [
         seed
         if seed is not None and i == seed_index
-        else _analysed(pyramid, sigma, lv, everywhere[lv], ~everywhere[lv], c_grey)
+        else _analysed(pyramid, sigma, lv, everywhere[lv], ~everywhere[lv], c_grey, everywhere[0])
         for i, (sigma, lv) in enumerate(zip(sigmas_px, levels, strict=True))
     ]
     whole = _segment(scales, levels, everywhere, image.shape, c_grey, every_strong)

@@ -11,6 +11,7 @@ from pipeline.extraction.blocks import BLOCK_PX, block_runs, run_starts
 from pipeline.extraction.closing import close_runs
 from pipeline.extraction.components import (
     append_runs,
+    label_maxima,
     label_runs,
     labels_within,
     room_for_runs,
@@ -174,8 +175,7 @@ reaches 4 px (one stride of level 2)."""
 def _components(runs, run_strength):
     """Labels of the runs, the components' shapes and their largest C."""
     label, moments = label_runs(runs)
-    strength = np.zeros(moments.shape[0])
-    np.maximum.at(strength, label, run_strength)
+    strength = label_maxima(label, run_strength, moments.shape[0])
     return label, shapes_from_moments(*moments.T), strength
 
 

@@ -100,16 +100,24 @@ def label_runs(runs):
     count = runs.shape[0]
     parent = np.arange(count)
     previous = 0  # first run of the previous row
+    row = -1
+    scan = 0  # first run of the previous row that ends at or after this run's start
     for k in range(count):
         r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2]
         while previous < k and runs[previous, 0] < r - 1:
             previous += 1
-        j = previous
-        while j < k and runs[j, 0] == r - 1:
-            if runs[j, 1] <= c1 and c0 <= runs[j, 2]:
-                a, b = _find(parent, k), _find(parent, j)
-                if a != b:
-                    parent[max(a, b)] = min(a, b)
+        if r != row:
+            row, scan = r, previous
+        # A row's runs are sorted and disjoint: those of the previous row that end before
+        # c0 touch no later run of this row either, and from the first that starts past c1
+        # on none touches this one (a textured frame holds hundreds of runs a row).
+        while scan < k and runs[scan, 0] == r - 1 and runs[scan, 2] < c0:
+            scan += 1
+        j = scan
+        while j < k and runs[j, 0] == r - 1 and runs[j, 1] <= c1:
+            a, b = _find(parent, k), _find(parent, j)
+            if a != b:
+                parent[max(a, b)] = min(a, b)
             j += 1
     label = np.empty(count, np.int64)
     components = 1
@@ -193,6 +201,16 @@ def shapes_from_moments(
     lam_max = 0.5 * (vrr + vcc) + np.sqrt(0.25 * (vrr - vcc) ** 2 + vrc**2)
     length = np.sqrt(12 * np.maximum(lam_max, 0))
     return ComponentShapes(area_px=area, length_px=length, elongation=length**2 / safe)
+
+
+@kernel
+def label_maxima(label, values, count):
+    """The largest of `values` (≥ 0) per label 0..count − 1: (count,) float64, 0 where a
+    label has none (np.maximum.at, a loop instead of its slow generic path)."""
+    out = np.zeros(count)
+    for k in range(label.size):
+        out[label[k]] = max(out[label[k]], values[k])
+    return out
 
 
 @kernel

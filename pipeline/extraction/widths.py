@@ -57,11 +57,18 @@ def _coarse_interior(ix, iy, x0, y0, dx, dy, steps, origin, scale, values) -> No
 
 
 @kernel
+def _magnitude(gx: float, gy: float) -> float:
+    """|∇I| [grey levels/px] as √(gx² + gy²): the squares of grey-level gradients stay far
+    inside the float range, so the library's hypot (a call per sample) is not needed."""
+    return np.sqrt(gx * gx + gy * gy)
+
+
+@kernel
 def _cubic_gradient_interior(ix, iy, u: float, v: float) -> float:
     """|∇I| from Keys cubic Ix, Iy at level-grid coordinates (u, v) when all 4 × 4 taps lie
     inside the grid (`interior_taps`, shared by both fields)."""
     taps = interior_taps(u, v)
-    return np.hypot(cubic_at(ix, *taps), cubic_at(iy, *taps))
+    return _magnitude(cubic_at(ix, *taps), cubic_at(iy, *taps))
 
 
 @kernel
@@ -135,7 +142,7 @@ def _edge_distances(ix, iy, stride, x, y, nx, ny, steps, out) -> None:
                     u = (xk + step * dx - origin) * scale
                     v = (yk + step * dy - origin) * scale
                     taps = cubic_taps(u, v, height, width)
-                    refined[i] = np.hypot(cubic_at(ix, *taps), cubic_at(iy, *taps))
+                    refined[i] = _magnitude(cubic_at(ix, *taps), cubic_at(iy, *taps))
             node = 0
             for i in range(1, 5):
                 if refined[i] > refined[node]:
