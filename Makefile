@@ -6,6 +6,8 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 APT_STAMP := $(VENV)/.apt-installed
 NODE_STAMP := node_modules/.installed
+KERNEL_STAMP := $(VENV)/.kernels-compiled
+PIPELINE_SOURCES := $(shell find pipeline -name '*.py')
 DEBIAN_PACKAGES := chromium poppler-utils fonts-dejavu-core docker-compose nodejs postgresql redis-server
 
 .PHONY: run test lint format bench venv system-deps node-tools clean
@@ -16,8 +18,13 @@ $(STAMP): pyproject.toml requirements.lock
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -c requirements.lock -e '.[dev]'
-	$(PY) -m pipeline.precompile
 	touch $(STAMP)
+
+# The numba kernels, compiled again whenever a pipeline source changes (precompile clears
+# every cached kernel first when any source differs from the last compile).
+$(KERNEL_STAMP): $(STAMP) $(PIPELINE_SOURCES)
+	$(PY) -m pipeline.precompile
+	touch $(KERNEL_STAMP)
 
 # Debian packages the tests need: headless Chromium, pdftoppm, and the PostgreSQL and Redis
 # binaries the tests start throw-away servers from when the machine runs none.
@@ -42,7 +49,7 @@ $(NODE_STAMP): package.json package-lock.json | $(APT_STAMP)
 	npm ci --no-audit --no-fund --loglevel=error
 	touch $(NODE_STAMP)
 
-run: $(STAMP)
+run: $(STAMP) $(KERNEL_STAMP)
 	$(VENV)/bin/wheelscan run-demo
 
 lint: $(STAMP) $(NODE_STAMP)
@@ -58,10 +65,10 @@ format: $(STAMP) $(NODE_STAMP)
 	$(VENV)/bin/ruff format .
 	node_modules/.bin/prettier --write frontend tests/frontend
 
-test: $(STAMP) system-deps lint
+test: $(STAMP) $(KERNEL_STAMP) system-deps lint
 	$(PY) -m pytest -q
 
-bench: $(STAMP)
+bench: $(STAMP) $(KERNEL_STAMP)
 	$(PY) -m benchmarks.run
 
 clean:
