@@ -32,7 +32,7 @@ from pipeline.extraction.curvature import (
     smooth_along,
 )
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
-from pipeline.extraction.line_test import is_line, line_profiles
+from pipeline.extraction.line_test import is_line, is_spot, line_profiles
 from pipeline.extraction.linking import link_points
 from pipeline.extraction.normal_fit import matched_offsets
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
@@ -186,6 +186,15 @@ class _Selected:
     offset: np.ndarray
     level_index: np.ndarray
     levels: tuple[ScaleLevel, ...]
+    lambda_ratio: np.ndarray
+
+
+def _lambda_ratio(lambda1: np.ndarray, lambda2: np.ndarray) -> np.ndarray:
+    """λ2/λ1 (float64): 1 on a round spot's centre, 0 on a straight line, negative where the
+    grey curves up along the line; 0 where λ1 = 0 (no candidate there)."""
+    lambda1 = lambda1.astype(np.float64)
+    safe = np.where(lambda1 != 0, lambda1, 1.0)
+    return np.where(lambda1 != 0, lambda2.astype(np.float64) / safe, 0.0)
 
 
 def _select_adaptive(
@@ -211,6 +220,7 @@ def _select_adaptive(
         offset=lines.offset_px[ok],
         level_index=index,
         levels=tuple(scale.level for scale in scales),
+        lambda_ratio=_lambda_ratio(lines.lambda1[ok], lines.lambda2[ok]),
     )
     return selected, sigma_map
 
@@ -230,6 +240,7 @@ def _select_fixed(scale: LevelResponse, mask: np.ndarray, blocks: np.ndarray) ->
         offset=lines.offset_px[ok],
         level_index=np.zeros(int(ok.sum()), np.int64),
         levels=(level,),
+        lambda_ratio=_lambda_ratio(lines.lambda1[ok], lines.lambda2[ok]),
     )
 
 
@@ -351,7 +362,17 @@ def _lines_only(
     kept = _Selected(
         **{
             name: getattr(selected, name)[line]
-            for name in ("rows", "cols", "sigma", "strength", "nx", "ny", "offset", "level_index")
+            for name in (
+                "rows",
+                "cols",
+                "sigma",
+                "strength",
+                "nx",
+                "ny",
+                "offset",
+                "level_index",
+                "lambda_ratio",
+            )
         },
         levels=selected.levels,
     )
@@ -475,6 +496,20 @@ def _bright_chains(
     return bright, np.concatenate(dim) if dim else np.zeros(0, np.int64)
 
 
+def _no_spots(
+    chains: list[np.ndarray], height: np.ndarray, selected: _Selected, xy: np.ndarray
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """The chains that are not round spots (`line_test.is_spot`; every chain when the heights
+    are NaN, the baselines) and the points of those that are. `xy` (K, 2) are the centres
+    [px]."""
+    if not chains or np.isnan(height).all():
+        return chains, np.zeros(0, np.int64)
+    spot = [is_spot(xy[c], height[c], selected.lambda_ratio[c], selected.sigma[c]) for c in chains]
+    kept = [c for c, s in zip(chains, spot, strict=True) if not s]
+    spots = [c for c, s in zip(chains, spot, strict=True) if s]
+    return kept, np.concatenate(spots) if spots else np.zeros(0, np.int64)
+
+
 def _widths(levels, level_index, x, y, nx, ny, width_max: float) -> np.ndarray:
     """Stripe width [px] at centres (x, y) found at `levels[level_index]`
     (`widths.stripe_widths`, searched within twice the standard deviation of the widest
@@ -527,11 +562,12 @@ def _assemble(
     selected, (x, y, nx, ny), height, rejected_x, rejected_y = lines
     chains = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
     xy = np.column_stack([x, y])
+    chains, spots = _no_spots(chains, height, selected, xy)
     chains, weak = _bright_chains(
         chains, height, selected.strength, xy, c_grey, continuing=continuing
     )
-    rejected_x = np.concatenate([rejected_x, x[weak]])
-    rejected_y = np.concatenate([rejected_y, y[weak]])
+    rejected_x = np.concatenate([rejected_x, x[spots], x[weak]])
+    rejected_y = np.concatenate([rejected_y, y[spots], y[weak]])
     _orient_normals(nx, ny, chains)
     order = np.concatenate(chains) if chains else np.zeros(0, np.int64)
     points = (x[order], y[order], nx[order], ny[order])
