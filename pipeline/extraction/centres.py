@@ -103,9 +103,10 @@ class Centres:
         Sub-pixel positions [px] of the candidate centres inside the mask that "adaptive"
         rejected: the line-vs-edge test's (`pipeline.extraction.line_test`: the grey does
         not fall off on both sides, or the line is thinner than width_min allows), those of
-        dim chains short or apart from the stripe (`segmentation.CHAIN_FRACTION`) and of
-        chains wider than the width range (`segmentation.CHAIN_WIDTH_FACTOR`). Empty for
-        "steger" and "classic", the paper's baselines.
+        chains that are round spots (`line_test.is_spot`), of dim chains short or apart
+        from the stripe (`segmentation.CHAIN_FRACTION`) and of chains wider than the width
+        range (`segmentation.CHAIN_WIDTH_FACTOR`). Empty for "steger" and "classic", the
+        paper's baselines.
     region : PixelRegion or None
         The part of the frame searched (None: all of it); nothing outside it is in the mask.
 
