@@ -501,14 +501,20 @@ def _no_spots(
     chains: list[np.ndarray], height: np.ndarray, selected: _Selected, xy: np.ndarray
 ) -> tuple[list[np.ndarray], np.ndarray]:
     """The chains that are not round spots (`line_test.is_spot`; every chain when the heights
-    are NaN, the baselines) and the points of those that are. `xy` (K, 2) are the centres
-    [px]."""
+    are NaN, the baselines) and the points of those that are. A spot's chain that continues
+    another chain's line (`_continuing`) is the stripe's own, through a glint on it: where
+    the stripe is faint or textured its chain breaks at the glint, and the piece holding the
+    glint is short and highest there. `xy` (K, 2) are the centres [px]."""
     if not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
-    spot = [is_spot(xy[c], height[c], selected.lambda_ratio[c], selected.sigma[c]) for c in chains]
-    kept = [c for c, s in zip(chains, spot, strict=True) if not s]
-    spots = [c for c, s in zip(chains, spot, strict=True) if s]
-    return kept, np.concatenate(spots) if spots else np.zeros(0, np.int64)
+    kept = [
+        not is_spot(xy[c], height[c], selected.lambda_ratio[c], selected.sigma[c]) for c in chains
+    ]
+    if not all(kept):
+        kept = _continuing(kept, chains, xy[:, 0], xy[:, 1])
+    spots = [c for c, k in zip(chains, kept, strict=True) if not k]
+    lines = [c for c, k in zip(chains, kept, strict=True) if k]
+    return lines, np.concatenate(spots) if spots else np.zeros(0, np.int64)
 
 
 def _widths(levels, level_index, x, y, nx, ny, width_max: float) -> np.ndarray:

@@ -3,11 +3,14 @@ centre, the stripe keeps all of its own."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pipeline import extract_centres
+from pipeline.extraction.centres import _no_spots
 
 SHAPE = (240, 400)
 
@@ -115,3 +118,21 @@ def test_a_straight_and_bent_stripe_of_any_width_in_range_keeps_full_coverage(
     stripe, truth = _bend(rows, cols, width_px=width_px, peak=peak, radius_px=radius_px)
     centres = extract_centres(_frame(stripe), width_min=5, width_max=21)
     assert _covered(centres, truth, reach_px=1.5) > 0.99
+
+
+def test_a_spot_chain_that_continues_the_stripes_line_is_kept_one_beside_it_is_not() -> None:
+    # Chains 1 px apart along x: the stripe's long chain (λ2/λ1 0, height 60) ending at
+    # x = 99, and 9-centre chains highest at a glint (λ2/λ1 0.95 there, height 200): one on
+    # the stripe's line past a 4 px break (the stripe's own, broken at the glint on a
+    # textured surface), one 12 px beside it (a glint beside the stripe).
+    stripe = np.column_stack([np.arange(0.0, 100.0), np.zeros(100)])
+    ahead = np.column_stack([np.arange(104.0, 113.0), np.zeros(9)])
+    beside = np.column_stack([np.arange(40.0, 49.0), np.full(9, 12.0)])
+    xy = np.vstack([stripe, ahead, beside])
+    glint = np.r_[np.zeros(100), np.tile([0.3, 0.5, 0.7, 0.9, 0.95, 0.9, 0.7, 0.5, 0.3], 2)]
+    height = np.r_[np.full(100, 60.0), np.tile([60, 90, 140, 180, 200, 180, 140, 90, 60], 2)]
+    chains = [np.arange(100), np.arange(100, 109), np.arange(109, 118)]
+    selected = SimpleNamespace(lambda_ratio=glint, sigma=np.full(xy.shape[0], 2.9))
+    kept, spots = _no_spots(chains, height.astype(float), selected, xy)
+    assert [c[0] for c in kept] == [0, 100]
+    assert np.array_equal(spots, np.arange(109, 118))
