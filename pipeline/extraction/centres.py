@@ -32,7 +32,7 @@ from pipeline.extraction.curvature import (
     smooth_along,
 )
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
-from pipeline.extraction.line_test import is_line, line_profiles
+from pipeline.extraction.line_test import is_line, is_spot, line_profiles
 from pipeline.extraction.linking import link_points
 from pipeline.extraction.normal_fit import matched_offsets
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
@@ -103,9 +103,10 @@ class Centres:
         Sub-pixel positions [px] of the candidate centres inside the mask that "adaptive"
         rejected: the line-vs-edge test's (`pipeline.extraction.line_test`: the grey does
         not fall off on both sides, or the line is thinner than width_min allows), those of
-        dim chains short or apart from the stripe (`segmentation.CHAIN_FRACTION`) and of
-        chains wider than the width range (`segmentation.CHAIN_WIDTH_FACTOR`). Empty for
-        "steger" and "classic", the paper's baselines.
+        chains that are round spots (`line_test.is_spot`), of dim chains short or apart
+        from the stripe (`segmentation.CHAIN_FRACTION`) and of chains wider than the width
+        range (`segmentation.CHAIN_WIDTH_FACTOR`). Empty for "steger" and "classic", the
+        paper's baselines.
     region : PixelRegion or None
         The part of the frame searched (None: all of it); nothing outside it is in the mask.
 
@@ -186,6 +187,15 @@ class _Selected:
     offset: np.ndarray
     level_index: np.ndarray
     levels: tuple[ScaleLevel, ...]
+    lambda_ratio: np.ndarray
+
+
+def _lambda_ratio(lambda1: np.ndarray, lambda2: np.ndarray) -> np.ndarray:
+    """λ2/λ1 (float64): 1 on a round spot's centre, 0 on a straight line, negative where the
+    grey curves up along the line; 0 where λ1 = 0 (no candidate there)."""
+    lambda1 = lambda1.astype(np.float64)
+    safe = np.where(lambda1 != 0, lambda1, 1.0)
+    return np.where(lambda1 != 0, lambda2.astype(np.float64) / safe, 0.0)
 
 
 def _select_adaptive(
@@ -211,6 +221,7 @@ def _select_adaptive(
         offset=lines.offset_px[ok],
         level_index=index,
         levels=tuple(scale.level for scale in scales),
+        lambda_ratio=_lambda_ratio(lines.lambda1[ok], lines.lambda2[ok]),
     )
     return selected, sigma_map
 
@@ -230,6 +241,7 @@ def _select_fixed(scale: LevelResponse, mask: np.ndarray, blocks: np.ndarray) ->
         offset=lines.offset_px[ok],
         level_index=np.zeros(int(ok.sum()), np.int64),
         levels=(level,),
+        lambda_ratio=_lambda_ratio(lines.lambda1[ok], lines.lambda2[ok]),
     )
 
 
@@ -351,7 +363,17 @@ def _lines_only(
     kept = _Selected(
         **{
             name: getattr(selected, name)[line]
-            for name in ("rows", "cols", "sigma", "strength", "nx", "ny", "offset", "level_index")
+            for name in (
+                "rows",
+                "cols",
+                "sigma",
+                "strength",
+                "nx",
+                "ny",
+                "offset",
+                "level_index",
+                "lambda_ratio",
+            )
         },
         levels=selected.levels,
     )
@@ -475,6 +497,26 @@ def _bright_chains(
     return bright, np.concatenate(dim) if dim else np.zeros(0, np.int64)
 
 
+def _no_spots(
+    chains: list[np.ndarray], height: np.ndarray, selected: _Selected, xy: np.ndarray
+) -> tuple[list[np.ndarray], np.ndarray]:
+    """The chains that are not round spots (`line_test.is_spot`; every chain when the heights
+    are NaN, the baselines) and the points of those that are. A spot's chain that continues
+    another chain's line (`_continuing`) is the stripe's own, through a glint on it: where
+    the stripe is faint or textured its chain breaks at the glint, and the piece holding the
+    glint is short and highest there. `xy` (K, 2) are the centres [px]."""
+    if not chains or np.isnan(height).all():
+        return chains, np.zeros(0, np.int64)
+    kept = [
+        not is_spot(xy[c], height[c], selected.lambda_ratio[c], selected.sigma[c]) for c in chains
+    ]
+    if not all(kept):
+        kept = _continuing(kept, chains, xy[:, 0], xy[:, 1])
+    spots = [c for c, k in zip(chains, kept, strict=True) if not k]
+    lines = [c for c, k in zip(chains, kept, strict=True) if k]
+    return lines, np.concatenate(spots) if spots else np.zeros(0, np.int64)
+
+
 def _widths(levels, level_index, x, y, nx, ny, width_max: float) -> np.ndarray:
     """Stripe width [px] at centres (x, y) found at `levels[level_index]`
     (`widths.stripe_widths`, searched within twice the standard deviation of the widest
@@ -527,11 +569,12 @@ def _assemble(
     selected, (x, y, nx, ny), height, rejected_x, rejected_y = lines
     chains = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
     xy = np.column_stack([x, y])
+    chains, spots = _no_spots(chains, height, selected, xy)
     chains, weak = _bright_chains(
         chains, height, selected.strength, xy, c_grey, continuing=continuing
     )
-    rejected_x = np.concatenate([rejected_x, x[weak]])
-    rejected_y = np.concatenate([rejected_y, y[weak]])
+    rejected_x = np.concatenate([rejected_x, x[spots], x[weak]])
+    rejected_y = np.concatenate([rejected_y, y[spots], y[weak]])
     _orient_normals(nx, ny, chains)
     order = np.concatenate(chains) if chains else np.zeros(0, np.int64)
     points = (x[order], y[order], nx[order], ny[order])

@@ -9,6 +9,11 @@ matches (w = √3·σ) has fallen to e⁻² of its smoothed peak; a side that do
 enough there is read again twice as far, beyond a bright spot or glow beside the line, where
 the line stands well above it. It asks the unsmoothed profile whether the line is as wide as
 the narrowest stripe expected.
+
+A round spot (a specular glint beside the stripe) passes both: across any line through its
+centre the grey falls off on both sides. What it is not is long: along the would-be line
+the grey falls off as fast as across it, so the Hessian's second eigenvalue λ2 is about as
+negative as λ1, where a line has λ2 ≈ 0. `is_spot` asks that of each linked chain.
 """
 
 from __future__ import annotations
@@ -264,3 +269,44 @@ def is_line(profiles: np.ndarray) -> np.ndarray:
     weaker, stronger = profiles[:2].min(axis=0), profiles[4]
     wide = profiles[3] >= SHOULDER_FLOOR * profiles[2]
     return (weaker > 0) & (weaker >= SIDE_FLOOR * stronger) & wide
+
+
+SPOT_RATIO = 0.6
+"""A chain is a round spot when λ2/λ1 at the chosen σ, at its highest centre, is at least
+this. A round Gaussian spot has 1 at its centre whatever its size and the scale; a straight
+line 0, one curved at radius R ≈ (σ/R)² (≤ 0.05 for the flange top, R ≥ 30 px at σ ≤ 7 px);
+inside a line's end, smoothed at σ, at most 0.34 (at σ from the end); the middle of a piece
+of line of length L has 0.84 at L = 2σ, 0.53 at 3σ and 0.27 at 4σ, so a piece at least 3σ
+(1.7 widths the scale matches) long is a line. On simulated wheel frames spots have
+0.89–0.99, the stripe's chains −0.06–0.2 (0.38 at most at any centre)."""
+
+SPOT_LENGTH_SIGMAS = 6.0
+"""... and the chain is at most this many σ (at its highest centre) long along its centres:
+the chains through a spot's centre reach to where λ1 fades, 2.5–4.2 σ on simulated wheel
+frames; a chain of the stripe with a glint on it (λ2/λ1 ≈ 1 at the glint, its highest
+centre) is longer."""
+
+
+def is_spot(xy: np.ndarray, height: np.ndarray, ratio: np.ndarray, sigma: np.ndarray) -> bool:
+    """Whether a linked chain of centres is a round spot, not a piece of line.
+
+    Parameters
+    ----------
+    xy : ndarray of shape (K, 2)
+        The chain's centres in order [px].
+    height : ndarray of shape (K,)
+        Their heights above the brighter side [grey levels] (`line_profiles` row 2).
+    ratio : ndarray of shape (K,)
+        λ2/λ1 of the Hessian at the scale each centre was found at.
+    sigma : ndarray of shape (K,)
+        That scale [px].
+
+    Returns
+    -------
+    bool
+        λ2/λ1 at the highest centre ≥ SPOT_RATIO and the chain's length along its centres
+        ≤ SPOT_LENGTH_SIGMAS·σ there.
+    """
+    top = int(np.argmax(height))
+    length = float(np.hypot(*np.diff(xy, axis=0).T).sum())
+    return bool(ratio[top] >= SPOT_RATIO and length <= SPOT_LENGTH_SIGMAS * sigma[top])

@@ -131,7 +131,7 @@ export class FrameView {
         ? [
             entry(
               'rejected',
-              `rejected candidates (${rejected}): an edge, not a line, or a chain too short, apart or wide`,
+              `rejected candidates (${rejected}): an edge or a spot, not a line, or a chain too short, apart or wide`,
             ),
           ]
         : []),
