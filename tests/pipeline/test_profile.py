@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from pipeline.profile.flange import fit_flange_parameters
-from pipeline.profile.fusion import DatumError, fuse_profile, overlap_residual
+from pipeline.profile.fusion import (
+    DatumError,
+    clean_profile_points,
+    fuse_profile,
+    overlap_residual,
+)
 from pipeline.profile.reference import load_reference_profile
 from pipeline.simulation.wheel import Wear, wheel_profile
 
@@ -140,3 +145,21 @@ def test_a_flange_top_in_short_pieces_is_kept_and_a_glint_above_it_is_not() -> N
     assert profile.z_mm.max() < PROFILE.truth.flange_height_mm + 0.01
     p = fit_flange_parameters(profile.x_mm, profile.z_mm)
     assert p.flange_height_mm == pytest.approx(PROFILE.truth.flange_height_mm, abs=0.01)
+
+
+def _flange_arc(count: int = 400) -> np.ndarray:
+    """A smooth flange-like outline z(x) = 28 − (x − 16)²/20 sampled 0.05 mm apart [mm]."""
+    x = 4.0 + 0.05 * np.arange(count)
+    return np.column_stack([x, 28.0 - (x - 16.0) ** 2 / 20.0])
+
+
+def test_a_piece_above_the_profile_is_dropped_and_one_below_kept() -> None:
+    arc = _flange_arc()
+    above = np.column_stack([np.linspace(15.0, 17.0, 45), np.linspace(30.0, 31.5, 45)])
+    below = np.column_stack([np.linspace(15.0, 17.0, 45), np.linspace(26.0, 25.0, 45)])
+    for piece, kept in ((above, False), (below, True)):
+        xz = np.concatenate([arc, piece])
+        sensor = np.concatenate([np.zeros(len(arc), np.int8), np.ones(len(piece), np.int8)])
+        keep = clean_profile_points(xz, sensor)
+        assert keep[: len(arc)].all()
+        assert keep[len(arc) :].all() == kept and keep[len(arc) :].any() == kept
