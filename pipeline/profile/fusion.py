@@ -303,9 +303,7 @@ def _main_components(xz: np.ndarray) -> np.ndarray:
     return sizes[labels] >= MIN_COMPONENT_POINTS
 
 
-def _doubled(
-    xz: np.ndarray, accepted: np.ndarray, x_stop_mm: float
-) -> np.ndarray:
+def _doubled(xz: np.ndarray, accepted: np.ndarray, x_stop_mm: float) -> np.ndarray:
     """True for points with accepted points within ±DOUBLED_DX_MM in x, all of them more
     than DOUBLED_DZ_MM below (inside SINGLE_VALUED_X_MM < x < x_stop_mm; elsewhere False)."""
     order = np.argsort(accepted[:, 0], kind="stable")
