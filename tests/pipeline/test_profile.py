@@ -163,3 +163,19 @@ def test_a_piece_above_the_profile_is_dropped_and_one_below_kept() -> None:
         keep = clean_profile_points(xz, sensor)
         assert keep[: len(arc)].all()
         assert keep[len(arc) :].all() == kept and keep[len(arc) :].any() == kept
+
+
+def test_a_spot_below_the_flange_top_does_not_lift_its_height() -> None:
+    """A glint's points 5 mm below the top, within the top circle's ±4 mm, stay out of it."""
+    profile = wheel_profile(load_reference_profile("LMA"))
+    x, z = profile.x_mm, profile.z_mm
+    clean = fit_flange_parameters(x, z).flange_height_mm
+    top_x = x[np.argmax(z)]
+    rng = np.random.default_rng(0)
+    blob_x = top_x + 2.5 + rng.uniform(-0.8, 0.8, 60)
+    blob_z = z.max() - 5.0 + rng.uniform(-0.6, 0.6, 60)
+    order = np.argsort(np.concatenate([x, blob_x]), kind="stable")
+    spotted = fit_flange_parameters(
+        np.concatenate([x, blob_x])[order], np.concatenate([z, blob_z])[order]
+    ).flange_height_mm
+    assert spotted == pytest.approx(clean, abs=0.005)
