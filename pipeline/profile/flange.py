@@ -27,6 +27,12 @@ TOP_HALF_WINDOW_MM = 2.5
 by 2.5⁴/(8·12³) = 0.003 mm at its ends, well below the measurement's resolution."""
 TOP_CIRCLE_HALF_WINDOW_MM = 4.0
 """Half-width in x of the circle fitted to the flange top for its height."""
+TOP_CIRCLE_DEPTH_MM = 2.0
+"""The circle takes the points within 2 mm below the crest's quadratic only: the top arc
+drops < 1 mm over ±4 mm (R12 LMA: 0.69 mm; worn tops a little more), while a glint or spot
+beside the stripe that lands in the window lies millimetres lower. On a clean pass (seed
+2027, pass 2, V002/2/left) a specular spot 5 mm below the top, 1.5–4 mm beside it in x,
+pulled the circle up: Sh +0.398 mm, with the band +0.000."""
 FLANK_HALF_WINDOW_MM = 1.0
 """Half-height in z of the flank fits (quadratic x(z) about the height)."""
 FLANK_BRIDGE_HALF_WINDOW_MM = 3.0
@@ -179,9 +185,14 @@ def _check_both_sides(x: np.ndarray, x_crest: float, half_window_mm: float) -> N
         )
 
 
-def _fit_top_circle(x: np.ndarray, z: np.ndarray, x_top: float) -> tuple[float, float]:
-    """Flange top as the crest of a circle fitted within ±4 mm of the first estimate."""
-    near = np.flatnonzero(np.abs(x - x_top) <= TOP_CIRCLE_HALF_WINDOW_MM)
+def _fit_top_circle(
+    x: np.ndarray, z: np.ndarray, x_top: float, z_top: float
+) -> tuple[float, float]:
+    """Flange top as the crest of a circle fitted within ±4 mm of the first estimate
+    (x_top, z_top), to the points at most TOP_CIRCLE_DEPTH_MM below it."""
+    near = np.flatnonzero(
+        (np.abs(x - x_top) <= TOP_CIRCLE_HALF_WINDOW_MM) & (z >= z_top - TOP_CIRCLE_DEPTH_MM)
+    )
     if near.size < MIN_FIT_POINTS:
         raise FlangeNotFoundError("too few profile points on the flange top")
     inlier = np.ones(near.size, bool)
@@ -204,18 +215,19 @@ def _fit_top_circle(x: np.ndarray, z: np.ndarray, x_top: float) -> tuple[float, 
     return cx, cz + radius
 
 
-def _top_curvature(x: np.ndarray, z: np.ndarray, x_top: float) -> tuple[float, float]:
-    """(c2, c1) of the quadratic z(x − x_top) fitted within ±2.5 mm; raises unless a crest."""
+def _top_curvature(x: np.ndarray, z: np.ndarray, x_top: float) -> tuple[float, float, float]:
+    """(c2, c1, c0) of the quadratic z(x − x_top) fitted within ±2.5 mm; raises unless a
+    crest."""
     near = np.abs(x - x_top) <= TOP_HALF_WINDOW_MM
     if np.count_nonzero(near) < MIN_FIT_POINTS:
         raise FlangeNotFoundError(
             f"too few profile points on the flange top ({np.count_nonzero(near)} within "
             f"±{TOP_HALF_WINDOW_MM:g} mm of x = {x_top:.1f} mm, where its crest should be)"
         )
-    c2, c1, _ = robust_polyfit(x[near] - x_top, z[near], 2, "flange top")
+    c2, c1, c0 = robust_polyfit(x[near] - x_top, z[near], 2, "flange top")
     if c2 >= 0:
         raise FlangeNotFoundError("the flange top is not a crest (fit curvature ≥ 0)")
-    return float(c2), float(c1)
+    return float(c2), float(c1), float(c0)
 
 
 def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
@@ -224,9 +236,11 @@ def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
     order = np.argsort(z)[::-1][: max(MIN_FIT_POINTS, z.size // 200)]
     x_top = float(np.median(x[order]))
     for _ in range(3):
-        c2, c1 = _top_curvature(x, z, x_top)
-        x_top += float(np.clip(-c1 / (2 * c2), -TOP_HALF_WINDOW_MM, TOP_HALF_WINDOW_MM))
-    return _fit_top_circle(x, z, x_top)
+        c2, c1, c0 = _top_curvature(x, z, x_top)
+        step = float(np.clip(-c1 / (2 * c2), -TOP_HALF_WINDOW_MM, TOP_HALF_WINDOW_MM))
+        x_top += step
+    z_top = c0 + c1 * step + c2 * step**2  # the last quadratic at the crest
+    return _fit_top_circle(x, z, x_top, z_top)
 
 
 def _gap_edges(dz: np.ndarray, half_window_mm: float) -> tuple[float, float]:

@@ -61,6 +61,24 @@ points measured 2 fewer wheels and no flank gap more, and let glints above the t
 (Sh MAE 0.118 → 0.849 mm, largest error 4.8 mm)."""
 
 
+DOUBLED_DX_MM = 0.2
+DOUBLED_DZ_MM = 0.5
+DOUBLED_FRACTION = 0.5
+DOUBLED_MIN_POINTS = 5
+SINGLE_VALUED_X_MM = 2.0
+"""Between the back face and the rim face the laser plane meets the wheel in one curve
+z(x): a linked piece lying above a larger piece (≥ 5 and at least half of its points have
+points of a larger piece within ±0.2 mm in x, all of them more than 0.5 mm lower) is a
+reflection, a texture blob or another part's stripe, not the wheel. Only pieces above are
+dropped: the flange height is read from the highest points, so a piece above the top
+biases it by millimetres, while a piece below a larger one may be the true flank beside a
+wrong spur attached to the larger piece (Steger on a harsh pass: a 2-sided rule dropped
+the flank there). Tested from x = 2 mm (the flange back rises steeply from the back face)
+to 3 mm before the larger pieces' end (the rim face). On the texture-only field pass (seed
+2027) a 2 mm stripe and a blob 2–4 mm above the flange top (42 points, the outer sensor)
+read Sh 0.85 mm high; with the rule 0.02 mm."""
+
+
 class DatumError(PipelineError):
     """The back face or the tread reference point cannot be found in the stripe points."""
 
@@ -285,8 +303,45 @@ def _main_components(xz: np.ndarray) -> np.ndarray:
     return sizes[labels] >= MIN_COMPONENT_POINTS
 
 
+def _doubled(xz: np.ndarray, accepted: np.ndarray, x_stop_mm: float) -> np.ndarray:
+    """True for points with accepted points within ±DOUBLED_DX_MM in x, all of them more
+    than DOUBLED_DZ_MM below (inside SINGLE_VALUED_X_MM < x < x_stop_mm; elsewhere False)."""
+    order = np.argsort(accepted[:, 0], kind="stable")
+    ax, az = accepted[order, 0], accepted[order, 1]
+    lo = np.searchsorted(ax, xz[:, 0] - DOUBLED_DX_MM, side="left")
+    hi = np.searchsorted(ax, xz[:, 0] + DOUBLED_DX_MM, side="right")
+    doubled = np.zeros(len(xz), bool)
+    testable = (xz[:, 0] > SINGLE_VALUED_X_MM) & (xz[:, 0] < x_stop_mm) & (hi > lo)
+    for i in np.flatnonzero(testable):
+        doubled[i] = np.max(az[lo[i] : hi[i]]) < xz[i, 1] - DOUBLED_DZ_MM
+    return doubled
+
+
+def _single_valued(xz: np.ndarray) -> np.ndarray:
+    """True for points of linked pieces that do not lie above a larger piece (z(x) is one
+    curve between the faces), largest pieces first."""
+    pairs = cKDTree(xz).query_pairs(LINK_RADIUS_MM, output_type="ndarray")
+    graph = coo_matrix(
+        (np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(len(xz), len(xz))
+    )
+    _, labels = connected_components(graph, directed=False)
+    sizes = np.bincount(labels)
+    keep = np.zeros(len(xz), bool)
+    for label in np.argsort(-sizes, kind="stable"):
+        members = labels == label
+        if np.any(keep):
+            accepted = xz[keep]
+            doubled = _doubled(xz[members], accepted, accepted[:, 0].max() - 3.0)
+            count = int(np.count_nonzero(doubled))
+            if count >= DOUBLED_MIN_POINTS and count >= DOUBLED_FRACTION * members.sum():
+                continue
+        keep |= members
+    return keep
+
+
 def clean_profile_points(xz: np.ndarray, sensor: np.ndarray) -> np.ndarray:
-    """Mask of the profile points kept: cross-sensor consensus, then no small stray pieces.
+    """Mask of the profile points kept: cross-sensor consensus, no small stray pieces, no
+    piece beside a larger one.
 
     Parameters
     ----------
@@ -303,6 +358,9 @@ def clean_profile_points(xz: np.ndarray, sensor: np.ndarray) -> np.ndarray:
         return keep
     kept = np.flatnonzero(keep)
     keep[kept] = _main_components(xz[kept])
+    kept = np.flatnonzero(keep)
+    if kept.size >= 2:
+        keep[kept] = _single_valued(xz[kept])
     return keep
 
 

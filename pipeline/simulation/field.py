@@ -14,7 +14,9 @@ the wheel, whatever the effects do to the stripe's appearance.
   root is that dim already), next to stretches where the specular lobe of the lit line
   reaches the camera: narrow, saturated glare on the line (the paper's Fig. 3d).
 - asymmetry: where the slope or reflectance changes across the lit band, the two sides of
-  the cross-section differ (a two-sided Gaussian, peak on the true line).
+  the cross-section differ (a two-sided Gaussian, peak on the true line); the wider half
+  is set on a physical side (the camera's side of the laser plane), so both rails' frames
+  are mirror images of each other.
 - ghost: light reflected off the flange flank draws a faint, wide copy (10–30 %) of the
   flange's stripe on the tread beside the stripe.
 - spots: specular glints on the lit line itself (the clean mode has them beside it only).
@@ -32,6 +34,12 @@ from dataclasses import dataclass, fields, replace
 import cv2
 import numpy as np
 
+from pipeline.calibration.geometry import (
+    camera_centre_track,
+    laser_plane_track,
+    project_track_points,
+)
+from pipeline.calibration.model import SensorCalibration
 from pipeline.imaging import IMAGE_FLOAT
 from pipeline.simulation.render import StripeSamples
 from pipeline.simulation.scene import grain
@@ -204,6 +212,26 @@ def skew(profile: WheelProfile, samples: StripeSamples, rng) -> np.ndarray:
     noise = np.convolve(rng.normal(0, 1, profile.x_mm.size), np.ones(100) / 10.0, mode="same")
     alpha = SKEW_CURVATURE_MM * curvature + SKEW_RANDOM * noise
     return np.clip(alpha[samples.outline_index], -SKEW_LIMIT, SKEW_LIMIT)
+
+
+def camera_side(samples: StripeSamples, sensor: SensorCalibration) -> np.ndarray:
+    """±1 per sample: +1 where the camera's side of the laser plane images on the left of
+    the samples' direction of travel (along `image_normals`), −1 where on the right.
+
+    `skew`'s α widens the half of the lit band on the camera's side of the laser plane
+    (a physical side, the same on both rails); `draw_stripe` widens the half on the left
+    in the image. The left rail's cameras are the right's mirrored, so the image side of
+    the camera's half flips between them: α × this sign draws the same physical skew on
+    both sides.
+    """
+    if samples.pixels.shape[0] == 0:
+        return np.ones(0)
+    normal, _ = laser_plane_track(sensor)
+    points = samples.points_track_mm
+    towards = np.sign((camera_centre_track(sensor) - points) @ normal)[:, None] * normal
+    step_mm = 0.5  # a step within the lit band; its image is the across-stripe direction
+    moved = project_track_points(points + step_mm * towards, sensor) - samples.pixels
+    return np.where(np.einsum("ij,ij->i", moved, image_normals(samples)) >= 0, 1.0, -1.0)
 
 
 def ghost(profile: WheelProfile, samples: StripeSamples, peak_dn: np.ndarray, rng):

@@ -29,6 +29,7 @@ from pipeline.simulation.field import (
     FieldEffects,
     add_spots_on_stripe,
     bloom,
+    camera_side,
     cut_at_flange,
     ghost,
     glare,
@@ -227,7 +228,9 @@ def _render_frame(
         factor, band = shiny_bands(wheel.profile, samples, streams["shiny_bands"])
         reflectivity = reflectivity * factor
     peaks = stripe_peaks(samples, reflectivity)
-    alpha = skew(wheel.profile, samples, streams["asymmetry"]) if on["asymmetry"] else None
+    alpha = None
+    if on["asymmetry"]:
+        alpha = skew(wheel.profile, samples, streams["asymmetry"]) * camera_side(samples, sensor)
     draw_stripe(image, samples, peaks, skew=alpha)
     reflected = ghost(wheel.profile, samples, peaks, streams["ghost"]) if on["ghost"] else None
     if reflected is not None:

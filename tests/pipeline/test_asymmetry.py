@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.extraction.asymmetry import _bias_table
+from pipeline.extraction.asymmetry import _bias_table, asymmetry_bias
 from pipeline.extraction.centres import extract_centres
 
 TRUE_ROW = 60.3
@@ -47,6 +47,20 @@ def test_asymmetry_correction_leaves_symmetric_stripes_nearly_alone() -> None:
     image = _two_sided(8, 0.0)
     for method in ("adaptive", "steger"):
         assert abs(_bias(image, method, True)) < 0.08
+
+
+def test_the_bias_is_removed_only_where_the_move_is_significant() -> None:
+    """Moves that scatter about 0 (a symmetric stripe under noise) leave the centres alone;
+    the same scatter about a steady move (an asymmetric stripe) is corrected."""
+    rng = np.random.default_rng(3)
+    count = 300
+    sigma, second = np.full(count, 3.0), np.full(count, 2.0)
+    width = np.full(count, 12.0)
+    chain = (np.arange(count),)
+    noise = rng.normal(0.0, 0.15, count)
+    assert np.all(asymmetry_bias(noise, sigma, second, width, chain) == 0.0)
+    steady = asymmetry_bias(noise - 0.3, sigma, second, width, chain)
+    assert np.mean(steady != 0.0) > 0.9
 
 
 def _textured_spread(**options) -> float:

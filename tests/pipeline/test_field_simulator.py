@@ -16,6 +16,7 @@ from pipeline.simulation.field import (
     FIELD_MODES,
     FieldEffects,
     bloom,
+    camera_side,
     cut_at_flange,
     long_part,
     run_lengths_px,
@@ -78,6 +79,32 @@ def test_two_sided_stripe_keeps_its_peak_on_the_true_line() -> None:
     above = rows[column >= 0.5 * column.max()]
     left, right = 100.25 - above.min(), above.max() - 100.25
     assert max(left, right) / min(left, right) == pytest.approx(1.25 / 0.75, rel=0.1)
+
+
+def test_the_wider_half_is_on_the_cameras_side_on_both_rails() -> None:
+    """The left rail's cameras are the right's mirrored: the camera's half of the lit band
+    lies on the other image side of the stripe there, the same side along each frame."""
+    station = build_station()
+    profile = wheel_profile(load_reference_profile("LMA"))
+    signs = {}
+    for side, side_sign in (("left", -1), ("right", 1)):
+        pose = WheelPose((0.0, 0.0, 410.0), (1.0, 0.0, 0.0), side_sign, 1353.0 / 2, 410.0)
+        for position in ("inner", "outer"):
+            name = f"{side}_{position}"
+            sensor = station.calibration.sensor(name)
+            samples = wheel_section(
+                profile,
+                pose,
+                sensor,
+                station.laser_origin(name),
+                scatter_mm=np.full(profile.x_mm.size, 0.5),
+            )
+            sign = camera_side(samples, sensor)
+            assert samples.pixels.shape[0] > 1000
+            assert np.mean(sign == np.median(sign)) > 0.99, name
+            signs[name] = float(np.median(sign))
+    assert signs["left_inner"] == signs["left_outer"] == -signs["right_inner"]
+    assert signs["right_inner"] == signs["right_outer"]
 
 
 def test_stripe_texture_has_the_contrast_it_is_drawn_with() -> None:

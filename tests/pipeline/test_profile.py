@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from pipeline.profile.flange import fit_flange_parameters
-from pipeline.profile.fusion import DatumError, fuse_profile, overlap_residual
+from pipeline.profile.fusion import (
+    DatumError,
+    clean_profile_points,
+    fuse_profile,
+    overlap_residual,
+)
 from pipeline.profile.reference import load_reference_profile
 from pipeline.simulation.wheel import Wear, wheel_profile
 
@@ -140,3 +145,37 @@ def test_a_flange_top_in_short_pieces_is_kept_and_a_glint_above_it_is_not() -> N
     assert profile.z_mm.max() < PROFILE.truth.flange_height_mm + 0.01
     p = fit_flange_parameters(profile.x_mm, profile.z_mm)
     assert p.flange_height_mm == pytest.approx(PROFILE.truth.flange_height_mm, abs=0.01)
+
+
+def _flange_arc(count: int = 400) -> np.ndarray:
+    """A smooth flange-like outline z(x) = 28 − (x − 16)²/20 sampled 0.05 mm apart [mm]."""
+    x = 4.0 + 0.05 * np.arange(count)
+    return np.column_stack([x, 28.0 - (x - 16.0) ** 2 / 20.0])
+
+
+def test_a_piece_above_the_profile_is_dropped_and_one_below_kept() -> None:
+    arc = _flange_arc()
+    above = np.column_stack([np.linspace(15.0, 17.0, 45), np.linspace(30.0, 31.5, 45)])
+    below = np.column_stack([np.linspace(15.0, 17.0, 45), np.linspace(26.0, 25.0, 45)])
+    for piece, kept in ((above, False), (below, True)):
+        xz = np.concatenate([arc, piece])
+        sensor = np.concatenate([np.zeros(len(arc), np.int8), np.ones(len(piece), np.int8)])
+        keep = clean_profile_points(xz, sensor)
+        assert keep[: len(arc)].all()
+        assert keep[len(arc) :].all() == kept and keep[len(arc) :].any() == kept
+
+
+def test_a_spot_below_the_flange_top_does_not_lift_its_height() -> None:
+    """A glint's points 5 mm below the top, within the top circle's ±4 mm, stay out of it."""
+    profile = wheel_profile(load_reference_profile("LMA"))
+    x, z = profile.x_mm, profile.z_mm
+    clean = fit_flange_parameters(x, z).flange_height_mm
+    top_x = x[np.argmax(z)]
+    rng = np.random.default_rng(0)
+    blob_x = top_x + 2.5 + rng.uniform(-0.8, 0.8, 60)
+    blob_z = z.max() - 5.0 + rng.uniform(-0.6, 0.6, 60)
+    order = np.argsort(np.concatenate([x, blob_x]), kind="stable")
+    spotted = fit_flange_parameters(
+        np.concatenate([x, blob_x])[order], np.concatenate([z, blob_z])[order]
+    ).flange_height_mm
+    assert spotted == pytest.approx(clean, abs=0.005)
