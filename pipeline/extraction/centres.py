@@ -391,6 +391,12 @@ CONTINUING_OFFSET_PX = 3.0
 """... and the dim chain's end lies within 3 px of the kept chain's line ahead of its end
 (a flank bends by < 1 px over the 16 px gap; a piece of outline or ghost beside the
 stripe is offset by more)."""
+CONTINUING_TOUCH_PX = 1.0
+"""... or, when the two ends are closer than the centres' spacing along a chain (1 px), lies
+anywhere within CONTINUING_OFFSET_PX of it: a gap that short has no direction of its own
+(the linker split the stripe there, its two pieces' ends side by side 0.3–0.6 px apart),
+and judging it by the 37° cone rejected a harsh flank's dim pieces (27 and 28 centres,
+grey 50–90 against the glare's 200) that continue the kept chain end to end."""
 END_TANGENT_POINTS = 6
 """Centres over which a chain's direction at its end is taken."""
 
@@ -412,8 +418,9 @@ def _continuing(
     kept: list[bool], chains: list[np.ndarray], x: np.ndarray, y: np.ndarray
 ) -> list[bool]:
     """`kept` grown by the dim chains of ≥ CONTINUING_MIN_POINTS that continue a kept chain:
-    an end within CONTINUITY_GAP_PX of a kept chain's end, ahead of it on its line and
-    heading on (`CONTINUING_COS`, `CONTINUING_OFFSET_PX`), until none is added. A dimmed
+    an end within CONTINUITY_GAP_PX of a kept chain's end, ahead of it on its line (or
+    touching it, `CONTINUING_TOUCH_PX`) and heading on (`CONTINUING_COS`,
+    `CONTINUING_OFFSET_PX`), until none is added. A dimmed
     stretch of the laser (a polished flank next to its glare) is linked apart from its
     bright neighbours and is short; texture ridges and outlines beside the stripe lie
     beside its chains, not ahead of their ends."""
@@ -432,7 +439,8 @@ def _continuing(
         along = np.einsum("dhk,dhk->dh", gap, direction)
         across = np.abs(gap[..., 0] * direction[..., 1] - gap[..., 1] * direction[..., 0])
         heading = np.einsum("dk,hk->dh", ends[dim, 2:], ends[held, 2:]) <= -CONTINUING_COS
-        joins = (length <= CONTINUITY_GAP_PX) & (along >= CONTINUING_COS * length)
+        ahead = (along >= CONTINUING_COS * length) | (length <= CONTINUING_TOUCH_PX)
+        joins = (length <= CONTINUITY_GAP_PX) & ahead
         joins &= (across <= CONTINUING_OFFSET_PX) & heading
         grown = np.unique(dim[joins.any(axis=1)] // 2)
         if grown.size == 0:
