@@ -33,7 +33,7 @@ from pipeline.extraction.curvature import (
 )
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
 from pipeline.extraction.line_test import is_line, is_spot, line_profiles
-from pipeline.extraction.linking import link_points
+from pipeline.extraction.linking import NEIGHBOUR_REACH_PX, link_points
 from pipeline.extraction.normal_fit import matched_offsets
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
 from pipeline.extraction.scalespace import ScaleLevel
@@ -391,12 +391,13 @@ CONTINUING_OFFSET_PX = 3.0
 """... and the dim chain's end lies within 3 px of the kept chain's line ahead of its end
 (a flank bends by < 1 px over the 16 px gap; a piece of outline or ghost beside the
 stripe is offset by more)."""
-CONTINUING_TOUCH_PX = 1.0
-"""... or, when the two ends are closer than the centres' spacing along a chain (1 px), lies
-anywhere within CONTINUING_OFFSET_PX of it: a gap that short has no direction of its own
-(the linker split the stripe there, its two pieces' ends side by side 0.3–0.6 px apart),
-and judging it by the 37° cone rejected a harsh flank's dim pieces (27 and 28 centres,
-grey 50–90 against the glare's 200) that continue the kept chain end to end."""
+CONTINUING_TOUCH_PX = NEIGHBOUR_REACH_PX * math.sqrt(2.0)
+"""... or, when the two ends lie within the linker's reach of each other (its 5×5
+neighbourhood, 2.8 px), lies anywhere within CONTINUING_OFFSET_PX of it: the linker split
+one line there (a texture-bent centre turned the normal by more than it links, or two
+pieces overlap by a pixel), so the gap between the ends (0.3–2.8 px, often beside or
+behind the kept end) has no direction of its own, and judging it by the 37° cone rejected
+a harsh flank's dim pieces that continue the kept chain end to end."""
 END_TANGENT_POINTS = 6
 """Centres over which a chain's direction at its end is taken."""
 
