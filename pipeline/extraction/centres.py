@@ -33,7 +33,7 @@ from pipeline.extraction.curvature import (
 )
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
 from pipeline.extraction.line_test import is_line, is_spot, line_profiles
-from pipeline.extraction.linking import link_points
+from pipeline.extraction.linking import NEIGHBOUR_REACH_PX, link_points
 from pipeline.extraction.normal_fit import matched_offsets
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
 from pipeline.extraction.scalespace import ScaleLevel
@@ -391,6 +391,13 @@ CONTINUING_OFFSET_PX = 3.0
 """... and the dim chain's end lies within 3 px of the kept chain's line ahead of its end
 (a flank bends by < 1 px over the 16 px gap; a piece of outline or ghost beside the
 stripe is offset by more)."""
+CONTINUING_TOUCH_PX = NEIGHBOUR_REACH_PX * math.sqrt(2.0)
+"""... or, when the two ends lie within the linker's reach of each other (its 5×5
+neighbourhood, 2.8 px), lies anywhere within CONTINUING_OFFSET_PX of it: the linker split
+one line there (a texture-bent centre turned the normal by more than it links, or two
+pieces overlap by a pixel), so the gap between the ends (0.3–2.8 px, often beside or
+behind the kept end) has no direction of its own, and judging it by the 37° cone rejected
+a harsh flank's dim pieces that continue the kept chain end to end."""
 END_TANGENT_POINTS = 6
 """Centres over which a chain's direction at its end is taken."""
 
@@ -412,8 +419,9 @@ def _continuing(
     kept: list[bool], chains: list[np.ndarray], x: np.ndarray, y: np.ndarray
 ) -> list[bool]:
     """`kept` grown by the dim chains of ≥ CONTINUING_MIN_POINTS that continue a kept chain:
-    an end within CONTINUITY_GAP_PX of a kept chain's end, ahead of it on its line and
-    heading on (`CONTINUING_COS`, `CONTINUING_OFFSET_PX`), until none is added. A dimmed
+    an end within CONTINUITY_GAP_PX of a kept chain's end, ahead of it on its line (or
+    touching it, `CONTINUING_TOUCH_PX`) and heading on (`CONTINUING_COS`,
+    `CONTINUING_OFFSET_PX`), until none is added. A dimmed
     stretch of the laser (a polished flank next to its glare) is linked apart from its
     bright neighbours and is short; texture ridges and outlines beside the stripe lie
     beside its chains, not ahead of their ends."""
@@ -432,7 +440,8 @@ def _continuing(
         along = np.einsum("dhk,dhk->dh", gap, direction)
         across = np.abs(gap[..., 0] * direction[..., 1] - gap[..., 1] * direction[..., 0])
         heading = np.einsum("dk,hk->dh", ends[dim, 2:], ends[held, 2:]) <= -CONTINUING_COS
-        joins = (length <= CONTINUITY_GAP_PX) & (along >= CONTINUING_COS * length)
+        ahead = (along >= CONTINUING_COS * length) | (length <= CONTINUING_TOUCH_PX)
+        joins = (length <= CONTINUITY_GAP_PX) & ahead
         joins &= (across <= CONTINUING_OFFSET_PX) & heading
         grown = np.unique(dim[joins.any(axis=1)] // 2)
         if grown.size == 0:

@@ -56,3 +56,33 @@ def test_a_run_of_dim_pieces_continues_piece_by_piece() -> None:
     height = np.concatenate([np.full(10, 40.0), np.full(100, 200.0), np.full(10, 40.0)])
     kept, weak = _select(chains, height, x, y, continuing=True)
     assert len(kept) == 3 and weak.size == 0
+
+
+def test_a_broken_dim_flank_between_two_bright_stretches_is_kept() -> None:
+    # The linker splits a harsh flank where texture bends a centre's normal: each piece
+    # starts beside or behind the previous one's end (0.3-2.8 px apart), so the gap between
+    # the ends has no direction of its own and may point across the stripe or back.
+    glare = _line(0.0, 0.0, 1.0, 0.0, 100)  # ends at (99, 0), heading (1, 0)
+    first = _line(99.1, 0.5, 1.0, 0.05, 20)  # starts 0.5 px beside glare's end
+    second = first[-1] + np.array([-1.2, 1.0]) + _line(0.0, 0.0, 1.0, 0.0, 15)  # 1.2 px behind
+    glare_on = second[-1] + np.array([-1.0, -0.8]) + _line(0.0, 0.0, 1.0, 0.0, 100)
+    elsewhere = _line(150.0, 40.0, 1.0, 0.0, 15)  # a dim chain away from the stripe
+    chains, x, y = _chains(glare, first, second, glare_on, elsewhere)
+    height = np.concatenate([np.full(100, 200.0), np.full(35, 20.0), np.full(100, 200.0)])
+    height = np.concatenate([height, np.full(15, 20.0)])
+
+    kept, weak = _select(chains, height, x, y, continuing=True)
+    assert [c[0] for c in kept] == [0, 100, 120, 135]
+    assert weak.tolist() == list(range(235, 250))
+
+
+def test_a_dim_chain_touching_a_kept_end_but_not_heading_on_is_not_kept() -> None:
+    bright = _line(0.0, 0.0, 1.0, 0.0, 100)  # ends at (99, 0), heading (1, 0)
+    back = _line(99.3, 0.6, -1.0, 0.0, 20)  # from beside its end back along it
+    across = _line(99.5, 0.5, 0.0, 1.0, 20)  # from its end across the stripe
+    chains, x, y = _chains(bright, back, across)
+    height = np.concatenate([np.full(100, 200.0), np.full(40, 20.0)])
+
+    kept, weak = _select(chains, height, x, y, continuing=True)
+    assert [c[0] for c in kept] == [0]
+    assert weak.size == 40
