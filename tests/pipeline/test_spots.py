@@ -87,7 +87,7 @@ def test_no_centre_is_kept_on_a_spot_and_the_stripe_keeps_its_coverage() -> None
         assert off_line.max() < 1.0, (x, y)  # pulled towards the glint, not beyond it
 
 
-@settings(max_examples=12, deadline=None)
+@settings(max_examples=12, deadline=None, derandomize=True)
 @given(
     sigma_px=st.floats(5.0 / 4, 21.0 / 4),
     peak=st.floats(60.0, 240.0),
@@ -110,7 +110,7 @@ def test_a_round_spot_of_any_size_in_the_width_range_beside_the_stripe_keeps_no_
     assert _covered(centres, truth) > 0.99
 
 
-@settings(max_examples=12, deadline=None)
+@settings(max_examples=12, deadline=None, derandomize=True)
 @given(width_px=st.floats(5.0, 21.0), radius_px=st.floats(30.0, 80.0), peak=st.floats(60.0, 240.0))
 @example(width_px=13.0, radius_px=30.515625, peak=63.0)  # 98.85 % covered with or without the rule
 def test_a_straight_and_bent_stripe_of_any_width_in_range_keeps_full_coverage(
