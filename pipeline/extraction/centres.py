@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -363,17 +363,8 @@ def _lines_only(
     kept = _Selected(
         **{
             name: getattr(selected, name)[line]
-            for name in (
-                "rows",
-                "cols",
-                "sigma",
-                "strength",
-                "nx",
-                "ny",
-                "offset",
-                "level_index",
-                "lambda_ratio",
-            )
+            for name in (f.name for f in fields(_Selected))
+            if name != "levels"
         },
         levels=selected.levels,
     )

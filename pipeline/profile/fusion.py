@@ -292,15 +292,13 @@ def _consistent_with(points: np.ndarray, other: np.ndarray) -> np.ndarray:
     return ~(cross & own)
 
 
-def _main_components(xz: np.ndarray) -> np.ndarray:
-    """True for points in linked pieces of at least MIN_COMPONENT_POINTS points."""
+def _pieces(xz: np.ndarray) -> np.ndarray:
+    """Label of each point's linked piece: points within LINK_RADIUS_MM chain into one."""
     pairs = cKDTree(xz).query_pairs(LINK_RADIUS_MM, output_type="ndarray")
     graph = coo_matrix(
         (np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(len(xz), len(xz))
     )
-    _, labels = connected_components(graph, directed=False)
-    sizes = np.bincount(labels)
-    return sizes[labels] >= MIN_COMPONENT_POINTS
+    return connected_components(graph, directed=False)[1]
 
 
 def _doubled(xz: np.ndarray, accepted: np.ndarray, x_stop_mm: float) -> np.ndarray:
@@ -317,17 +315,12 @@ def _doubled(xz: np.ndarray, accepted: np.ndarray, x_stop_mm: float) -> np.ndarr
     return doubled
 
 
-def _single_valued(xz: np.ndarray) -> np.ndarray:
-    """True for points of linked pieces that do not lie above a larger piece (z(x) is one
-    curve between the faces), largest pieces first."""
-    pairs = cKDTree(xz).query_pairs(LINK_RADIUS_MM, output_type="ndarray")
-    graph = coo_matrix(
-        (np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(len(xz), len(xz))
-    )
-    _, labels = connected_components(graph, directed=False)
+def _single_valued(xz: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """True for points of linked pieces (`labels`, from `_pieces`) that do not lie above a
+    larger piece (z(x) is one curve between the faces), largest pieces first."""
     sizes = np.bincount(labels)
     keep = np.zeros(len(xz), bool)
-    for label in np.argsort(-sizes, kind="stable"):
+    for label in np.argsort(-sizes, kind="stable")[: np.count_nonzero(sizes)]:
         members = labels == label
         if np.any(keep):
             accepted = xz[keep]
@@ -357,10 +350,12 @@ def clean_profile_points(xz: np.ndarray, sensor: np.ndarray) -> np.ndarray:
     if np.count_nonzero(keep) < 2:
         return keep
     kept = np.flatnonzero(keep)
-    keep[kept] = _main_components(xz[kept])
-    kept = np.flatnonzero(keep)
-    if kept.size >= 2:
-        keep[kept] = _single_valued(xz[kept])
+    labels = _pieces(xz[kept])
+    # no small stray pieces (removing whole pieces leaves the others' links as they were)
+    main = np.bincount(labels)[labels] >= MIN_COMPONENT_POINTS
+    keep[kept] = main
+    if np.count_nonzero(main) >= 2:
+        keep[kept[main]] = _single_valued(xz[kept[main]], labels[main])
     return keep
 
 
