@@ -176,6 +176,18 @@ def open_wheel(page: Any, service: Service, pass_id: int, wheel_id: int, query: 
     page.locator(f".wheel[data-loaded-wheel='{pass_id}/{wheel_id}']").wait_for()
 
 
+def screenshot_whole_trend(page: Any, path: Path) -> None:
+    """Scroll the wheel's trend into its side panel, check the panel does not cut it, and
+    take its screenshot."""
+    trend = page.locator(".trend:not(.delta-r)")
+    trend.evaluate("(el) => el.scrollIntoView({ block: 'end' })")  # the panel scrolls to it
+    box, panel = trend.bounding_box(), page.locator(".side-panel").bounding_box()
+    assert panel["y"] <= box["y"] and box["y"] + box["height"] <= panel["y"] + panel["height"], (
+        "the trend is cut by the side panel"
+    )
+    trend.screenshot(path=str(path))
+
+
 def test_worst_wheels_put_alarms_first_then_amber_with_margins(
     viewer: Any, service: Service, depot: Depot, screenshots: Path
 ) -> None:
@@ -356,13 +368,7 @@ def test_trend_spans_the_passes_with_limits_and_a_forecast_in_utc(
     newest = legend_time.element_handle()
     page.wait_for_function("(el) => el.textContent.includes('2026-11-22')", arg=newest)
     assert "8:00" in legend_time.inner_text(), "the newest pass at 08:00 UTC, not New York time"
-    trend = page.locator(".trend:not(.delta-r)")
-    trend.evaluate("(el) => el.scrollIntoView({ block: 'end' })")  # the panel scrolls to it
-    box, panel = trend.bounding_box(), page.locator(".side-panel").bounding_box()
-    assert panel["y"] <= box["y"] and box["y"] + box["height"] <= panel["y"] + panel["height"], (
-        "the trend is cut by the side panel"
-    )
-    trend.screenshot(path=str(screenshots / "24-wheel-trend.png"))
+    screenshot_whole_trend(page, screenshots / "24-wheel-trend.png")
     context.close()
 
 

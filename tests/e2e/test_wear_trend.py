@@ -27,6 +27,7 @@ from tests.e2e.test_depot_review import (
     new_page,
     open_wheel,
     rename_vehicles,
+    screenshot_whole_trend,
     upload_measured,
     wheel_at,
 )
@@ -154,13 +155,7 @@ def test_trend_fits_wear_per_1000_km_with_limits_band_and_the_odometer_at_the_li
     assert f"{sd['rate_mm']:.3f}".replace("-", "−") in text, text
     assert "reaches ≥ 23.0 mm at " + reached in text and left in text, text
     assert re.search(r"\(90 %: [\d,]+ km – ([\d,]+ km|later)\)", text), text
-    trend = page.locator(".trend:not(.delta-r)")
-    trend.evaluate("(el) => el.scrollIntoView({ block: 'end' })")  # the panel scrolls to it
-    box, panel = trend.bounding_box(), page.locator(".side-panel").bounding_box()
-    assert panel["y"] <= box["y"] and box["y"] + box["height"] <= panel["y"] + panel["height"], (
-        "the trend is cut by the side panel"
-    )
-    trend.screenshot(path=str(screenshots / "37-wheel-trend-odometer.png"))
+    screenshot_whole_trend(page, screenshots / "37-wheel-trend-odometer.png")
     page.context.close()
     assert page.errors == [], page.errors
 
@@ -184,8 +179,6 @@ def test_trend_without_odometer_fits_wear_per_day_and_forecasts_a_date(
     text = forecast.inner_text()
     assert re.search(r"mm/day \(−\d\.\d{3} to [−+]\d\.\d{3}\)", text), text
     assert f"reaches ≥ 22.0 mm on {sd['reached_at'][:10]} UTC (90 %: " in text, text
-    trend = page.locator(".trend:not(.delta-r)")
-    trend.evaluate("(el) => el.scrollIntoView({ block: 'end' })")
-    trend.screenshot(path=str(screenshots / "38-wheel-trend-days.png"))
+    screenshot_whole_trend(page, screenshots / "38-wheel-trend-days.png")
     page.context.close()
     assert page.errors == [], page.errors
