@@ -43,6 +43,7 @@ from pipeline.extraction.segmentation import (
     CHAIN_WIDTH_FACTOR,
     CONTINUITY_GAP_PX,
     STRONG_C_RATIO,
+    longest_lines,
 )
 from pipeline.extraction.steger import centre_pixels, newton_step
 from pipeline.extraction.widths import stripe_widths
@@ -104,9 +105,10 @@ class Centres:
         rejected: the line-vs-edge test's (`pipeline.extraction.line_test`: the grey does
         not fall off on both sides, or the line is thinner than width_min allows), those of
         chains that are round spots (`line_test.is_spot`), of dim chains short or apart
-        from the stripe (`segmentation.CHAIN_FRACTION`) and of chains wider than the width
-        range (`segmentation.CHAIN_WIDTH_FACTOR`). Empty for "steger" and "classic", the
-        paper's baselines.
+        from the stripe (`segmentation.CHAIN_FRACTION`), of chains wider than the width
+        range (`segmentation.CHAIN_WIDTH_FACTOR`) and, outside a search region, of lines
+        far shorter than the longest (`segmentation.longest_lines`). Empty for "steger" and
+        "classic", the paper's baselines.
     region : PixelRegion or None
         The part of the frame searched (None: all of it); nothing outside it is in the mask.
 
@@ -547,6 +549,14 @@ def _narrow_chains(
     return narrow, kept
 
 
+def _longest(chains: list[np.ndarray], xy: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+    """The chains of the longest lines (`segmentation.longest_lines`) and which of the chains'
+    points they hold (bool, the chains' points in order)."""
+    keep = longest_lines(xy, chains)
+    kept = np.repeat(keep, [c.size for c in chains])
+    return [c for c, k in zip(chains, keep, strict=True) if k], kept
+
+
 def _assemble(
     image: np.ndarray,
     candidates: _Selected,
@@ -585,6 +595,12 @@ def _assemble(
         rejected_x = np.concatenate([rejected_x, x[wide]])
         rejected_y = np.concatenate([rejected_y, y[wide]])
         order, widths = order[kept], widths[kept]
+        if not continuing:
+            chains, kept = _longest(chains, xy)
+            apart = order[~kept]
+            rejected_x = np.concatenate([rejected_x, x[apart]])
+            rejected_y = np.concatenate([rejected_y, y[apart]])
+            order, widths = order[kept], widths[kept]
     bounds = np.cumsum([0] + [c.size for c in chains])
     polylines = tuple(
         np.arange(a, b, dtype=np.int64) for a, b in zip(bounds[:-1], bounds[1:], strict=True)
@@ -718,11 +734,13 @@ def extract_centres(
     then keeps the candidates that are lines, not edges (`line_test.is_line`). Points are
     linked into polylines and their widths measured between the gradient maxima; "adaptive"
     drops chains far dimmer than the brightest that are short or lie apart from the kept
-    ones, and chains wider than CHAIN_WIDTH_FACTOR·width_max (`segmentation`). Which stage
-    rejects what: the mask (`segmentation`) spots, dim outlines, texture, ghosts and short
-    pieces of other parts' stripes; the line test step edges and highlights thinner than
-    the stripe; the chain rules dim streaks apart from the stripe and lines wider than it;
-    measurement another part's long bright stripe, by its place in the track frame.
+    ones, chains wider than CHAIN_WIDTH_FACTOR·width_max and, outside a search region,
+    lines (chains joined end to near) under LINE_KEEP_FRACTION of the longest's centres
+    (`segmentation`). Which stage rejects what: the mask (`segmentation`) spots, dim
+    outlines, texture, ghosts and short pieces of other parts' stripes; the line test step
+    edges and highlights thinner than the stripe; the chain rules dim streaks apart from
+    the stripe, lines wider than it and specular lines far shorter than it; measurement
+    another part's long bright stripe, by its place in the track frame.
     The σ map and the mask are those of the pixels, before the sub-pixel step.
 
     References

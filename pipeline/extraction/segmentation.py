@@ -5,14 +5,20 @@ The laser stripe is the brightest narrow ridge of a frame. A component is a stri
 when it is shaped like one (not a spot), its ridge strength is comparable to the strongest
 piece's or strong in itself (a dimmer outline, texture, a ghost stripe are neither), and
 it is either long beside the other strong pieces or continues one of those kept (the
-pieces of a stripe broken at depth steps). Another part's bright stripe, long or
-continuing, may still pass here; measurement rejects it later by its place in the track
-frame.
+pieces of a stripe broken at depth steps). After the centres are linked, the chains of a
+whole frame are joined into lines, pieces whose ends lie near each other, and only lines of
+about the longest's length are kept (`longest_lines`): the laser plane cuts the surfaces in
+view along one curve, so a bright line apart from it and far shorter (a specular glint) is
+not the stripe. Another part's bright stripe as long, or one inside a search region, may
+still pass here; measurement rejects it later by its place in the track frame.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from pipeline.extraction.components import ComponentShapes
 
@@ -63,6 +69,21 @@ wider than this multiple of the widest stripe expected (`width_max`), or have no
 stripe of the configured range stays within it (uniform 21 px: 21.1 median, saturated
 2.5× at 21 px: 23 at the 90th percentile; real laser lines 7–26 px at the default
 5–21); a lit bar, a broad glow or the halo of a specular highlight measures 35–95 px."""
+
+LINE_JOIN_PX = 40.0
+"""Two linked chains of centres are pieces of one line when an end of one lies within this
+distance [px] of a centre of the other: consecutive pieces of a stripe broken at depth steps
+(up to 16 px of it hidden, the next piece shifted by up to 19 px along the rows, which
+along a steep stretch lengthens the gap, and each cut end trimmed by the line test) lie
+9–38 px apart end to end on `broken-steps` and `field-all`."""
+
+LINE_KEEP_FRACTION = 0.5
+"""Outside a search region, a line (its chains joined by LINE_JOIN_PX) is the stripe's only
+when it holds at least this share of the centres of the line holding the most: the laser
+plane cuts the surfaces in view along one curve, broken only where depth steps hide it, so
+its pieces joined make the longest line of the frame. A specular line apart from it (the
+rail head's polished band, a polished rod's glints: as narrow and nearly as bright as the
+laser, darker on both sides) is 0.27–0.30 of it on the lit synthetic scenes."""
 
 KEEP_FRACTION = 0.3
 """Strong components at least this share of the longest strong one's length are kept as
@@ -134,3 +155,27 @@ def strong_candidates(shapes: ComponentShapes, strength: np.ndarray, c_grey: flo
         return shaped
     least = min(STRONG_FRACTION * strength[shaped].max(), STRONG_C_RATIO * c_grey)
     return shaped & (strength >= least)
+
+
+def joined_lines(xy: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
+    """Which line each chain belongs to (int (len(chains),)): chains are joined when an end of
+    one lies within LINE_JOIN_PX of a centre of the other, transitively. `xy` (K, 2) are the
+    centres [px], `chains` index arrays into it."""
+    owner = np.repeat(np.arange(len(chains)), [c.size for c in chains])
+    tree = cKDTree(xy[np.concatenate(chains)])
+    ends = np.array([[c[0], c[-1]] for c in chains]).ravel()
+    near = tree.query_ball_point(xy[ends], LINE_JOIN_PX)
+    rows = np.repeat(np.arange(ends.size) // 2, [len(n) for n in near])
+    cols = owner[np.concatenate(near).astype(np.int64)] if rows.size else rows
+    graph = coo_matrix((np.ones(rows.size), (rows, cols)), shape=(len(chains),) * 2)
+    return connected_components(graph, directed=False)[1]
+
+
+def longest_lines(xy: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
+    """Which chains (bool (len(chains),)) belong to a line (`joined_lines`) holding at least
+    LINE_KEEP_FRACTION of the centres of the line holding the most."""
+    if not chains:
+        return np.zeros(0, bool)
+    line = joined_lines(xy, chains)
+    count = np.bincount(line, weights=[c.size for c in chains])
+    return count[line] >= LINE_KEEP_FRACTION * count.max()

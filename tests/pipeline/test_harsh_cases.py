@@ -54,12 +54,10 @@ NOT_YET = {
     ("asymmetric-0.5", "rms"): "1.034 px (Hessian centres 0.938): the centre moves to the "
     "brighter side; the asymmetry correction's unequal-width model does not fit a "
     "reflectance step (1.61 px with it)",
-    ("lit-specular", "false"): "21 % false: the rail's specular band (was 63 %)",
     ("lit-specular", "rms"): "0.123 px (Hessian centres 0.174)",
     ("speckle-0.1", "rms"): "0.090 px (Hessian centres 0.111, Steger 0.232 px): grain on the "
     "stripe itself, which the sensor-noise bound does not count",
     ("field-all", "coverage"): "segment 2 98.2 %",
-    ("field-all", "false"): "34 % false: the rail's specular band, the rod's glints (was 70 %)",
     ("field-all", "rms"): "0.216 px (Hessian centres 0.225)",
 }
 

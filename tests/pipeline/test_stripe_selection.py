@@ -131,6 +131,22 @@ def test_every_piece_of_a_broken_stripe_is_kept_and_a_longer_dimmer_outline_is_n
     assert not (np.abs(centres.y - 230.2) < 3).any()
 
 
+def test_a_glint_as_bright_as_the_stripe_and_apart_from_its_pieces_is_not_kept() -> None:
+    # A stripe broken at a depth step (its second piece 12 px lower past a 16 px cut) and a
+    # polished rod's glint as bright and as narrow, 160 px long, apart from it: the mask
+    # keeps the glint (longer than 0.3 of the longest piece), the line rule does not (under
+    # half of the stripe's pieces joined).
+    rows, cols = np.mgrid[0:300, 0:640].astype(np.float64)
+    image = 12 + _segment(rows, cols, 100.3, 20, 220, 170)  # the stripe's first piece
+    image += _segment(rows, cols, 112.6, 236, 420, 170)  # its second piece
+    image += _segment(rows, cols, 220.4, 300, 460, 170)  # the glint
+    centres = extract_centres(np.rint(image).astype(np.uint8), width_min=5, width_max=21)
+    assert ((np.abs(centres.y - 100.3) < 0.1) & (centres.x > 30) & (centres.x < 210)).sum() > 170
+    assert ((np.abs(centres.y - 112.6) < 0.1) & (centres.x > 246) & (centres.x < 410)).sum() > 150
+    assert not (np.abs(centres.y - 220.4) < 3).any()
+    assert (np.abs(centres.rejected_y - 220.4) < 0.5).sum() > 140
+
+
 def test_a_stripe_dimmed_to_a_third_of_the_frames_strongest_is_kept_and_a_ghost_is_not() -> None:
     # A wheel's back face where the laser grazes it: a wide stripe, C ≈ 28 grey levels
     # (≥ 10·c = 25.5) beside the tread's saturated one (C ≈ 81), 0.35 of it, far from it.
