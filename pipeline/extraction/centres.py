@@ -346,31 +346,102 @@ def _subpixel(selected: _Selected) -> tuple[np.ndarray, ...]:
     return x, y, nx, ny
 
 
+def _subset(selected: _Selected, which: np.ndarray) -> _Selected:
+    """The candidates `which` (bool or index array) of `selected`."""
+    return _Selected(
+        **{
+            name: getattr(selected, name)[which]
+            for name in (f.name for f in fields(_Selected))
+            if name != "levels"
+        },
+        levels=selected.levels,
+    )
+
+
+def _joined(a: _Selected, b: _Selected) -> _Selected:
+    return _Selected(
+        **{
+            name: np.concatenate([getattr(a, name), getattr(b, name)])
+            for name in (f.name for f in fields(_Selected))
+            if name != "levels"
+        },
+        levels=a.levels,
+    )
+
+
+def _finer(selected: _Selected, failed: np.ndarray, shape: tuple[int, int]) -> _Selected:
+    """The pixels around the candidates `failed` found above the smallest scale, analysed
+    at the next smaller scale: those holding a centre there and no kept candidate."""
+    at = np.flatnonzero(failed & (selected.level_index > 0))
+    taken = np.zeros(shape, bool)
+    taken[selected.rows[~failed], selected.cols[~failed]] = True
+    level = np.full(shape, -1, np.int64)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            r = np.clip(selected.rows[at] + dr, 0, shape[0] - 1)
+            c = np.clip(selected.cols[at] + dc, 0, shape[1] - 1)
+            level[r, c] = np.maximum(level[r, c], selected.level_index[at] - 1)
+    level[taken] = -1
+    rows, cols = np.nonzero(level >= 0)
+    index = level[rows, cols]
+    parts = []
+    for i in np.unique(index):
+        pick = index == i
+        scale = selected.levels[i]
+        lines = lines_at(scale, rows[pick], cols[pick])
+        strength = scale.sigma_px**2 * -lines.lambda1
+        ok = centre_pixels(rows[pick], cols[pick], lines, strength, shape)
+        parts.append(
+            _Selected(
+                rows=rows[pick][ok],
+                cols=cols[pick][ok],
+                sigma=np.full(int(ok.sum()), scale.sigma_px, GEOMETRY_FLOAT),
+                strength=strength[ok],
+                nx=lines.nx[ok],
+                ny=lines.ny[ok],
+                offset=lines.offset_px[ok],
+                level_index=np.full(int(ok.sum()), i, np.int64),
+                levels=selected.levels,
+                lambda_ratio=_lambda_ratio(lines.lambda1[ok], lines.lambda2[ok]),
+            )
+        )
+    empty = _subset(selected, np.zeros(0, np.int64))
+    return functools.reduce(_joined, parts, empty)
+
+
+def _tested(image, selected: _Selected, width_min: float, c_grey: float):
+    """Sub-pixel centres (x, y, nx, ny), line-test profiles and verdicts of `selected`."""
+    x, y, nx, ny = _subpixel(selected)
+    profiles = line_profiles(
+        image, x, y, nx, ny, selected.sigma, width_min_px=width_min, c_grey=c_grey
+    )
+    return (x, y, nx, ny), profiles[2], is_line(profiles)
+
+
 def _lines_only(
     image: np.ndarray, selected: _Selected, width_min: float | None, c_grey: float
 ) -> tuple[_Selected, tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray]:
     """The candidates that are bright lines (`line_test.is_line`; all when `width_min` is
     None), their sub-pixel centres, normals and heights above the brighter side [grey
     levels; NaN when not tested], and the rejected ones' centres (x, y). `c_grey` is the
-    ridge response's structure constant [grey levels]."""
-    x, y, nx, ny = _subpixel(selected)
-    line = np.ones(x.size, bool)
-    height = np.full(x.size, np.nan)
-    if width_min is not None:
-        profiles = line_profiles(
-            image, x, y, nx, ny, selected.sigma, width_min_px=width_min, c_grey=c_grey
-        )
-        line = is_line(profiles)
-        height = profiles[2]
-    kept = _Selected(
-        **{
-            name: getattr(selected, name)[line]
-            for name in (f.name for f in fields(_Selected))
-            if name != "levels"
-        },
-        levels=selected.levels,
-    )
-    return kept, (x[line], y[line], nx[line], ny[line]), height[line], x[~line], y[~line]
+    ridge response's structure constant [grey levels].
+
+    Where a candidate found above the smallest scale fails, the pixels around it are tried
+    again at the next smaller scale (`_finer`): the ridge-peak strength that chooses σB is
+    max-filtered over width_max/2, so where a narrow piece of a broken stripe starts beside
+    a wide piece's end the wide piece's scale wins there, and the narrow line's centre at
+    that scale is pulled towards the wide end (0.8 px on `broken-steps`) and fails the
+    shoulder test. The rejected centres are those at σB."""
+    if width_min is None:
+        none = np.zeros(0)
+        return selected, _subpixel(selected), np.full(selected.rows.size, np.nan), none, none
+    points, height, line = _tested(image, selected, width_min, c_grey)
+    finer = _finer(selected, ~line, image.shape)
+    more, more_height, more_line = _tested(image, finer, width_min, c_grey)
+    kept = _joined(_subset(selected, line), _subset(finer, more_line))
+    xyn = tuple(np.concatenate([a[line], b[more_line]]) for a, b in zip(points, more, strict=True))
+    heights = np.concatenate([height[line], more_height[more_line]])
+    return kept, xyn, heights, points[0][~line], points[1][~line]
 
 
 CONTINUING_MIN_POINTS = 8

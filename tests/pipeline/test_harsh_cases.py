@@ -49,7 +49,6 @@ NOT_YET = {
     ("lit-textured", "rms"): "0.123 px (Hessian centres 0.174): the texture under the stripe "
     "(0.124 px with no sensor noise, 0.022 px with no texture; the bound counts sensor noise "
     "only, docs/extraction-cases.md)",
-    ("broken-steps", "coverage"): "segment 2 98.7 %: its start beside segment 1's wide end",
     ("lit-edge-crossing", "rms"): "0.150 px (Hessian centres 0.233)",
     ("asymmetric-0.5", "rms"): "1.034 px (Hessian centres 0.938): the centre moves to the "
     "brighter side; the asymmetry correction's unequal-width model does not fit a "
@@ -57,7 +56,6 @@ NOT_YET = {
     ("lit-specular", "rms"): "0.123 px (Hessian centres 0.174)",
     ("speckle-0.1", "rms"): "0.090 px (Hessian centres 0.111, Steger 0.232 px): grain on the "
     "stripe itself, which the sensor-noise bound does not count",
-    ("field-all", "coverage"): "segment 2 98.2 %",
     ("field-all", "rms"): "0.216 px (Hessian centres 0.225)",
 }
 
