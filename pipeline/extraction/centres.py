@@ -371,30 +371,35 @@ def _joined(a: _Selected, b: _Selected) -> _Selected:
 
 def _finer(selected: _Selected, failed: np.ndarray, shape: tuple[int, int]) -> _Selected:
     """The pixels around the candidates `failed` found above the smallest scale, analysed
-    at the next smaller scale: those holding a centre there and no kept candidate."""
+    at the next smaller scale: those holding a centre there and no passing candidate."""
     at = np.flatnonzero(failed & (selected.level_index > 0))
-    taken = np.zeros(shape, bool)
-    taken[selected.rows[~failed], selected.cols[~failed]] = True
-    level = np.full(shape, -1, np.int64)
-    for dr in (-1, 0, 1):
-        for dc in (-1, 0, 1):
-            r = np.clip(selected.rows[at] + dr, 0, shape[0] - 1)
-            c = np.clip(selected.cols[at] + dc, 0, shape[1] - 1)
-            level[r, c] = np.maximum(level[r, c], selected.level_index[at] - 1)
-    level[taken] = -1
-    rows, cols = np.nonzero(level >= 0)
-    index = level[rows, cols]
-    parts = []
-    for i in np.unique(index):
-        pick = index == i
+    parts = [_subset(selected, np.zeros(0, np.int64))]
+    if not at.size:
+        return parts[0]
+    step = np.array([-1, 0, 1])
+    rows = (selected.rows[at, None, None] + step[:, None]).clip(0, shape[0] - 1)
+    cols = (selected.cols[at, None, None] + step[None, :]).clip(0, shape[1] - 1)
+    pixel = (rows * shape[1] + cols).reshape(at.size, 9)
+    level = np.repeat(selected.level_index[at] - 1, 9)
+    # Each pixel once, at the largest scale asked of it, unless a candidate passed there.
+    order = np.lexsort((-level, pixel.ravel()))
+    pixel, level = pixel.ravel()[order], level[order]
+    first = np.concatenate(([True], pixel[1:] != pixel[:-1]))
+    pixel, level = pixel[first], level[first]
+    passed = selected.rows[~failed] * shape[1] + selected.cols[~failed]
+    free = ~np.isin(pixel, passed)
+    pixel, level = pixel[free], level[free]
+    for i in np.unique(level):
+        pick = pixel[level == i]
+        rows, cols = pick // shape[1], pick % shape[1]
         scale = selected.levels[i]
-        lines = lines_at(scale, rows[pick], cols[pick])
+        lines = lines_at(scale, rows, cols)
         strength = scale.sigma_px**2 * -lines.lambda1
-        ok = centre_pixels(rows[pick], cols[pick], lines, strength, shape)
+        ok = centre_pixels(rows, cols, lines, strength, shape)
         parts.append(
             _Selected(
-                rows=rows[pick][ok],
-                cols=cols[pick][ok],
+                rows=rows[ok],
+                cols=cols[ok],
                 sigma=np.full(int(ok.sum()), scale.sigma_px, GEOMETRY_FLOAT),
                 strength=strength[ok],
                 nx=lines.nx[ok],
@@ -405,8 +410,7 @@ def _finer(selected: _Selected, failed: np.ndarray, shape: tuple[int, int]) -> _
                 lambda_ratio=_lambda_ratio(lines.lambda1[ok], lines.lambda2[ok]),
             )
         )
-    empty = _subset(selected, np.zeros(0, np.int64))
-    return functools.reduce(_joined, parts, empty)
+    return functools.reduce(_joined, parts)
 
 
 def _tested(image, selected: _Selected, width_min: float, c_grey: float):
