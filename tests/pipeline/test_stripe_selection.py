@@ -9,6 +9,7 @@ from scipy.special import erfc
 from pipeline import extract_centres
 from pipeline.extraction.centres import _bright_chains
 from pipeline.extraction.line_test import is_line, line_profiles
+from pipeline.extraction.segmentation import LINE_JOIN_PX, joined_lines, longest_lines
 from pipeline.imaging import PixelRegion
 
 SHAPE = (80, 120)
@@ -208,3 +209,28 @@ def test_a_long_dim_chain_is_kept_beside_the_stripe_and_dropped_apart_from_it() 
     kept, dropped = _bright_chains(chains, height, strength, xy, c_grey=2.55)
     assert [c[0] for c in kept] == [bounds[0], bounds[1], bounds[3]]
     assert sorted(dropped) == [*range(bounds[2], bounds[3]), *range(bounds[4], bounds[5])]
+
+
+def test_pieces_end_to_near_are_one_line_and_a_shorter_line_apart_is_not_kept() -> None:
+    # Chains of centres 1 px apart along x: a piece of 100, the next one past a gap just
+    # inside LINE_JOIN_PX from its end and 20 px lower, a third just beyond the reach of the
+    # second's end, and a line of 80 far from all (under half of the first two's 200).
+    def chain(x0, y, n):
+        return np.column_stack([x0 + np.arange(n, dtype=float), np.full(n, y)])
+
+    gap = LINE_JOIN_PX - 1
+    dy = 20.0
+    dx = np.sqrt(gap**2 - dy**2)
+    parts = [
+        chain(0, 0, 100),
+        chain(99 + dx, dy, 100),
+        chain(198 + dx + LINE_JOIN_PX + 1, dy, 60),
+        chain(0, 300, 80),
+    ]
+    xy = np.concatenate(parts)
+    bounds = np.cumsum([0] + [len(p) for p in parts])
+    chains = [np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    line = joined_lines(xy, chains)
+    assert line[0] == line[1]
+    assert len({line[1], line[2], line[3]}) == 3
+    assert longest_lines(xy, chains).tolist() == [True, True, False, False]
