@@ -339,10 +339,8 @@ def body_shares(
 
     Parameters
     ----------
-    image : ndarray of shape (M, N), uint8, uint16 or float
-        The frame [grey levels].
-    x, y, nx, ny : ndarray of shape (K,)
-        Centres [px] and unit normals.
+    image, x, y, nx, ny : ndarray
+        The frame and the centres with their normals, as for `line_profiles`.
     width_px : ndarray of shape (K,)
         Measured 1/e² widths W [px] (`widths.stripe_widths`); NaN where none was measured.
 
