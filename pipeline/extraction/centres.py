@@ -109,10 +109,10 @@ class Centres:
         Sub-pixel positions [px] of the candidate centres inside the mask that "adaptive"
         rejected: the line-vs-edge test's (`pipeline.extraction.line_test`: the grey does
         not fall off on both sides, or the line is thinner than width_min allows), those of
-        chains that are round spots (`line_test.is_spot`), of chains that are highlights on
-        a lit body (`line_test.is_on_body`), of dim chains short or apart
-        from the stripe (`segmentation.CHAIN_FRACTION`) and of chains wider than the width
-        range (`segmentation.CHAIN_WIDTH_FACTOR`). Empty for "steger" and "classic", the
+        chains that are round spots (`line_test.is_spot`), of a whole frame's long chains
+        that are highlights on a lit body (`line_test.is_on_body`), of dim chains short or
+        apart from the stripe (`segmentation.CHAIN_FRACTION`) and of chains wider than the
+        width range (`segmentation.CHAIN_WIDTH_FACTOR`). Empty for "steger" and "classic", the
         paper's baselines.
     region : PixelRegion or None
         The part of the frame searched (None: all of it); nothing outside it is in the mask.
@@ -524,16 +524,25 @@ def _no_spots(
     return lines, np.concatenate(spots) if spots else np.zeros(0, np.int64)
 
 
-def _off_bodies(image, chains, height, x, y, nx, ny, width_at):
-    """The chains that are not highlights on a lit body (`line_test.is_on_body`; every
-    chain when the heights are NaN, the baselines) and the points of those that are;
-    `width_at` the measured widths [px] of every point (NaN: none)."""
-    if not chains or np.isnan(height).all():
+def _off_bodies(image, chains, height, x, y, nx, ny, width_at, continuing):
+    """The chains that are not highlights on a lit body (`line_test.is_on_body`) and the
+    points of those that are; `width_at` the measured widths [px] of every point (NaN:
+    none).
+
+    Only a whole frame's chains of ≥ CHAIN_MIN_POINTS centres are judged: a lit body's
+    highlight runs along the body (132–161 centres on the real frames). Next to a glare on
+    the stripe the bloom around it raises the shoulders of the stripe's own pieces too
+    (simulated harsh passes: 26–48 chains a pass, 6–54 centres each); inside a search region
+    (`continuing`), where the calibration says the stripe lies, every chain is kept, as
+    are the baselines' (NaN heights).
+    """
+    if continuing or not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
-    found = np.concatenate(chains)
+    judged = [c for c in chains if c.size >= CHAIN_MIN_POINTS]
+    found = np.concatenate(judged) if judged else np.zeros(0, np.int64)
     shares = np.full(x.size, np.nan)
     shares[found] = body_shares(image, x[found], y[found], nx[found], ny[found], width_at[found])
-    kept = [not is_on_body(shares[c]) for c in chains]
+    kept = [c.size < CHAIN_MIN_POINTS or not is_on_body(shares[c]) for c in chains]
     bodies = [c for c, k in zip(chains, kept, strict=True) if not k]
     lines = [c for c, k in zip(chains, kept, strict=True) if k]
     return lines, np.concatenate(bodies) if bodies else np.zeros(0, np.int64)
@@ -596,7 +605,7 @@ def _assemble(
     width_at = np.full(x.size, np.nan)
     points = (x[found], y[found], nx[found], ny[found])
     width_at[found] = _widths(selected.levels, selected.level_index[found], *points, width_max)
-    chains, bodies = _off_bodies(image, chains, height, x, y, nx, ny, width_at)
+    chains, bodies = _off_bodies(image, chains, height, x, y, nx, ny, width_at, continuing)
     chains, weak = _bright_chains(
         chains, height, selected.strength, xy, c_grey, continuing=continuing
     )
@@ -721,7 +730,8 @@ def extract_centres(
         it every strong stripe candidate is kept, however short beside the longest
         (`segmentation.stripe_components`, `every_strong`), and so is a short, dim chain
         of centres that continues a kept one (`_continuing`: a polished flank next to
-        its glare).
+        its glare); no chain is judged a highlight on a lit body (`_off_bodies`: the
+        bloom around a glare raises the shoulders of the stripe's pieces beside it).
 
     Returns
     -------
