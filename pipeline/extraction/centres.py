@@ -32,7 +32,13 @@ from pipeline.extraction.curvature import (
     smooth_along,
 )
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
-from pipeline.extraction.line_test import is_line, is_spot, line_profiles
+from pipeline.extraction.line_test import (
+    body_shares,
+    is_line,
+    is_on_body,
+    is_spot,
+    line_profiles,
+)
 from pipeline.extraction.linking import NEIGHBOUR_REACH_PX, link_points
 from pipeline.extraction.normal_fit import matched_offsets
 from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
@@ -104,11 +110,12 @@ class Centres:
         Sub-pixel positions [px] of the candidate centres inside the mask that "adaptive"
         rejected: the line-vs-edge test's (`pipeline.extraction.line_test`: the grey does
         not fall off on both sides, or the line is thinner than width_min allows), those of
-        chains that are round spots (`line_test.is_spot`), of dim chains short or apart
-        from the stripe (`segmentation.CHAIN_FRACTION`), of chains wider than the width
-        range (`segmentation.CHAIN_WIDTH_FACTOR`) and, outside a search region, of lines
-        far shorter than the longest (`segmentation.longest_lines`). Empty for "steger" and
-        "classic", the paper's baselines.
+        chains that are round spots (`line_test.is_spot`), of a whole frame's long chains
+        that are highlights on a lit body (`line_test.is_on_body`), of dim chains short or
+        apart from the stripe (`segmentation.CHAIN_FRACTION`), of chains wider than the
+        width range (`segmentation.CHAIN_WIDTH_FACTOR`) and, outside a search region, of
+        lines far shorter than the longest (`segmentation.longest_lines`). Empty for
+        "steger" and "classic", the paper's baselines.
     region : PixelRegion or None
         The part of the frame searched (None: all of it); nothing outside it is in the mask.
 
@@ -594,6 +601,30 @@ def _no_spots(
     return lines, np.concatenate(spots) if spots else np.zeros(0, np.int64)
 
 
+def _off_bodies(image, chains, height, x, y, nx, ny, width_at, continuing):
+    """The chains that are not highlights on a lit body (`line_test.is_on_body`) and the
+    points of those that are; `width_at` the measured widths [px] of every point (NaN:
+    none).
+
+    Only a whole frame's chains of ≥ CHAIN_MIN_POINTS centres are judged: a lit body's
+    highlight runs along the body (132–161 centres on the real frames). Next to a glare on
+    the stripe the bloom around it raises the shoulders of the stripe's own pieces too
+    (simulated harsh passes: 26–48 chains a pass, 6–54 centres each); inside a search region
+    (`continuing`), where the calibration says the stripe lies, every chain is kept, as
+    are the baselines' (NaN heights).
+    """
+    if continuing or not chains or np.isnan(height).all():
+        return chains, np.zeros(0, np.int64)
+    judged = [c for c in chains if c.size >= CHAIN_MIN_POINTS]
+    found = np.concatenate(judged) if judged else np.zeros(0, np.int64)
+    shares = np.full(x.size, np.nan)
+    shares[found] = body_shares(image, x[found], y[found], nx[found], ny[found], width_at[found])
+    kept = [c.size < CHAIN_MIN_POINTS or not is_on_body(shares[c]) for c in chains]
+    bodies = [c for c, k in zip(chains, kept, strict=True) if not k]
+    lines = [c for c, k in zip(chains, kept, strict=True) if k]
+    return lines, np.concatenate(bodies) if bodies else np.zeros(0, np.int64)
+
+
 def _widths(levels, level_index, x, y, nx, ny, width_max: float) -> np.ndarray:
     """Stripe width [px] at centres (x, y) found at `levels[level_index]`
     (`widths.stripe_widths`, searched within twice the standard deviation of the widest
@@ -655,15 +686,19 @@ def _assemble(
     chains = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
     xy = np.column_stack([x, y])
     chains, spots = _no_spots(chains, height, selected, xy)
+    found = np.concatenate(chains) if chains else np.zeros(0, np.int64)
+    width_at = np.full(x.size, np.nan)
+    points = (x[found], y[found], nx[found], ny[found])
+    width_at[found] = _widths(selected.levels, selected.level_index[found], *points, width_max)
+    chains, bodies = _off_bodies(image, chains, height, x, y, nx, ny, width_at, continuing)
     chains, weak = _bright_chains(
         chains, height, selected.strength, xy, c_grey, continuing=continuing
     )
-    rejected_x = np.concatenate([rejected_x, x[spots], x[weak]])
-    rejected_y = np.concatenate([rejected_y, y[spots], y[weak]])
+    rejected_x = np.concatenate([rejected_x, x[spots], x[bodies], x[weak]])
+    rejected_y = np.concatenate([rejected_y, y[spots], y[bodies], y[weak]])
     _orient_normals(nx, ny, chains)
     order = np.concatenate(chains) if chains else np.zeros(0, np.int64)
-    points = (x[order], y[order], nx[order], ny[order])
-    widths = _widths(selected.levels, selected.level_index[order], *points, width_max)
+    widths = width_at[order]
     if width_min is not None:
         chains, kept = _narrow_chains(chains, widths, width_max)
         wide = order[~kept]
@@ -786,7 +821,8 @@ def extract_centres(
         it every strong stripe candidate is kept, however short beside the longest
         (`segmentation.stripe_components`, `every_strong`), and so is a short, dim chain
         of centres that continues a kept one (`_continuing`: a polished flank next to
-        its glare).
+        its glare); no chain is judged a highlight on a lit body (`_off_bodies`: the
+        bloom around a glare raises the shoulders of the stripe's pieces beside it).
 
     Returns
     -------
@@ -808,14 +844,16 @@ def extract_centres(
     |t·ny| ≤ 0.5; the point is (c + t·nx, r + t·ny) [1] (paper eqs. (8)–(10)). "adaptive"
     then keeps the candidates that are lines, not edges (`line_test.is_line`). Points are
     linked into polylines and their widths measured between the gradient maxima; "adaptive"
-    drops chains far dimmer than the brightest that are short or lie apart from the kept
-    ones, chains wider than CHAIN_WIDTH_FACTOR·width_max and, outside a search region,
-    lines (chains joined end to near) under LINE_KEEP_FRACTION of the longest's centres
-    (`segmentation`). Which stage rejects what: the mask (`segmentation`) spots, dim
-    outlines, texture, ghosts and short pieces of other parts' stripes; the line test step
-    edges and highlights thinner than the stripe; the chain rules dim streaks apart from
-    the stripe, lines wider than it and specular lines far shorter than it; measurement
-    another part's long bright stripe, by its place in the track frame.
+    drops chains that are round spots or highlights on a lit body (`line_test.is_spot`,
+    `line_test.is_on_body`), chains far dimmer than the brightest that are short or lie
+    apart from the kept ones, chains wider than CHAIN_WIDTH_FACTOR·width_max and, outside
+    a search region, lines (chains joined end to near) under LINE_KEEP_FRACTION of the
+    longest's centres (`segmentation`). Which stage rejects what: the mask (`segmentation`)
+    spots, dim outlines, texture, ghosts and short pieces of other parts' stripes; the line
+    test step edges and highlights thinner than the stripe; the chain rules spots,
+    highlights on a lit body, dim streaks apart from the stripe, lines wider than it and
+    specular lines far shorter than it; measurement another part's long bright stripe, by
+    its place in the track frame.
     The σ map and the mask are those of the pixels, before the sub-pixel step.
 
     References

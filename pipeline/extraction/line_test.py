@@ -271,6 +271,102 @@ def is_line(profiles: np.ndarray) -> np.ndarray:
     return (weaker > 0) & (weaker >= SIDE_FLOOR * stronger) & wide
 
 
+BODY_NEAR_WIDTHS = 0.75
+"""Where a line's shoulders are read, in units of its measured 1/e² width W (`widths`): a
+Gaussian line is down to exp(−2·1.5²) = 1.1 % of its peak at 0.75·W, a line clipped at
+2.5× full scale to 2.8 % of the clip level."""
+
+BODY_FAR_WIDTHS = 2.0
+"""... against the lowest grey on the same side out to this many W (BODY_READS reads from
+the shoulder on): the level of the surface the line lies on."""
+
+BODY_READS = 6
+"""Reads from BODY_NEAR_WIDTHS·W to BODY_FAR_WIDTHS·W, a quarter of W apart: the same
+cost at every width (a dark gap between a highlight and the next bright line on its body,
+6–12 px on the real frames beside a 22–26 px wide highlight, is not missed)."""
+
+BODY_SHARE = 0.11
+"""A line whose shoulders, on both sides, stand at least this share of its height above
+the surface beside them is a highlight on a lit body, not light added by the laser. A
+specular highlight along a polished cylinder (a welding torch, a rod) is clipped and lies
+on the body it reflects from: on the real frames its shoulders keep 17–22 % of its height
+(chain medians) where the laser's chains keep ≤ 6.5 % (9.9 % for an 18-centre piece where
+two laser lines cross); on the synthetic stripes (texture, noise, lit plates, crossings,
+broken pieces, saturation) ≤ 5 %."""
+
+
+@kernel
+def _body_shares(image, x, y, nx, ny, width, out) -> None:
+    """Per centre: the lower over the two sides of (shoulder − surface)/(centre − surface),
+    the shoulder read at BODY_NEAR_WIDTHS·W and the surface the lowest of BODY_READS reads
+    from there to BODY_FAR_WIDTHS·W (`_profile_at`); NaN where W is NaN."""
+    height, frame_width = image.shape
+    for k in range(x.size):
+        w = width[k]
+        if not np.isfinite(w) or w <= 0:
+            out[k] = np.nan
+            continue
+        xk, yk, nxk, nyk = x[k], y[k], nx[k], ny[k]
+        extent = BODY_FAR_WIDTHS * w + max(TANGENT_OFFSETS_PX) + 1.0
+        inside = extent <= xk < frame_width - 1 - extent and extent <= yk < height - 1 - extent
+        centre = _profile_at(image, xk, yk, nxk, nyk, 0.0, inside)
+        lower = np.inf
+        spacing = (BODY_FAR_WIDTHS - BODY_NEAR_WIDTHS) * w / (BODY_READS - 1)
+        for direction in (1.0, -1.0):
+            near = direction * BODY_NEAR_WIDTHS * w
+            shoulder = _profile_at(image, xk, yk, nxk, nyk, near, inside)
+            surface = shoulder
+            for i in range(1, BODY_READS):
+                t = near + direction * i * spacing
+                surface = min(surface, _profile_at(image, xk, yk, nxk, nyk, t, inside))
+            # The share is 0 where the line does not stand above the surface at all.
+            rise = centre - surface
+            share = (shoulder - surface) / rise if rise > 0 else 0.0
+            lower = min(lower, share)
+        out[k] = lower
+
+
+def body_shares(
+    image: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    nx: np.ndarray,
+    ny: np.ndarray,
+    width_px: np.ndarray,
+) -> np.ndarray:
+    """How far each line's shoulders stand above the surface beside it, as a share of the
+    line's height: the lower of its two sides.
+
+    Parameters
+    ----------
+    image, x, y, nx, ny : ndarray
+        The frame and the centres with their normals, as for `line_profiles`.
+    width_px : ndarray of shape (K,)
+        Measured 1/e² widths W [px] (`widths.stripe_widths`); NaN where none was measured.
+
+    Returns
+    -------
+    ndarray of shape (K,), float64
+        Per side, (shoulder − surface)/(centre − surface) of the unsmoothed profile (mean
+        over lines TANGENT_OFFSETS_PX along the tangent): the shoulder read at
+        BODY_NEAR_WIDTHS·W, the surface the lowest of BODY_READS reads from there out to
+        BODY_FAR_WIDTHS·W; 0 on a side the centre does not stand above. The lower of the
+        two sides; NaN where W is NaN. Read bilinearly, reflect border.
+    """
+    out = np.empty(np.size(x))
+    arrays = (x, y, nx, ny, width_px)
+    fx, fy, fnx, fny, fwidth = (np.ascontiguousarray(a, np.float64) for a in arrays)
+    _body_shares(np.ascontiguousarray(image), fx, fy, fnx, fny, fwidth, out)
+    return out
+
+
+def is_on_body(shares: np.ndarray) -> bool:
+    """Whether a linked chain of centres is a highlight on a lit body, not the laser: more
+    than half of its centres with a measured width have `body_shares` ≥ BODY_SHARE."""
+    known = shares[np.isfinite(shares)]
+    return bool(known.size and (known >= BODY_SHARE).mean() > 0.5)
+
+
 SPOT_RATIO = 0.6
 """A chain is a round spot when λ2/λ1 at the chosen σ, at its highest centre, is at least
 this. A round Gaussian spot has 1 at its centre whatever its size and the scale; a straight

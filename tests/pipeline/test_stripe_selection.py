@@ -8,7 +8,7 @@ from scipy.special import erfc
 
 from pipeline import extract_centres
 from pipeline.extraction.centres import _bright_chains
-from pipeline.extraction.line_test import is_line, line_profiles
+from pipeline.extraction.line_test import BODY_SHARE, body_shares, is_line, line_profiles
 from pipeline.extraction.segmentation import LINE_JOIN_PX, joined_lines, longest_lines
 from pipeline.imaging import PixelRegion
 
@@ -183,10 +183,15 @@ def test_a_lit_bar_wider_than_the_widest_stripe_is_not_kept() -> None:
     rows, cols = np.mgrid[0:300, 0:640].astype(np.float64)
     image = 12 + _segment(rows, cols, 80.3, 20, 620, 150, width_px=9)
     image += _segment(rows, cols, 200.0, 40, 600, 150, width_px=45)
-    centres = extract_centres(np.rint(image).astype(np.uint8), width_min=5, width_max=21)
+    frame = np.rint(image).astype(np.uint8)
+    centres = extract_centres(frame, width_min=5, width_max=21)
     assert ((np.abs(centres.y - 80.3) < 0.1) & (centres.x > 30) & (centres.x < 610)).sum() > 570
     assert not (np.abs(centres.y - 200.0) < 10).any()
     assert (np.abs(centres.rejected_y - 200.0) < 3).sum() > 400
+    # Inside a search region no chain is judged so (the bloom around a glare on the stripe
+    # raises its own pieces' shoulders; measurement rejects what lies off the wheel).
+    inside = extract_centres(frame, width_min=5, width_max=21, region=PixelRegion(0, 300, 0, 640))
+    assert ((np.abs(inside.y - 200.0) < 0.5) & (inside.x > 60) & (inside.x < 580)).sum() > 400
     # With the widest stripe configured at 45 px the bar is a stripe.
     wide = extract_centres(np.rint(image).astype(np.uint8), width_min=5, width_max=45)
     assert ((np.abs(wide.y - 200.0) < 0.5) & (wide.x > 60) & (wide.x < 580)).sum() > 400
@@ -234,3 +239,54 @@ def test_pieces_end_to_near_are_one_line_and_a_shorter_line_apart_is_not_kept() 
     assert line[0] == line[1]
     assert len({line[1], line[2], line[3]}) == 3
     assert longest_lines(xy, chains).tolist() == [True, True, False, False]
+
+
+def _clipped(width_px: float, peak: float, centre_px: float = 0.0):
+    """A Gaussian line of `peak` clipped at 243 grey levels above the background of 12."""
+    return lambda d: np.minimum(_line(width_px, peak)(d - centre_px), 243.0)
+
+
+def _body(width_px: float, peak: float):
+    """A lit body under the line: a Gaussian bump of 1/e² width `width_px`."""
+    return _line(width_px, peak)
+
+
+@pytest.mark.parametrize(
+    ("profile", "width_px", "on_body"),
+    [
+        (_line(9), 9.0, False),
+        (_clipped(21, 2.5 * 243), 23.0, False),  # saturated 2.5×, as measured (≤ 23 px)
+        (_clipped(13, 10 * 243), 20.0, False),  # saturated 10×
+        (lambda d: _line(9)(d) + _step(-12, 60)(d), 9.0, False),  # beside a plate edge
+        (lambda d: _line(9)(d) + _line(9, 150)(d - 14), 9.0, False),  # beside a second line
+        (lambda d: _clipped(13, 400)(d) + _body(70, 100)(d), 24.0, True),  # a torch's highlight
+    ],
+    ids=["line", "clipped-2.5x", "clipped-10x", "plate-edge", "second-line", "torch"],
+)
+def test_a_highlight_on_a_lit_body_has_raised_shoulders_and_a_laser_line_has_not(
+    profile, width_px, on_body
+) -> None:
+    rows = np.arange(200, dtype=np.float64)[:, None] - 100.3
+    image = np.broadcast_to(np.minimum(12 + profile(rows), 255.0), (200, 60)).astype(np.uint8)
+    one = np.ones(1)
+    share = body_shares(image, 30 * one, 100.3 * one, 0 * one, one, width_px * one)[0]
+    assert (share >= BODY_SHARE) == on_body, share
+
+
+def test_a_clipped_highlight_on_a_lit_body_is_not_kept_and_the_laser_is() -> None:
+    # A polished torch: a saturated highlight, 13 px wide and 1.6× full scale, on its lit body
+    # (a bump of 100 grey levels, 70 px wide), the strongest ridge of the frame; the laser
+    # 9 px wide at 150.
+    rows, cols = np.mgrid[0:300, 0:640].astype(np.float64)
+    image = 12 + _segment(rows, cols, 80.3, 20, 620, 150, width_px=9)
+    image += _segment(rows, cols, 200.0, 40, 600, 100, width_px=70)
+    image += np.minimum(_segment(rows, cols, 200.0, 40, 600, 400, width_px=13), 243 - image)
+    frame = np.rint(image).astype(np.uint8)
+    centres = extract_centres(frame, width_min=5, width_max=21)
+    assert ((np.abs(centres.y - 80.3) < 0.1) & (centres.x > 30) & (centres.x < 610)).sum() > 570
+    assert not (np.abs(centres.y - 200.0) < 10).any()
+    assert (np.abs(centres.rejected_y - 200.0) < 3).sum() > 400
+    # Inside a search region no chain is judged so (the bloom around a glare on the stripe
+    # raises its own pieces' shoulders; measurement rejects what lies off the wheel).
+    inside = extract_centres(frame, width_min=5, width_max=21, region=PixelRegion(0, 300, 0, 640))
+    assert ((np.abs(inside.y - 200.0) < 0.5) & (inside.x > 60) & (inside.x < 580)).sum() > 400
