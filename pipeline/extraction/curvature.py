@@ -35,8 +35,11 @@ BLOCK_POINTS = 128
 """Points fitted together: each window offset is one loop across them (it vectorises), and
 their sums stay in the L1 cache."""
 
-_EXP_TAYLOR = tuple(1.0 / math.factorial(n) for n in range(13, -1, -1))
-"""Taylor coefficients of e^r, highest degree first."""
+_EXP_TAYLOR = tuple(1.0 / math.factorial(n) for n in range(7, -1, -1))
+"""Taylor coefficients of e^r, highest degree first. Degree 7 on |r| ≤ ln(2)/2 leaves a
+relative error ≤ 7.3·10⁻⁹ (the next term, r⁸/8!·e^|r|): the fits' Gaussian weights need no
+more (their fitted offsets move by < 10⁻¹⁰ px against degree 13, which was within 1 ulp of
+libm's exp), and the 6 fewer multiply-adds per weight cut a fit's time by about a fifth."""
 
 _ROWS = tuple(np.uint64(k * BLOCK_POINTS) for k in range(9))
 """Offsets of the rows of `_fit_curvatures`' sums, unsigned (constant, so no alias checks)."""
@@ -46,8 +49,8 @@ _ROWS = tuple(np.uint64(k * BLOCK_POINTS) for k in range(9))
 def _exp(q: float) -> float:
     """e^q without a library call, so that loops around it vectorise (q ≤ 0 in use).
 
-    2^k·P(r) with r = q − k·ln 2, |r| ≤ ln(2)/2, and P the Taylor polynomial of degree 13:
-    within 1 ulp of libm's exp. q is clamped at −708, about the least normal double.
+    2^k·P(r) with r = q − k·ln 2, |r| ≤ ln(2)/2, and P the Taylor polynomial of
+    `_EXP_TAYLOR`. q is clamped at −708, about the least normal double.
     """
     q = max(q, -708.0)
     k = np.floor(q * 1.4426950408889634 + 0.5)
@@ -87,7 +90,9 @@ def _fit_curvatures(x, y, nx, ny, sigma, bounds, kappa, fit_offset, count) -> No
     """
     half = np.empty(x.size)
     reach = np.empty(x.size, np.int64)
+    exponent = np.empty(x.size)  # −1/(2σ²): the weight's exponent is u²·that, no division
     for i in range(x.size):
+        exponent[i] = -0.5 / (sigma[i] * sigma[i])
         half[i] = max(WINDOW_SIGMAS * sigma[i], MIN_HALF_WINDOW_PX)
         # Centres are at least 1/1.5 px apart along a chain, so the window's points lie
         # within this many indices.
@@ -108,7 +113,7 @@ def _fit_curvatures(x, y, nx, ny, sigma, bounds, kappa, fit_offset, count) -> No
                     u = -ny[at] * dx + nx[at] * dy
                     v = nx[at] * dx + ny[at] * dy
                     inside = (abs(u) <= half[at]) & (abs(offset) <= reach[at])
-                    w = _exp(-0.5 * (u / sigma[at]) ** 2)  # branch-free: weight 0 outside
+                    w = _exp(u * u * exponent[at])  # branch-free: weight 0 outside
                     w = w if inside else 0.0
                     wu = w * u
                     wuu = wu * u
