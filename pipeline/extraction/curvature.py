@@ -63,18 +63,32 @@ def _exp(q: float) -> float:
 
 
 @kernel
+def _any_inside(x, y, nx, ny, half, lo, hi, b0, b1, offset) -> bool:
+    """Whether the window of any point b0…b1 − 1 holds its neighbour `offset` indices on,
+    with a 1 µpx margin against rounding."""
+    any_inside = False
+    for i in range(max(b0, lo - offset), min(b1, hi - offset)):
+        at, to = np.uint64(i), np.uint64(i + offset)
+        u = -ny[at] * (x[to] - x[at]) + nx[at] * (y[to] - y[at])
+        any_inside |= abs(u) <= half[at] + 1e-6
+    return any_inside
+
+
+@kernel
 def _window_offsets(x, y, nx, ny, half, lo, hi, b0, b1, most) -> tuple[int, int]:
     """Least and greatest offset j − i (within ±most) that any window of points b0…b1 − 1
-    holds, with a 1 µpx margin against rounding: a cheap pass that spares the fit the rest."""
+    holds: a cheap pass that spares the fit the rest. Each is searched from its end of the
+    range inwards, so only the offsets beyond the windows are tried (most is 1.5× a
+    window's half-width in points, and ±most + 1 (none held) when no window holds one)."""
     first, last = most + 1, -most - 1
     for offset in range(-most, most + 1):
-        any_inside = False
-        for i in range(max(b0, lo - offset), min(b1, hi - offset)):
-            at, to = np.uint64(i), np.uint64(i + offset)
-            u = -ny[at] * (x[to] - x[at]) + nx[at] * (y[to] - y[at])
-            any_inside |= abs(u) <= half[at] + 1e-6
-        if any_inside:
-            first, last = min(first, offset), offset
+        if _any_inside(x, y, nx, ny, half, lo, hi, b0, b1, offset):
+            first = offset
+            break
+    for offset in range(most, first - 1, -1):
+        if _any_inside(x, y, nx, ny, half, lo, hi, b0, b1, offset):
+            last = offset
+            break
     return first, last
 
 
