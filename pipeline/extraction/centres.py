@@ -282,9 +282,8 @@ def _refine_on_normals(image, x, y, nx, ny, sigma, widths, polylines, asymmetry)
     """Centres refined by the matched profile fit (`normal_fit`), then smoothed along their
     polylines over the scatter-chosen support (`curvature.smooth_along`).
 
-    A point whose matched fit fails keeps its Steger centre freed of its curvature bias
-    (`remove_curvature_bias`, fitted only on frames where some fit fails: the matched fit,
-    started from the Steger centre, has no curvature bias). Each polyline takes the kernel of
+    The points are first freed of their curvature bias, so that a point whose matched fit
+    fails keeps an unbiased Steger centre. Each polyline takes the kernel of
     KERNEL_FACTORS × s whose centres scatter least along it (σl, `local_fits`): s where
     the noise is additive, wider where texture or speckle multiplies the stripe (its noise
     is largest at the peak, and a wider kernel weights the flanks). `asymmetry(scale)`
@@ -293,20 +292,16 @@ def _refine_on_normals(image, x, y, nx, ny, sigma, widths, polylines, asymmetry)
     least σ.
     """
     s = _matched_sigma(sigma, widths)
+    x, y = remove_curvature_bias(x, y, nx, ny, sigma, polylines)
     support = ALONG_SUPPORT * np.maximum(sigma, 4 * s / math.sqrt(3))
     best = np.zeros(x.size)
     least = np.full(x.size, np.inf)
     fitted, count = np.zeros(x.size), np.zeros(x.size)
     offsets = matched_offsets(image, x, y, nx, ny, s, KERNEL_FACTORS)
-    unbiased = None  # the Steger centres' offsets to their curvature-corrected place
     for factor, t in zip(KERNEL_FACTORS, offsets, strict=True):
         if asymmetry is not None:
             t = t - asymmetry(factor * s)
-        if not np.isfinite(t).all():
-            if unbiased is None:
-                bx, by = remove_curvature_bias(x, y, nx, ny, sigma, polylines)
-                unbiased = (bx - x) * nx + (by - y) * ny
-            t = np.where(np.isfinite(t), t, unbiased)
+        t = np.where(np.isfinite(t), t, 0.0)
         fits = local_fits(x + t * nx, y + t * ny, nx, ny, support, polylines)
         better = fits.scatter < least  # one σl per polyline: a whole polyline's choice
         best[better], least[better] = t[better], fits.scatter[better]
