@@ -13,10 +13,10 @@ the wheel, whatever the effects do to the stripe's appearance.
   diffuse stripe is at 6–35 % of its surroundings there (the running band is dimmed; the
   root is that dim already), next to stretches where the specular lobe of the lit line
   reaches the camera: narrow, saturated glare on the line (the paper's Fig. 3d).
-- asymmetry: where the slope or reflectance changes across the lit band, the two sides of
-  the cross-section differ (a two-sided Gaussian, peak on the true line); the wider half
-  is set on a physical side (the camera's side of the laser plane), so both rails' frames
-  are mirror images of each other.
+- asymmetry: where the reflectance (or, much less, the slope) changes across the lit band,
+  the two sides of the cross-section differ (a two-sided Gaussian, peak on the true line).
+  The band runs across the laser plane, so its slope turns with the wheel's circumference
+  (|α| < 0.02, computed from the geometry), not with the profile's curvature.
 - ghost: light reflected off the flange flank draws a faint, wide copy (10–30 %) of the
   flange's stripe on the tread beside the stripe.
 - spots: specular glints on the lit line itself (the clean mode has them beside it only).
@@ -34,14 +34,9 @@ from dataclasses import dataclass, fields, replace
 import cv2
 import numpy as np
 
-from pipeline.calibration.geometry import (
-    camera_centre_track,
-    laser_plane_track,
-    project_track_points,
-)
 from pipeline.calibration.model import SensorCalibration
 from pipeline.imaging import IMAGE_FLOAT
-from pipeline.simulation.render import StripeSamples
+from pipeline.simulation.render import StripeSamples, WheelPose, band_edge_pixels
 from pipeline.simulation.scene import grain
 from pipeline.simulation.wheel import WheelProfile
 
@@ -63,11 +58,9 @@ GLARE_PEAK_DN = (260.0, 900.0)
 GLARE_WIDTH_FRACTION = (0.4, 0.8)
 """Width of the glare relative to the diffuse stripe's (the specular lobe images the thin
 sheet without the light's spread inside the rough surface)."""
-SKEW_CURVATURE_MM = 2.0
-"""Skew of a cross-section per unit profile curvature [mm]: across a lit band ≈ 2 mm wide
-on the surface (sheet thickness and sub-surface spread, widened at oblique incidence) the
-slope turns by 2 mm × κ, and the foreshortening of the two halves differs by about that
-much; a 15 mm flange-root radius gives α = 0.13."""
+BAND_HALF_MM = 1.0
+"""Half-thickness of the lit band taken for its own asymmetry [mm]: more than the sheet's
+(0.25 mm, `render.SHEET_THICKNESS_MM` / 2), so the band's α is an upper bound."""
 SKEW_RANDOM = 0.06
 """Random part of α from reflectance changes across the band (smooth along the outline)."""
 SKEW_LIMIT = 0.25
@@ -201,37 +194,41 @@ def replace_pixels(samples: StripeSamples, pixels: np.ndarray, width_px) -> Stri
     )
 
 
-def skew(profile: WheelProfile, samples: StripeSamples, rng) -> np.ndarray:
-    """α per sample of the two-sided cross-section: from the profile's curvature where the
-    slope changes across the lit band, and a smooth random part (reflectance changes)."""
-    dx, dz = np.gradient(profile.x_mm), np.gradient(profile.z_mm)
-    angle = np.unwrap(np.arctan2(dz, dx))
-    curvature = np.gradient(angle) / np.hypot(dx, dz)
-    kernel = np.ones(41) / 41  # 2 mm along the outline
-    curvature = np.convolve(curvature, kernel, mode="same")
-    noise = np.convolve(rng.normal(0, 1, profile.x_mm.size), np.ones(100) / 10.0, mode="same")
-    alpha = SKEW_CURVATURE_MM * curvature + SKEW_RANDOM * noise
-    return np.clip(alpha[samples.outline_index], -SKEW_LIMIT, SKEW_LIMIT)
+def band_skew(
+    profile: WheelProfile, samples: StripeSamples, pose: WheelPose, sensor: SensorCalibration
+) -> np.ndarray:
+    """α per sample of the lit band itself: its two edges (where the planes ±`BAND_HALF_MM`
+    from the laser plane meet the wheel) imaged at different distances from the line, the
+    farther one on the wider side (+ along `image_normals`, `draw_stripe`'s left).
 
-
-def camera_side(samples: StripeSamples, sensor: SensorCalibration) -> np.ndarray:
-    """±1 per sample: +1 where the camera's side of the laser plane images on the left of
-    the samples' direction of travel (along `image_normals`), −1 where on the right.
-
-    `skew`'s α widens the half of the lit band on the camera's side of the laser plane
-    (a physical side, the same on both rails); `draw_stripe` widens the half on the left
-    in the image. The left rail's cameras are the right's mirrored, so the image side of
-    the camera's half flips between them: α × this sign draws the same physical skew on
-    both sides.
+    The band runs across the laser plane, so the surface turns across it by the wheel's
+    curvature in that direction, not by the profile's (which runs along the stripe): for a
+    laser plane through the wheel's lowest section that is the rim's circumference, 1/r ≈
+    1/400 mm, and |α| stays below 0.02. Where the band images along the stripe (its edges
+    within 0.5 px of the line) it adds no width and α is 0. The lens and defocus spread
+    (symmetric) are left out, so this α is an upper bound.
     """
-    if samples.pixels.shape[0] == 0:
-        return np.ones(0)
-    normal, _ = laser_plane_track(sensor)
-    points = samples.points_track_mm
-    towards = np.sign((camera_centre_track(sensor) - points) @ normal)[:, None] * normal
-    step_mm = 0.5  # a step within the lit band; its image is the across-stripe direction
-    moved = project_track_points(points + step_mm * towards, sensor) - samples.pixels
-    return np.where(np.einsum("ij,ij->i", moved, image_normals(samples)) >= 0, 1.0, -1.0)
+    normals = image_normals(samples)
+    reach = [
+        np.einsum("ij,ij->i", band_edge_pixels(profile, pose, sensor, samples, h_mm), normals)
+        - np.einsum("ij,ij->i", samples.pixels, normals)
+        for h_mm in (BAND_HALF_MM, -BAND_HALF_MM)
+    ]
+    left = np.maximum(np.maximum(*reach), 0.0)
+    right = np.maximum(-np.minimum(*reach), 0.0)
+    across = left + right
+    return np.where(across > 0.5, (left - right) / np.maximum(across, 0.5), 0.0)
+
+
+def skew(
+    profile: WheelProfile, samples: StripeSamples, pose: WheelPose, sensor: SensorCalibration, rng
+) -> np.ndarray:
+    """α per sample of the two-sided cross-section: the lit band's own asymmetry
+    (`band_skew`) and a smooth random part (reflectance changing across the band: rust and
+    wear patches; the polished bands are rings, constant across it)."""
+    noise = np.convolve(rng.normal(0, 1, profile.x_mm.size), np.ones(100) / 10.0, mode="same")
+    alpha = band_skew(profile, samples, pose, sensor) + SKEW_RANDOM * noise[samples.outline_index]
+    return np.clip(alpha, -SKEW_LIMIT, SKEW_LIMIT)
 
 
 def ghost(profile: WheelProfile, samples: StripeSamples, peak_dn: np.ndarray, rng):

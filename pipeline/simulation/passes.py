@@ -29,7 +29,6 @@ from pipeline.simulation.field import (
     FieldEffects,
     add_spots_on_stripe,
     bloom,
-    camera_side,
     cut_at_flange,
     ghost,
     glare,
@@ -230,7 +229,7 @@ def _render_frame(
     peaks = stripe_peaks(samples, reflectivity)
     alpha = None
     if on["asymmetry"]:
-        alpha = skew(wheel.profile, samples, streams["asymmetry"]) * camera_side(samples, sensor)
+        alpha = skew(wheel.profile, samples, pose, sensor, streams["asymmetry"])
     draw_stripe(image, samples, peaks, skew=alpha)
     reflected = ghost(wheel.profile, samples, peaks, streams["ghost"]) if on["ghost"] else None
     if reflected is not None:

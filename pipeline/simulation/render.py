@@ -224,6 +224,24 @@ def wheel_section(
     )
 
 
+def band_edge_pixels(
+    profile: WheelProfile,
+    pose: WheelPose,
+    sensor: SensorCalibration,
+    samples: StripeSamples,
+    offset_mm: float,
+) -> np.ndarray:
+    """Where the laser plane moved `offset_mm` along its normal meets the wheel at each
+    sample's outline point, in the image (K, 2) [px]: an edge of the lit band when the
+    offset is half the band's thickness. Samples the moved plane misses keep their pixel.
+    """
+    normal, d = laser_plane_track(sensor)
+    points, _, valid = _surface_points(profile, pose, normal, d + offset_mm)
+    index = samples.outline_index
+    pixels = project_track_points(points[index], sensor)
+    return np.where(valid[index][:, None], pixels, samples.pixels)
+
+
 def plate_section(
     sensor: SensorCalibration,
     laser_origin_mm: np.ndarray,

@@ -49,14 +49,6 @@ def test_each_wheel_is_measured_or_says_what_is_missing(measured) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="V001/1/left adaptive Sh reads 28.534 for 28.251 mm (+0.284, bar 0.25): its dim "
-    "flange top, in pieces the chain continuation keeps inside the search region, reads high "
-    "by the asymmetric stripe's bias, which puts the tops +0.13 mm high on both rails on the "
-    "harsh benchmark; the asymmetry correction does not remove it under texture "
-    "(docs/simulator.md)",
-)
 def test_each_measured_wheel_is_near_its_truth(measured) -> None:
     results, truth = measured
     for result in results:
