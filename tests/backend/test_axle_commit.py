@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import threading
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -24,15 +25,14 @@ from backend.services.ingest import store_archive, validate_archive
 from backend.storage.store import BlobStore
 from db.engine import make_engine, make_session_factory, upgrade_database
 from db.models import Measurement, PassWheel
-from pipeline.simulation.passes import write_synthetic_passes
 from tests.databases import BACKENDS, throwaway_database
 
 
 @pytest.fixture(scope="module")
-def one_axle_archive(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def one_axle_archive(tmp_path_factory: pytest.TempPathFactory, simulated_pass: Callable) -> Path:
     """A simulated clean pass of one vehicle with one axle, zipped."""
     root = tmp_path_factory.mktemp("axle")
-    write_synthetic_passes(root / "pass", vehicles=1, seed=7, axles_per_vehicle=1)
+    simulated_pass(root / "pass", 1)
     (root / "pass" / "truth.json").unlink()
     return zip_folder(root / "pass", root / "pass.zip")
 

@@ -14,6 +14,7 @@ import subprocess
 import sys
 import tarfile
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,7 +34,6 @@ from backend.storage.store import BlobStore
 from db.engine import alembic_config, make_engine, make_session_factory, upgrade_database
 from db.models import Base, Frame, Site
 from db.types import utc_now
-from pipeline.simulation.passes import write_synthetic_passes
 from tests.backend.backup_helpers import (
     add_token,
     database_rows,
@@ -53,10 +53,10 @@ class Source:
 
 
 @pytest.fixture(scope="module")
-def source(tmp_path_factory: pytest.TempPathFactory) -> Source:
+def source(tmp_path_factory: pytest.TempPathFactory, simulated_pass: Callable) -> Source:
     """A SQLite data directory with measured passes (about 10 s to build)."""
     root = tmp_path_factory.mktemp("backup-source")
-    write_synthetic_passes(root / "pass", vehicles=1, seed=7, axles_per_vehicle=1)
+    simulated_pass(root / "pass", 1)
     (root / "pass" / "truth.json").unlink()
     settings = Settings(data_dir=root / "data")
     measure(settings, ingest(settings, zip_folder(root / "pass", root / "pass.zip")))

@@ -11,6 +11,7 @@ import io
 import json
 import subprocess
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +21,6 @@ from sqlalchemy import delete, select
 from backend.ops.demo import zip_folder
 from backend.services.ingest import store_archive, validate_archive
 from db.models import Frame, Job, Measurement, PassWheel
-from pipeline.simulation.passes import write_synthetic_passes
 from tests.backend.conftest import empty_service, make_tokens
 
 PARAMETERS = ("flange_height_mm", "flange_thickness_mm", "qr_mm", "back_to_back_mm")
@@ -28,11 +28,10 @@ TREAD = ("tread_hollow_mm", "flange_angle_deg", "rim_width_mm")
 
 
 @pytest.fixture(scope="session")
-def simulated(tmp_path_factory: pytest.TempPathFactory) -> dict:
+def simulated(tmp_path_factory: pytest.TempPathFactory, simulated_pass: Callable) -> dict:
     """A simulated 1-vehicle, 1-axle pass: its folder, zip, truth and CLI measurement."""
     root = tmp_path_factory.mktemp("simulated")
-    folder = root / "pass"
-    write_synthetic_passes(folder, vehicles=1, seed=7, axles_per_vehicle=1)
+    folder = simulated_pass(root / "pass", 1)
     truth = json.loads((folder / "truth.json").read_text())
     (folder / "truth.json").unlink()
     out = root / "measure.json"

@@ -102,7 +102,7 @@ def service(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Service]:
     env = {
         **os.environ,
         "WHEELSCAN_DATA_DIR": str(data_dir),
-        "WHEELSCAN_WORKERS": "1",
+        "WHEELSCAN_WORKERS": "2",  # the default: a pass's wheels measured two at a time
         "WHEELSCAN_VIEWER_PORT": str(_free_port()),
     }
     env.pop("WHEELSCAN_DATABASE_URL", None)
@@ -220,6 +220,24 @@ def wait_for_3d_scene(page: Any, timeout_s: float = 120.0) -> bytes:
             return picture
         previous = picture
     pytest.fail(f"the 3D view showed no settled scene in {timeout_s:.0f} s")
+
+
+def change_once_settled(page: Any, reference: bytes, timeout_s: float = 120.0) -> float:
+    """The share of the scene's pixels (as `changed_fraction`) in which the wheel page's 3D
+    view differs from `reference`, one of its earlier pictures, once the view shows that
+    picture again or has settled on another (two successive pictures alike to 1 %). A view
+    that still shows `reference` needs one picture, not two: each takes seconds while
+    software WebGL draws the open scenes."""
+    view = page.locator("iframe.viewer-frame")
+    deadline = time.monotonic() + timeout_s
+    previous = None
+    while time.monotonic() < deadline:
+        picture = view.screenshot(animations="disabled", timeout=timeout_s * 1000)
+        changed = changed_fraction(reference, picture)
+        if changed < 0.01 or (previous and changed_fraction(previous, picture) < 0.01):
+            return changed
+        previous = picture
+    pytest.fail(f"the 3D view settled on no picture in {timeout_s:.0f} s")
 
 
 @pytest.fixture(scope="session")

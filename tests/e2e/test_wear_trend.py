@@ -28,7 +28,7 @@ from tests.e2e.test_depot_review import (
     open_wheel,
     rename_vehicles,
     screenshot_whole_trend,
-    upload_measured,
+    upload_all_measured,
     wheel_at,
 )
 
@@ -67,7 +67,7 @@ def worn_train(service: Service, tmp_path_factory: pytest.TempPathFactory) -> Wo
         check=True,
         cwd=ROOT,
     )
-    passes, truth = [], {"W301": [], "W302": []}
+    archives, truth = [], {"W301": [], "W302": []}
     for index, folder in enumerate(sorted((out / "train").glob("pass-*"))):
         rename_vehicles(folder, NAMES)
         path = folder / "manifest.json"
@@ -84,8 +84,8 @@ def worn_train(service: Service, tmp_path_factory: pytest.TempPathFactory) -> Wo
                     else "flange_thickness_10_mm"
                 )
                 truth[NAMES[row["vehicle_id"]]].append(row[key])
-        passes.append(upload_measured(service, zip_pass(folder, out / f"{folder.name}.zip")))
-    return WornTrain(passes, truth)
+        archives.append(zip_pass(folder, out / f"{folder.name}.zip"))
+    return WornTrain(upload_all_measured(service, archives), truth)
 
 
 def forecast_of(service: Service, wheel_id: int, parameter: str) -> dict:

@@ -8,19 +8,25 @@ from pathlib import Path
 import pytest
 
 from tests.faults.live import LiveServer
-from tests.scale.topology import synthetic_pass_zip
+from tests.scale.topology import zip_pass_folder
 
 
 @pytest.fixture(scope="session")
-def axle_archive(tmp_path_factory: pytest.TempPathFactory) -> bytes:
+def axle_archive(
+    tmp_path_factory: pytest.TempPathFactory, simulated_pass: Callable[[Path, int], Path]
+) -> bytes:
     """One simulated axle: 2 wheels, one 1600×1200 frame per sensor (about 3.4 MB)."""
-    return synthetic_pass_zip(tmp_path_factory.mktemp("axle"), 1, axles_per_vehicle=1)
+    folder = tmp_path_factory.mktemp("axle")
+    return zip_pass_folder(simulated_pass(folder / "pass", 1), folder / "pass.zip")
 
 
 @pytest.fixture(scope="session")
-def vehicle_archive(tmp_path_factory: pytest.TempPathFactory) -> bytes:
+def vehicle_archive(
+    tmp_path_factory: pytest.TempPathFactory, simulated_pass: Callable[[Path, int], Path]
+) -> bytes:
     """One simulated two-axle vehicle: 4 wheels (measured for a few seconds each)."""
-    return synthetic_pass_zip(tmp_path_factory.mktemp("vehicle"), 1, axles_per_vehicle=2)
+    folder = tmp_path_factory.mktemp("vehicle")
+    return zip_pass_folder(simulated_pass(folder / "pass", 2), folder / "pass.zip")
 
 
 @pytest.fixture

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -21,9 +21,9 @@ from tests.scale.topology import (
     RedisServer,
     api,
     measurement_results,
-    synthetic_pass_zip,
     upload,
     wait_for_pass,
+    zip_pass_folder,
 )
 
 SHARED_REDIS_URL = os.environ.get("WHEELSCAN_TEST_REDIS_URL", "redis://127.0.0.1:6379/13")
@@ -32,9 +32,12 @@ PASS_TIMEOUT_S = 120.0
 
 
 @pytest.fixture(scope="session")
-def pass_archive(tmp_path_factory: pytest.TempPathFactory) -> bytes:
+def pass_archive(
+    tmp_path_factory: pytest.TempPathFactory, simulated_pass: Callable[[Path, int], Path]
+) -> bytes:
     """One two-axle vehicle: 4 wheels, one 1600×1200 frame per sensor (small: 2 cores)."""
-    return synthetic_pass_zip(tmp_path_factory.mktemp("scale-pass"), 1, axles_per_vehicle=2)
+    folder = tmp_path_factory.mktemp("scale-pass")
+    return zip_pass_folder(simulated_pass(folder / "pass", 2), folder / "pass.zip")
 
 
 @pytest.fixture(scope="session")

@@ -61,7 +61,11 @@ def synthetic_pass_zip(folder: Path, vehicles: int, axles_per_vehicle: int, seed
     (pass_dir,) = write_synthetic_passes(
         folder / "pass", vehicles=vehicles, axles_per_vehicle=axles_per_vehicle, seed=seed
     )
-    archive = folder / "pass.zip"
+    return zip_pass_folder(pass_dir, folder / "pass.zip")
+
+
+def zip_pass_folder(pass_dir: Path, archive: Path) -> bytes:
+    """A simulated pass folder zipped for upload (stored, its truth.json left out)."""
     with zipfile.ZipFile(archive, "w", zipfile.ZIP_STORED) as out:
         for path in sorted(pass_dir.rglob("*")):
             if path.is_file() and path.name != "truth.json":
