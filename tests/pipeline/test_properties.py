@@ -73,7 +73,7 @@ def test_transposing_an_arc_ending_at_the_frame_edge_transposes_the_classic_cent
     )
 
 
-@settings(max_examples=8, deadline=None)
+@settings(max_examples=8, deadline=None, derandomize=True)
 @given(stripes, METHODS, st.sampled_from([0, 1]))
 def test_flipping_the_frame_flips_the_centres(grey, method, axis) -> None:
     image = np.rint(grey).astype(np.uint8)
@@ -85,11 +85,8 @@ def test_flipping_the_frame_flips_the_centres(grey, method, axis) -> None:
     assert matched_fraction(expected, xy(flipped), 1e-3) >= 0.98
 
 
-@settings(max_examples=8, deadline=None)
-@given(stripes, st.floats(0.5, 1.5), st.sampled_from(["adaptive", "steger"]))
-def test_intensity_gain_does_not_move_centres(grey, gain, method) -> None:
-    # A gain that would push the peak past 65535 wraps uint16 around: not a gain any more.
-    assume(float(grey.max()) * 257 * gain <= np.iinfo(np.uint16).max)
+def assert_gain_keeps_centres(grey: np.ndarray, gain: float, method: str) -> None:
+    """Centres of the frame scaled by `gain` (uint16) are the frame's, within 2·10⁻³ px."""
     image = np.rint(grey * 257).astype(np.uint16)
     scaled = np.rint(grey * 257 * gain).astype(np.uint16)
     direct = extract_centres(image, method)
@@ -98,7 +95,26 @@ def test_intensity_gain_does_not_move_centres(grey, gain, method) -> None:
     assert matched_fraction(xy(direct), xy(brighter), 2e-3) >= 0.98
 
 
-@settings(max_examples=8, deadline=None)
+# Derandomized like the transposing property: a random CI run found the case below.
+@settings(max_examples=8, deadline=None, derandomize=True)
+@given(stripes, st.floats(0.5, 1.5), st.sampled_from(["adaptive", "steger"]))
+def test_intensity_gain_does_not_move_centres(grey, gain, method) -> None:
+    # A gain that would push the peak past 65535 wraps uint16 around: not a gain any more.
+    assume(float(grey.max()) * 257 * gain <= np.iinfo(np.uint16).max)
+    assert_gain_keeps_centres(grey, gain, method)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="adaptive, gain exactly 0.5 (r 300 px, w 15 px, turn 45°, fallback path): 87.1 % "
+    "matched, centres moved up to 0.27 px (90th percentile 0.02 px); gain 0.51 and 0.7 move "
+    "them ≤ 5·10⁻⁵ px: a decision that ties when every grey level is halved, not yet traced",
+)
+def test_halving_the_gain_of_a_wide_arc_keeps_the_adaptive_centres() -> None:
+    assert_gain_keeps_centres(arc_stripe(300, 15, 45), 0.5, "adaptive")
+
+
+@settings(max_examples=8, deadline=None, derandomize=True)
 @given(
     st.floats(60, 300),
     st.floats(5, 15),
