@@ -199,6 +199,10 @@ class _Selected:
     lambda_ratio: np.ndarray
 
 
+_CANDIDATE_ARRAYS = tuple(f.name for f in fields(_Selected) if f.name != "levels")
+"""The per-candidate array fields of _Selected (all but the scale levels they share)."""
+
+
 def _lambda_ratio(lambda1: np.ndarray, lambda2: np.ndarray) -> np.ndarray:
     """λ2/λ1 (float64): 1 on a round spot's centre, 0 on a straight line, negative where the
     grey curves up along the line; 0 where λ1 = 0 (no candidate there)."""
@@ -356,21 +360,16 @@ def _subpixel(selected: _Selected) -> tuple[np.ndarray, ...]:
 def _subset(selected: _Selected, which: np.ndarray) -> _Selected:
     """The candidates `which` (bool or index array) of `selected`."""
     return _Selected(
-        **{
-            name: getattr(selected, name)[which]
-            for name in (f.name for f in fields(_Selected))
-            if name != "levels"
-        },
+        **{name: getattr(selected, name)[which] for name in _CANDIDATE_ARRAYS},
         levels=selected.levels,
     )
 
 
 def _joined(a: _Selected, b: _Selected) -> _Selected:
+    """The candidates of `a` followed by those of `b` (the same scale levels)."""
     return _Selected(
         **{
-            name: np.concatenate([getattr(a, name), getattr(b, name)])
-            for name in (f.name for f in fields(_Selected))
-            if name != "levels"
+            name: np.concatenate([getattr(a, name), getattr(b, name)]) for name in _CANDIDATE_ARRAYS
         },
         levels=a.levels,
     )
