@@ -49,6 +49,7 @@ from pipeline.extraction.segmentation import (
     CHAIN_WIDTH_FACTOR,
     CONTINUITY_GAP_PX,
     STRONG_C_RATIO,
+    chain_ends,
     longest_lines,
 )
 from pipeline.extraction.steger import centre_pixels, newton_step
@@ -472,21 +473,6 @@ one line there (a texture-bent centre turned the normal by more than it links, o
 pieces overlap by a pixel), so the gap between the ends (0.3–2.8 px, often beside or
 behind the kept end) has no direction of its own, and judging it by the 37° cone rejected
 a harsh flank's dim pieces that continue the kept chain end to end."""
-END_TANGENT_POINTS = 6
-"""Centres over which a chain's direction at its end is taken."""
-
-
-def _chain_ends(x: np.ndarray, y: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
-    """Both ends of each chain: (2·len(chains), 4) rows (x, y, tx, ty), tx, ty the unit
-    direction out of the chain over its last END_TANGENT_POINTS centres."""
-    ends = np.zeros((2 * len(chains), 4))
-    for i, chain in enumerate(chains):
-        k = min(END_TANGENT_POINTS, chain.size) - 1
-        for j, (end, inner) in enumerate(((chain[0], chain[k]), (chain[-1], chain[-1 - k]))):
-            tx, ty = x[end] - x[inner], y[end] - y[inner]
-            norm = max(float(np.hypot(tx, ty)), 1e-9)
-            ends[2 * i + j] = (x[end], y[end], tx / norm, ty / norm)
-    return ends
 
 
 def _continuing(
@@ -499,7 +485,7 @@ def _continuing(
     stretch of the laser (a polished flank next to its glare) is linked apart from its
     bright neighbours and is short; texture ridges and outlines beside the stripe lie
     beside its chains, not ahead of their ends."""
-    ends = _chain_ends(x, y, chains)
+    ends = chain_ends(x, y, chains)
     kept_ends = np.repeat(np.asarray(kept, bool), 2)
     long_enough = np.repeat([c.size >= CONTINUING_MIN_POINTS for c in chains], 2)
     while True:

@@ -27,8 +27,6 @@ from tests.pipeline.real_frame_truth import (
 
 BAR_PCT = 95.0
 NOT_YET = {
-    ("weld-2", "on-line"): "65.2 %: the torch's rims, its highlight below the clip (was 64.2 %)",
-    ("weld-8", "on-line"): "67.2 %: the torch's highlight and rims, a lit plate edge",
     ("charuco-red", "on-line"): "4.4 %: the board's white grid lines and print; grey hides the red",
     (
         "charuco-red",

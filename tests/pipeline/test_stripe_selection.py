@@ -9,7 +9,12 @@ from scipy.special import erfc
 from pipeline import extract_centres
 from pipeline.extraction.centres import _bright_chains
 from pipeline.extraction.line_test import BODY_SHARE, body_shares, is_line, line_profiles
-from pipeline.extraction.segmentation import LINE_JOIN_PX, joined_lines, longest_lines
+from pipeline.extraction.segmentation import (
+    LINE_JOIN_PX,
+    LINE_SIDE_PX,
+    joined_lines,
+    longest_lines,
+)
 from pipeline.imaging import PixelRegion
 
 SHAPE = (80, 120)
@@ -235,6 +240,26 @@ def test_pieces_end_to_near_are_one_line_and_a_shorter_line_apart_is_not_kept() 
     assert line[0] == line[1]
     assert len({line[1], line[2], line[3]}) == 3
     assert longest_lines(xy, chains).tolist() == [True, True, False, False]
+
+
+def test_lines_side_by_side_are_not_one_line() -> None:
+    # A torch's rims and the wire below it (real frames weld-2, weld-8): a parallel chain
+    # just beyond LINE_SIDE_PX beside a chain, their ends level, and one as far to the other
+    # side starting just past its end are separate lines; the last just inside
+    # LINE_SIDE_PX continues it.
+    def chain(x, y0, n):
+        return np.column_stack([np.full(n, float(x)), y0 + np.arange(n, dtype=float)])
+
+    beside = LINE_SIDE_PX + 1
+    parts = [chain(0, 0, 100), chain(-beside, 0, 100), chain(beside, 110, 30)]
+    xy = np.concatenate(parts)
+    bounds = np.cumsum([0] + [len(p) for p in parts])
+    chains = [np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    assert len(set(joined_lines(xy, chains))) == 3
+    parts[2] = chain(LINE_SIDE_PX - 1, 110, 30)
+    xy = np.concatenate(parts)
+    line = joined_lines(xy, chains)
+    assert line[0] == line[2] != line[1]
 
 
 def _clipped(width_px: float, peak: float, centre_px: float = 0.0):
