@@ -217,6 +217,27 @@ def test_a_long_dim_chain_is_kept_beside_the_stripe_and_dropped_apart_from_it() 
     assert sorted(dropped) == [*range(bounds[2], bounds[3]), *range(bounds[4], bounds[5])]
 
 
+def test_a_short_strong_dim_piece_in_a_gap_of_the_line_is_kept_one_leaving_it_is_not() -> None:
+    # Chains of centres 1 px apart along x: bright pieces at 0–49 and 90–139, dim ones (under
+    # CHAIN_FRACTION of the height, shorter than CHAIN_MIN_POINTS, strong: C 30 ≥ 10·c) at
+    # 60–79, between them (a laser line dimmed over a dark square), and at 150–169, past
+    # the second's end with nothing beyond it (a flare streak leaving the line).
+    starts, lengths = (0, 60, 90, 150), (50, 20, 50, 20)
+    xy = np.concatenate(
+        [
+            np.column_stack([s + np.arange(n, dtype=float), np.zeros(n)])
+            for s, n in zip(starts, lengths, strict=True)
+        ]
+    )
+    bounds = np.cumsum((0, *lengths))
+    chains = [np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    height = np.repeat([100.0, 40, 100, 40], lengths)
+    strength = np.repeat([40.0, 30, 40, 30], lengths)
+    kept, dropped = _bright_chains(chains, height, strength, xy, c_grey=2.55)
+    assert [c[0] for c in kept] == [bounds[0], bounds[1], bounds[2]]
+    assert sorted(dropped) == list(range(bounds[3], bounds[4]))
+
+
 def test_pieces_end_to_near_are_one_line_and_a_shorter_line_apart_is_not_kept() -> None:
     # Chains of centres 1 px apart along x: a piece of 100, the next one past a gap just
     # inside LINE_JOIN_PX from its end and 20 px lower, a third just beyond the reach of the
