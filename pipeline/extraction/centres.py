@@ -867,13 +867,14 @@ def extract_centres(
     drops chains that are round spots or highlights on a lit body (`line_test.is_spot`,
     `line_test.is_on_body`), chains far dimmer than the brightest that are short or lie
     apart from the kept ones, chains wider than CHAIN_WIDTH_FACTOR·width_max and, outside
-    a search region, lines (chains joined end to near) under LINE_KEEP_FRACTION of the
-    longest's centres (`segmentation`). Which stage rejects what: the mask (`segmentation`)
-    spots, dim outlines, texture, ghosts and short pieces of other parts' stripes; the line
-    test step edges and highlights thinner than the stripe; the chain rules spots,
-    highlights on a lit body, dim streaks apart from the stripe, lines wider than it and
-    specular lines far shorter than it; measurement another part's long bright stripe, by
-    its place in the track frame.
+    a search region, lines (chains joined end to near, not beside: LINE_SIDE_PX) under
+    LINE_KEEP_FRACTION of the longest's centres (`segmentation`). Which stage rejects
+    what: the mask (`segmentation`) spots, dim outlines, texture, ghosts and short pieces of
+    other parts' stripes; the line test step edges and highlights thinner than the stripe;
+    the chain rules spots, highlights on a lit body, dim streaks apart from the stripe,
+    lines wider than it and specular lines (or a torch's rims beside the stripe) far
+    shorter than it; measurement another part's long bright stripe, by its place in the
+    track frame.
     The σ map and the mask are those of the pixels, before the sub-pixel step.
 
     References
