@@ -38,6 +38,7 @@ VEHICLES, AXLES = 2, 2
 METHODS = (
     "adaptive",
     "adaptive+asymmetry",
+    "adaptive+gaps",
     "adaptive-normal",
     "adaptive-normal+scatter",
     "adaptive-normal-curvature",
@@ -45,9 +46,11 @@ METHODS = (
     "steger+curvature",
     "steger+curvature+asymmetry",
 )
-"""Adaptive (the matched fit along the normal on by default), its Hessian centres without
-it (curvature correction on, with the scatter-chosen support, and with neither), and
-Steger (corrections off by default), each with and without the corrections, side by side."""
+"""Adaptive (the matched fit along the normal on by default), adaptive with the guided
+search across gaps between chains (off by default, docs/extraction.md §6a), its Hessian
+centres without the matched fit (curvature correction on, with the scatter-chosen support,
+and with neither), and Steger (corrections off by default), each with and without the
+corrections, side by side."""
 WHEEL_BAR_MM = 0.10
 """Every wheel's Sh and Sd within 0.10 mm of the truth."""
 KEY_PARAMETERS = ("flange_height_mm", "flange_thickness_mm")

@@ -37,15 +37,16 @@ from pipeline.version import PIPELINE_VERSION
 MEASURED = "measured"
 NOT_MEASURED = "not measured"
 MEASURE_METHODS = ("adaptive", "steger")
-CORRECTIONS = ("curvature", "asymmetry", "scatter", "normal")
+CORRECTIONS = ("curvature", "asymmetry", "scatter", "normal", "gaps")
 """Corrections a method label can switch on (+name) or off (−name): "steger+curvature",
 "adaptive+asymmetry", "adaptive-normal-curvature" (the Hessian centres without the
 curvature correction), "adaptive-normal+scatter" (Hessian centres with the along-stripe
 support chosen by the centre scatter); "normal" is the matched fit along the normal
 (`extract_centres(normal_fit=...)`), which replaces the curvature correction and the
-scatter support. A bare method keeps its defaults (normal fit on for adaptive, off for
-Steger; curvature on for adaptive's Hessian centres, off for Steger; asymmetry and scatter
-off)."""
+scatter support; "gaps" the guided search across gaps between chains
+(`extract_centres(gap_search=...)`, adaptive only). A bare method keeps its defaults
+(normal fit on for adaptive, off for Steger; curvature on for adaptive's Hessian centres,
+off for Steger; asymmetry, scatter and gaps off)."""
 MIN_SENSOR_POINTS = 50
 """A sensor with fewer centre points than this has no usable stripe (a wheel's stripe gives
 over a thousand)."""
@@ -173,6 +174,7 @@ class MethodOptions:
     asymmetry_correction: bool
     scatter_support: bool
     normal_fit: bool
+    gap_search: bool = False
 
 
 def method_options(label: str) -> MethodOptions:
@@ -187,7 +189,13 @@ def method_options(label: str) -> MethodOptions:
     if tokens[0] not in MEASURE_METHODS:
         raise ValueError(f"method must be one of {', '.join(MEASURE_METHODS)}, got {label!r}")
     adaptive = tokens[0] == "adaptive"
-    switches = {"curvature": adaptive, "asymmetry": False, "scatter": False, "normal": adaptive}
+    switches = {
+        "curvature": adaptive,
+        "asymmetry": False,
+        "scatter": False,
+        "normal": adaptive,
+        "gaps": False,
+    }
     for token in tokens[1:]:
         if token[1:] not in CORRECTIONS:
             raise ValueError(
@@ -200,6 +208,7 @@ def method_options(label: str) -> MethodOptions:
         switches["asymmetry"],
         switches["scatter"],
         switches["normal"],
+        switches["gaps"],
     )
 
 
@@ -250,6 +259,7 @@ def _frame_centres(images, sensor, options: MethodOptions, widths, region) -> li
             asymmetry_correction=options.asymmetry_correction,
             scatter_support=options.scatter_support,
             normal_fit=options.normal_fit,
+            gap_search=options.gap_search,
             region=region,
         )
         points = pixels_to_track_points(centres.x, centres.y, sensor)

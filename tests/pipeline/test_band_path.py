@@ -40,11 +40,11 @@ def _assert_same_points(band, full) -> None:
     assert [p.tolist() for p in band.polylines] == [p.tolist() for p in full.polylines]
 
 
-def _assert_band_is_full(image: np.ndarray) -> str:
-    """Band path and full frame give the same mask, σ map and centres on `image`; returns
-    the band path's `path`."""
-    band = extract_centres(image)
-    full = extract_centres(image, full_frame=True)
+def _assert_band_is_full(image: np.ndarray, **options) -> str:
+    """Band path and full frame give the same mask, σ map and centres on `image` (with the
+    extraction `options`); returns the band path's `path`."""
+    band = extract_centres(image, **options)
+    full = extract_centres(image, full_frame=True, **options)
     assert full.path == "full"
     np.testing.assert_array_equal(band.mask, full.mask)
     np.testing.assert_array_equal(band.sigma_map, full.sigma_map)
@@ -199,6 +199,13 @@ def test_band_path_gives_the_full_frame_result_on_the_field_harsh_cases(case) ->
     # Lit scenes fall back (their band would cover most of the frame); ghost and flare take
     # the wide band; the rest the band (BENCHMARKS.md, field-harsh cases).
     assert _assert_band_is_full(make_stripe(case).image) in {"band", "wide band", "fallback"}
+
+
+@pytest.mark.parametrize("case", HARSH, ids=lambda c: c.name)
+def test_band_path_gives_the_full_frame_result_with_the_gap_search(case) -> None:
+    # The guided search reads only the frame and the kept chains (pipeline.extraction.gaps).
+    image = make_stripe(case).image
+    assert _assert_band_is_full(image, gap_search=True) in {"band", "wide band", "fallback"}
 
 
 @pytest.mark.parametrize("name", REAL_FRAME_NAMES)
