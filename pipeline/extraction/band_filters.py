@@ -2,8 +2,9 @@
 with the kernels of `pipeline.extraction.gaussian`, evaluated where the stripe can be.
 
 A band is a boolean grid of BLOCK_PX × BLOCK_PX blocks over one pyramid level. The x pass
-runs on every row the y pass reads (the band's blocks widened by the kernel radius), the
-y pass on the band's blocks. Inside the band the derivatives are those of the full frame
+runs on every row the y pass reads (the band's blocks widened by the kernel radius) into a
+store of a few block rows, the y pass on each block row of the band right after the x rows
+it reads. Inside the band the derivatives are those of the full frame
 (the band of all blocks), bit for bit; outside they are 0.
 """
 
