@@ -37,6 +37,7 @@ from pipeline.imaging import laser_grey
 from pipeline.simulation.passes import build_station, build_train, pass_start_time, simulate_pass
 from tests.pipeline.real_frame_truth import (
     COLOUR_FRAMES,
+    COLOUR_WIDTHS_PX,
     REAL_FRAME_NAMES,
     load_real_frame,
     score_real_frame,
@@ -75,8 +76,8 @@ class Variant:
     method: str
     full_frame: bool
 
-    def extract(self, image: np.ndarray):
-        return extract_centres(image, self.method, full_frame=self.full_frame)
+    def extract(self, image: np.ndarray, widths_px: tuple[float, float] = (5, 21)):
+        return extract_centres(image, self.method, *widths_px, full_frame=self.full_frame)
 
 
 VARIANTS = (
@@ -130,9 +131,12 @@ def _harsh_cell(score) -> str:
     )
 
 
-def _each_method(image: np.ndarray, score: Callable) -> tuple[str, dict]:
-    """The adaptive band path taken and each of SIDE_BY_SIDE's scores on one frame."""
-    found = {v.label: v.extract(image) for v in SIDE_BY_SIDE}
+def _each_method(
+    image: np.ndarray, score: Callable, widths_px: tuple[float, float] = (5, 21)
+) -> tuple[str, dict]:
+    """The adaptive band path taken and each of SIDE_BY_SIDE's scores on one frame, at the
+    stripe width range `widths_px` (width_min, width_max) [px]."""
+    found = {v.label: v.extract(image, widths_px) for v in SIDE_BY_SIDE}
     return found["adaptive band"].path, {k: score(c.x, c.y) for k, c in found.items()}
 
 
@@ -150,9 +154,12 @@ def _harsh_rows() -> list[str]:
     return rows
 
 
-def _real_frame_row(label: str, frame, image: np.ndarray) -> str:
-    """One real frame's row: each method on `image`, scored against the frame's truth."""
-    path, scores = _each_method(image, lambda x, y: score_real_frame(frame, x, y))
+def _real_frame_row(
+    label: str, frame, image: np.ndarray, widths_px: tuple[float, float] = (5, 21)
+) -> str:
+    """One real frame's row: each method on `image` at the width range `widths_px` [px],
+    scored against the frame's truth."""
+    path, scores = _each_method(image, lambda x, y: score_real_frame(frame, x, y), widths_px)
     cells = " | ".join(
         f"{scores[v.label].on_line_pct:.1f} / {scores[v.label].coverage_pct:.1f}"
         for v in SIDE_BY_SIDE
@@ -172,7 +179,9 @@ def _real_frame_rows() -> list[str]:
         rows.append(_real_frame_row(name, frame, frame.image))
         if frame.colour is not None:
             grey = laser_grey(frame.colour, COLOUR_FRAMES[name])
-            rows.append(_real_frame_row(f"{name}, laser colour", frame, grey))
+            widths = COLOUR_WIDTHS_PX[name]
+            label = f"{name}, laser colour, widths {widths[0]:g}–{widths[1]:g} px"
+            rows.append(_real_frame_row(label, frame, grey, widths))
     return rows
 
 
@@ -330,8 +339,9 @@ def run() -> str:
                 "PROVENANCE.md): five grey frames of a welding camera behind its filter (lit "
                 "steel, a specular torch, flare, plate edges) and a red laser on a printed board "
                 "converted to grey, and the same board taken by its laser's colour (`laser_grey`: "
-                "red minus the brighter of green and blue). Per method (as above), default "
-                "widths 5–21 px: centres on the "
+                "red minus the brighter of green and blue) at the width range a station would "
+                "configure for its 2–5 px line. Per method (as above), default widths 5–21 px "
+                "unless the row says otherwise: centres on the "
                 "line [%] (within 3 px of a laser pixel) / the line's medial axis covered [%] (a "
                 f"centre within 2.5 px). Bars: adaptive ≥ {REAL_BAR_PCT:.0f} % on both.",
                 "",

@@ -49,6 +49,7 @@ from pipeline.extraction.segmentation import (
     CHAIN_WIDTH_FACTOR,
     CONTINUITY_GAP_PX,
     STRONG_C_RATIO,
+    chain_ends,
     longest_lines,
 )
 from pipeline.extraction.steger import centre_pixels, newton_step
@@ -472,21 +473,6 @@ one line there (a texture-bent centre turned the normal by more than it links, o
 pieces overlap by a pixel), so the gap between the ends (0.3–2.8 px, often beside or
 behind the kept end) has no direction of its own, and judging it by the 37° cone rejected
 a harsh flank's dim pieces that continue the kept chain end to end."""
-END_TANGENT_POINTS = 6
-"""Centres over which a chain's direction at its end is taken."""
-
-
-def _chain_ends(x: np.ndarray, y: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
-    """Both ends of each chain: (2·len(chains), 4) rows (x, y, tx, ty), tx, ty the unit
-    direction out of the chain over its last END_TANGENT_POINTS centres."""
-    ends = np.zeros((2 * len(chains), 4))
-    for i, chain in enumerate(chains):
-        k = min(END_TANGENT_POINTS, chain.size) - 1
-        for j, (end, inner) in enumerate(((chain[0], chain[k]), (chain[-1], chain[-1 - k]))):
-            tx, ty = x[end] - x[inner], y[end] - y[inner]
-            norm = max(float(np.hypot(tx, ty)), 1e-9)
-            ends[2 * i + j] = (x[end], y[end], tx / norm, ty / norm)
-    return ends
 
 
 def _continuing(
@@ -499,7 +485,7 @@ def _continuing(
     stretch of the laser (a polished flank next to its glare) is linked apart from its
     bright neighbours and is short; texture ridges and outlines beside the stripe lie
     beside its chains, not ahead of their ends."""
-    ends = _chain_ends(x, y, chains)
+    ends = chain_ends(x, y, chains)
     kept_ends = np.repeat(np.asarray(kept, bool), 2)
     long_enough = np.repeat([c.size >= CONTINUING_MIN_POINTS for c in chains], 2)
     while True:
@@ -507,21 +493,52 @@ def _continuing(
         held = np.flatnonzero(kept_ends)
         if dim.size == 0 or held.size == 0:
             break
-        # Every dim end against every kept end at once: gap (dim × held × 2).
-        gap = ends[dim, None, :2] - ends[None, held, :2]
-        direction = ends[None, held, 2:]
-        length = np.hypot(gap[..., 0], gap[..., 1])
-        along = np.einsum("dhk,dhk->dh", gap, direction)
-        across = np.abs(gap[..., 0] * direction[..., 1] - gap[..., 1] * direction[..., 0])
-        heading = np.einsum("dk,hk->dh", ends[dim, 2:], ends[held, 2:]) <= -CONTINUING_COS
-        ahead = (along >= CONTINUING_COS * length) | (length <= CONTINUING_TOUCH_PX)
-        joins = (length <= CONTINUITY_GAP_PX) & ahead
-        joins &= (across <= CONTINUING_OFFSET_PX) & heading
-        grown = np.unique(dim[joins.any(axis=1)] // 2)
+        grown = np.unique(dim[_continues(ends[dim], ends[held]).any(axis=1)] // 2)
         if grown.size == 0:
             break
         kept_ends[2 * grown] = kept_ends[2 * grown + 1] = True
     return kept_ends[::2].tolist()
+
+
+def _continues(dim: np.ndarray, held: np.ndarray) -> np.ndarray:
+    """Which chain ends `dim` (D, 4) continue which ends `held` (H, 4) (rows x, y, tx, ty of
+    `chain_ends`): bool (D, H), within CONTINUITY_GAP_PX ahead of the held end (or touching
+    it), within CONTINUING_OFFSET_PX of its line and heading back against it."""
+    gap = dim[:, None, :2] - held[None, :, :2]
+    direction = held[None, :, 2:]
+    length = np.hypot(gap[..., 0], gap[..., 1])
+    along = np.einsum("dhk,dhk->dh", gap, direction)
+    across = np.abs(gap[..., 0] * direction[..., 1] - gap[..., 1] * direction[..., 0])
+    heading = np.einsum("dk,hk->dh", dim[:, 2:], held[:, 2:]) <= -CONTINUING_COS
+    ahead = (along >= CONTINUING_COS * length) | (length <= CONTINUING_TOUCH_PX)
+    return (length <= CONTINUITY_GAP_PX) & ahead & (across <= CONTINUING_OFFSET_PX) & heading
+
+
+def _bridging(
+    kept: list[bool], eligible: list[bool], chains: list[np.ndarray], xy: np.ndarray
+) -> list[bool]:
+    """`kept` grown by the `eligible` chains of ≥ CONTINUING_MIN_POINTS lying in a gap of a
+    kept line: each of their two ends continues (`_continues`) an end of a kept chain or of
+    another such chain, one of them a kept one's, until none is added. A piece of the stripe
+    between two bright stretches (a laser line dimmed over a dark square of a printed board,
+    linked apart from its bright pieces over the white ones) continues the line at both ends;
+    a flare streak or a bent outline leaving the stripe continues it at one end only."""
+    ends = chain_ends(xy[:, 0], xy[:, 1], chains)
+    kept_chain = np.asarray(kept, bool)
+    open_chain = ~kept_chain & np.asarray(eligible, bool)
+    open_chain &= np.array([c.size >= CONTINUING_MIN_POINTS for c in chains], bool)
+    joins = _continues(ends, ends)
+    owner = np.repeat(np.arange(len(chains)), 2)
+    joins &= owner[:, None] != owner[None, :]
+    while open_chain.any():
+        to_kept = joins[:, np.repeat(kept_chain, 2)].any(axis=1)
+        to_line = to_kept | joins[:, np.repeat(open_chain, 2)].any(axis=1)
+        bridge = open_chain & to_line[::2] & to_line[1::2] & (to_kept[::2] | to_kept[1::2])
+        if not bridge.any():
+            break
+        kept_chain |= bridge
+        open_chain &= ~bridge
+    return kept_chain.tolist()
 
 
 def _grown_near(
@@ -556,7 +573,9 @@ def _bright_chains(
     CHAIN_FRACTION of the highest chain's; a dimmer one only when it is long
     (≥ CHAIN_MIN_POINTS) and either strong in itself (`strength` up to STRONG_C_RATIO·c) or
     within CONTINUITY_GAP_PX of a kept chain (a dim stretch of the stripe beside its bright
-    parts, not a flare streak or an outline apart from them), until none is added. With
+    parts, not a flare streak or an outline apart from them), until none is added; a short
+    one strong in itself when it lies in a gap of a kept line, continuing it at both ends
+    (`_bridging`). With
     `continuing` (inside a search region, where the calibration says the stripe lies) every
     long chain is kept (a clean wheel's dim flank can lie further than CONTINUITY_GAP_PX from
     its tread's chain) and a short dim chain that continues a kept one too (`_continuing`).
@@ -575,6 +594,8 @@ def _bright_chains(
         strong = [strength[c].max() >= STRONG_C_RATIO * c_grey for c in chains]
         kept = [b or (g and t) for b, g, t in zip(bright_enough, long, strong, strict=True)]
         kept = _grown_near(kept, chains, long, xy)
+        if not all(kept):
+            kept = _bridging(kept, strong, chains, xy)
     dim = [c for c, k in zip(chains, kept, strict=True) if not k]
     bright = [c for c, k in zip(chains, kept, strict=True) if k]
     return bright, np.concatenate(dim) if dim else np.zeros(0, np.int64)
@@ -846,13 +867,14 @@ def extract_centres(
     drops chains that are round spots or highlights on a lit body (`line_test.is_spot`,
     `line_test.is_on_body`), chains far dimmer than the brightest that are short or lie
     apart from the kept ones, chains wider than CHAIN_WIDTH_FACTOR·width_max and, outside
-    a search region, lines (chains joined end to near) under LINE_KEEP_FRACTION of the
-    longest's centres (`segmentation`). Which stage rejects what: the mask (`segmentation`)
-    spots, dim outlines, texture, ghosts and short pieces of other parts' stripes; the line
-    test step edges and highlights thinner than the stripe; the chain rules spots,
-    highlights on a lit body, dim streaks apart from the stripe, lines wider than it and
-    specular lines far shorter than it; measurement another part's long bright stripe, by
-    its place in the track frame.
+    a search region, lines (chains joined end to near, not beside: LINE_SIDE_PX) under
+    LINE_KEEP_FRACTION of the longest's centres (`segmentation`). Which stage rejects
+    what: the mask (`segmentation`) spots, dim outlines, texture, ghosts and short pieces of
+    other parts' stripes; the line test step edges and highlights thinner than the stripe;
+    the chain rules spots, highlights on a lit body, dim streaks apart from the stripe,
+    lines wider than it and specular lines (or a torch's rims beside the stripe) far
+    shorter than it; measurement another part's long bright stripe, by its place in the
+    track frame.
     The σ map and the mask are those of the pixels, before the sub-pixel step.
 
     References

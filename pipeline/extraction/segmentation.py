@@ -6,11 +6,13 @@ when it is shaped like one (not a spot), its ridge strength is comparable to the
 piece's or strong in itself (a dimmer outline, texture, a ghost stripe are neither), and
 it is either long beside the other strong pieces or continues one of those kept (the
 pieces of a stripe broken at depth steps). After the centres are linked, the chains of a
-whole frame are joined into lines, pieces whose ends lie near each other, and only lines of
-about the longest's length are kept (`longest_lines`): the laser plane cuts the surfaces in
-view along one curve, so a bright line apart from it and far shorter (a specular glint) is
-not the stripe. Another part's bright stripe as long, or one inside a search region, may
-still pass here; measurement rejects it later by its place in the track frame.
+whole frame are joined into lines, pieces whose ends lie near another piece and not beside
+it (within LINE_SIDE_PX of the end's tangent line), and only lines of about the longest's
+length are kept (`longest_lines`): the laser plane cuts the surfaces in view along one
+curve, so a bright line apart from it, or running alongside it, and far shorter (a
+specular glint, a torch's lit rims) is not the stripe. Another part's bright stripe as
+long, or one inside a search region, may still pass here; measurement rejects it later
+by its place in the track frame.
 """
 
 from __future__ import annotations
@@ -72,10 +74,22 @@ stripe of the configured range stays within it (uniform 21 px: 21.1 median, satu
 
 LINE_JOIN_PX = 40.0
 """Two linked chains of centres are pieces of one line when an end of one lies within this
-distance [px] of a centre of the other: consecutive pieces of a stripe broken at depth steps
-(up to 16 px of it hidden, the next piece shifted by up to 19 px along the rows, which
-along a steep stretch lengthens the gap, and each cut end trimmed by the line test) lie
-9–38 px apart end to end on `broken-steps` and `field-all`."""
+distance [px] of a centre of the other (not beside it: LINE_SIDE_PX): consecutive pieces
+of a stripe broken at depth steps (up to 16 px of it hidden, the next piece shifted by up
+to 19 px along the rows, which along a steep stretch lengthens the gap, and each cut end
+trimmed by the line test) lie 9–38 px apart end to end on `broken-steps` and `field-all`."""
+
+LINE_SIDE_PX = 20.0
+"""... and that centre lies within this distance [px] of the end's tangent line (ahead of
+the end or behind it): the next piece of a broken stripe continues the line, shifted
+sideways by at most the depth step (≤ 19 px on `broken-steps`, and 12–18 px where pieces
+of `broken-steps`, `field-all` and the real frames' crossing laser lines join), while a
+line beside it runs alongside: the welding torch's rims and highlight, parallel lines 26–30
+px apart, and the lit wire below it, 27–29 px beside the end of a rim, were joined end to
+side and, through the wire, to the laser line (real frames weld-2, weld-8)."""
+
+END_TANGENT_POINTS = 6
+"""Centres over which a chain's direction at its end is taken."""
 
 LINE_KEEP_FRACTION = 0.5
 """Outside a search region, a line (its chains joined by LINE_JOIN_PX) is the stripe's only
@@ -157,16 +171,34 @@ def strong_candidates(shapes: ComponentShapes, strength: np.ndarray, c_grey: flo
     return shaped & (strength >= least)
 
 
+def chain_ends(x: np.ndarray, y: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
+    """Both ends of each chain: (2·len(chains), 4) rows (x, y, tx, ty), tx, ty the unit
+    direction out of the chain over its last END_TANGENT_POINTS centres."""
+    ends = np.zeros((2 * len(chains), 4))
+    for i, chain in enumerate(chains):
+        k = min(END_TANGENT_POINTS, chain.size) - 1
+        for j, (end, inner) in enumerate(((chain[0], chain[k]), (chain[-1], chain[-1 - k]))):
+            tx, ty = x[end] - x[inner], y[end] - y[inner]
+            norm = max(float(np.hypot(tx, ty)), 1e-9)
+            ends[2 * i + j] = (x[end], y[end], tx / norm, ty / norm)
+    return ends
+
+
 def joined_lines(xy: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
     """Which line each chain belongs to (int (len(chains),)): chains are joined when an end of
-    one lies within LINE_JOIN_PX of a centre of the other, transitively. `xy` (K, 2) are the
-    centres [px], `chains` index arrays into it."""
+    one lies within LINE_JOIN_PX of a centre of the other that lies within LINE_SIDE_PX of
+    the end's tangent line (`chain_ends`), transitively. `xy` (K, 2) are the centres [px],
+    `chains` index arrays into it."""
+    order = np.concatenate(chains)
     owner = np.repeat(np.arange(len(chains)), [c.size for c in chains])
-    tree = cKDTree(xy[np.concatenate(chains)])
-    ends = np.array([[c[0], c[-1]] for c in chains]).ravel()
-    near = tree.query_ball_point(xy[ends], LINE_JOIN_PX)
-    rows = np.repeat(np.arange(ends.size) // 2, [len(n) for n in near])
-    cols = owner[np.concatenate(near).astype(np.int64)] if rows.size else rows
+    tree = cKDTree(xy[order])
+    ends = chain_ends(xy[:, 0], xy[:, 1], chains)
+    near = tree.query_ball_point(ends[:, :2], LINE_JOIN_PX)
+    rows = np.repeat(np.arange(ends.shape[0]), [len(n) for n in near])
+    hits = np.concatenate(near).astype(np.int64) if rows.size else rows
+    gap = xy[order[hits]] - ends[rows, :2]
+    side = np.abs(gap[:, 0] * ends[rows, 3] - gap[:, 1] * ends[rows, 2])
+    rows, cols = rows[side <= LINE_SIDE_PX] // 2, owner[hits[side <= LINE_SIDE_PX]]
     graph = coo_matrix((np.ones(rows.size), (rows, cols)), shape=(len(chains),) * 2)
     return connected_components(graph, directed=False)[1]
 

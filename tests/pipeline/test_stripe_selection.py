@@ -9,7 +9,12 @@ from scipy.special import erfc
 from pipeline import extract_centres
 from pipeline.extraction.centres import _bright_chains
 from pipeline.extraction.line_test import BODY_SHARE, body_shares, is_line, line_profiles
-from pipeline.extraction.segmentation import LINE_JOIN_PX, joined_lines, longest_lines
+from pipeline.extraction.segmentation import (
+    LINE_JOIN_PX,
+    LINE_SIDE_PX,
+    joined_lines,
+    longest_lines,
+)
 from pipeline.imaging import PixelRegion
 
 SHAPE = (80, 120)
@@ -212,6 +217,27 @@ def test_a_long_dim_chain_is_kept_beside_the_stripe_and_dropped_apart_from_it() 
     assert sorted(dropped) == [*range(bounds[2], bounds[3]), *range(bounds[4], bounds[5])]
 
 
+def test_a_short_strong_dim_piece_in_a_gap_of_the_line_is_kept_one_leaving_it_is_not() -> None:
+    # Chains of centres 1 px apart along x: bright pieces at 0–49 and 90–139, dim ones (under
+    # CHAIN_FRACTION of the height, shorter than CHAIN_MIN_POINTS, strong: C 30 ≥ 10·c) at
+    # 60–79, between them (a laser line dimmed over a dark square), and at 150–169, past
+    # the second's end with nothing beyond it (a flare streak leaving the line).
+    starts, lengths = (0, 60, 90, 150), (50, 20, 50, 20)
+    xy = np.concatenate(
+        [
+            np.column_stack([s + np.arange(n, dtype=float), np.zeros(n)])
+            for s, n in zip(starts, lengths, strict=True)
+        ]
+    )
+    bounds = np.cumsum((0, *lengths))
+    chains = [np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    height = np.repeat([100.0, 40, 100, 40], lengths)
+    strength = np.repeat([40.0, 30, 40, 30], lengths)
+    kept, dropped = _bright_chains(chains, height, strength, xy, c_grey=2.55)
+    assert [c[0] for c in kept] == [bounds[0], bounds[1], bounds[2]]
+    assert sorted(dropped) == list(range(bounds[3], bounds[4]))
+
+
 def test_pieces_end_to_near_are_one_line_and_a_shorter_line_apart_is_not_kept() -> None:
     # Chains of centres 1 px apart along x: a piece of 100, the next one past a gap just
     # inside LINE_JOIN_PX from its end and 20 px lower, a third just beyond the reach of the
@@ -235,6 +261,26 @@ def test_pieces_end_to_near_are_one_line_and_a_shorter_line_apart_is_not_kept() 
     assert line[0] == line[1]
     assert len({line[1], line[2], line[3]}) == 3
     assert longest_lines(xy, chains).tolist() == [True, True, False, False]
+
+
+def test_lines_side_by_side_are_not_one_line() -> None:
+    # A torch's rims and the wire below it (real frames weld-2, weld-8): a parallel chain
+    # just beyond LINE_SIDE_PX beside a chain, their ends level, and one as far to the other
+    # side starting just past its end are separate lines; the last just inside
+    # LINE_SIDE_PX continues it.
+    def chain(x, y0, n):
+        return np.column_stack([np.full(n, float(x)), y0 + np.arange(n, dtype=float)])
+
+    beside = LINE_SIDE_PX + 1
+    parts = [chain(0, 0, 100), chain(-beside, 0, 100), chain(beside, 110, 30)]
+    xy = np.concatenate(parts)
+    bounds = np.cumsum([0] + [len(p) for p in parts])
+    chains = [np.arange(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    assert len(set(joined_lines(xy, chains))) == 3
+    parts[2] = chain(LINE_SIDE_PX - 1, 110, 30)
+    xy = np.concatenate(parts)
+    line = joined_lines(xy, chains)
+    assert line[0] == line[2] != line[1]
 
 
 def _clipped(width_px: float, peak: float, centre_px: float = 0.0):
