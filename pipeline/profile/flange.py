@@ -18,6 +18,7 @@ import numpy as np
 
 from pipeline.errors import PipelineError
 from pipeline.imaging import GEOMETRY_FLOAT
+from pipeline.profile.fusion import DOUBLED_DX_MM, DOUBLED_DZ_MM
 
 SD_HEIGHT_MM = 12.0
 SD_EN_HEIGHT_MM = 10.0
@@ -28,7 +29,8 @@ by 2.5⁴/(8·12³) = 0.003 mm at its ends, well below the measurement's resolut
 TOP_CIRCLE_HALF_WINDOW_MM = 4.0
 """Half-width in x of the circle that checks the flange top is a crest seen on both sides."""
 TOP_CIRCLE_DEPTH_MM = 2.0
-"""The top's quadratic and circle take the points within 2 mm below the crest only: the top arc
+"""The top's second quadratic and circle take the points within 2 mm below the crest of a
+first quadratic (through every point within ±2.5 mm) only: the top arc
 drops < 1 mm over ±4 mm (R12 LMA: 0.69 mm; worn tops a little more), while a glint or spot
 beside the stripe that lands in the window lies millimetres lower. On a clean pass (seed
 2027, pass 2, V002/2/left) a specular spot 5 mm below the top, 1.5–4 mm beside it in x,
@@ -229,9 +231,39 @@ def _top_curvature(
     return float(c2), float(c1), float(c0)
 
 
+def _top_start(x: np.ndarray, z: np.ndarray) -> float:
+    """x where the crest is looked for: the median x of the highest points on the profile's
+    one curve z(x), i.e. without a point more than 0.5 mm below them within ±0.2 mm in x.
+
+    A Steger spur rising from the flange's back or top (beside a glint) stands over the
+    profile there and is left out, so it cannot take the top's windows 4–7 mm off the crest
+    (clean seed-7 pass, V001/1/right: a spur 3.8 mm high at x = 11.6 mm, the crest at 15.6).
+    The rule and its constants are fusion's single-valued test (`fusion.SINGLE_VALUED_X_MM`).
+    """
+    order = np.argsort(x, kind="stable")
+    xs, zs = x[order], z[order]
+    lo = np.searchsorted(xs, xs - DOUBLED_DX_MM, side="left")
+    hi = np.searchsorted(xs, xs + DOUBLED_DX_MM, side="right")
+    slots = np.arange(int((hi - lo).max()))
+    index = np.minimum(lo[:, None] + slots[None, :], xs.size - 1)
+    lowest = np.where(slots[None, :] < (hi - lo)[:, None], zs[index], np.inf).min(axis=1)
+    on_curve = lowest >= zs - DOUBLED_DZ_MM
+    xs, zs = xs[on_curve], zs[on_curve]
+    highest = np.argsort(zs)[::-1][: max(MIN_FIT_POINTS, zs.size // 200)]
+    return float(np.median(xs[highest]))
+
+
 def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
-    """(x, z) of the flange top: the crest of a quadratic within ±2.5 mm of the highest
-    points, once a circle through ±4 mm of it confirms a crest seen on both sides.
+    """(x, z) of the flange top: the crest of a quadratic within ±2.5 mm over the 2 mm depth
+    band below a first quadratic's crest, once a circle through ±4 mm of it confirms a crest
+    seen on both sides.
+
+    Both quadratics start at the highest points of the profile's one curve (`_top_start`).
+    The first takes every point within ±2.5 mm (robustly: a stray point is dropped as an
+    outlier); the band below its crest then leaves out a spot millimetres below the top,
+    which the second quadratic and the circle would otherwise follow. The band hung from
+    the highest points instead held a spur above the top alone, and its quadratic was no
+    crest.
 
     The height is the quadratic's, not the circle's: the circle's apex extrapolates the
     curvature of the whole ±4 mm, where on field frames each sensor's far side of the top
@@ -239,17 +271,9 @@ def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
     centres over millimetres. Harsh passes 1–3 / 4–7 (seed 2027, 19 wheels each), Sh error
     mean and MAE: circle +0.051 / 0.061 and +0.043 / 0.079 mm, quadratic +0.010 / 0.047 and
     −0.015 / 0.059; clean passes 1–3: +0.002 / 0.003 both.
-
-    Where the highest points are a spur above the top (Steger's, beside a glint), the depth
-    band below them holds the spur alone and its quadratic is no crest; the quadratic over
-    all points within ±2.5 mm is taken then (pipeline 0.9's, which measured those wheels).
     """
-    order = np.argsort(z)[::-1][: max(MIN_FIT_POINTS, z.size // 200)]
-    x_start = float(np.median(x[order]))
-    try:
-        x_top, z_top = _top_crest(x, z, x_start, float(np.median(z[order])) - TOP_CIRCLE_DEPTH_MM)
-    except FlangeNotFoundError:
-        x_top, z_top = _top_crest(x, z, x_start, -np.inf)
+    x_top, z_crest = _top_crest(x, z, _top_start(x, z), -np.inf)
+    x_top, z_top = _top_crest(x, z, x_top, z_crest - TOP_CIRCLE_DEPTH_MM)
     _check_top_circle(x, z, x_top, z_top)
     return x_top, z_top
 
@@ -326,8 +350,10 @@ def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameter
 
     Notes
     -----
-    Sh: the crest of a quadratic z(x) within ±2.5 mm of the highest points, once a circle
-    fitted within ±4 mm of it shows a crest seen on both sides (`_fit_top`). Each
+    Sh: the crest of a quadratic z(x) within ±2.5 mm, over the points within 2 mm below the
+    crest of a first quadratic through all of them, started at the highest points on the
+    profile's one curve z(x), once a circle fitted within ±4 mm of it shows a crest seen on
+    both sides (`_fit_top`). Each
     flank abscissa is a quadratic x(z) fitted to points on the tread side of the top within
     ±1 mm of the height, evaluated at that height; a gap of ≤ 2.5 mm about the height with
     points on both sides is bridged by the fit over ±3 mm. Both sides of the crest must hold

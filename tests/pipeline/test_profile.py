@@ -179,3 +179,24 @@ def test_a_spot_below_the_flange_top_does_not_lift_its_height() -> None:
         np.concatenate([x, blob_x])[order], np.concatenate([z, blob_z])[order]
     ).flange_height_mm
     assert spotted == pytest.approx(clean, abs=0.005)
+
+
+def test_a_spur_rising_beside_the_flange_top_does_not_set_its_height() -> None:
+    """A Steger spur rising 3.8 mm above the top from the flange's back, 4 mm before the
+    crest (the clean seed-7 pass's V001/1/right): Sh is the crest's (the band hung from the
+    highest points held the spur alone, and the retry over all points read it 1.2 mm high)."""
+    outline = wheel_profile(load_reference_profile("LMA"))
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(outline.x_mm), np.diff(outline.z_mm)))])
+    along = np.arange(0.0, arc[-1], 0.15)  # the measured profiles' spacing
+    x, z = np.interp(along, arc, outline.x_mm), np.interp(along, arc, outline.z_mm)
+    clean = fit_flange_parameters(x, z).flange_height_mm
+    root_x = x[np.argmax(z)] - 4.0
+    spur_z = np.arange(
+        np.interp(root_x, x[: np.argmax(z)], z[: np.argmax(z)]) + 0.3, z.max() + 3.8, 0.15
+    )
+    spur_x = root_x + 0.03 * np.arange(spur_z.size)
+    order = np.argsort(np.concatenate([x, spur_x]), kind="stable")
+    spurred = fit_flange_parameters(
+        np.concatenate([x, spur_x])[order], np.concatenate([z, spur_z])[order]
+    ).flange_height_mm
+    assert spurred == pytest.approx(clean, abs=0.005)
