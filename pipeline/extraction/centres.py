@@ -532,8 +532,8 @@ def _bridging(
     owner = np.repeat(np.arange(len(chains)), 2)
     joins &= owner[:, None] != owner[None, :]
     while open_chain.any():
-        to_kept = joins[:, np.repeat(kept_chain, 2)].any(axis=1)
-        to_line = to_kept | joins[:, np.repeat(open_chain, 2)].any(axis=1)
+        to_kept = np.any(joins[:, np.repeat(kept_chain, 2)], axis=1)
+        to_line = to_kept | np.any(joins[:, np.repeat(open_chain, 2)], axis=1)
         bridge = open_chain & to_line[::2] & to_line[1::2] & (to_kept[::2] | to_kept[1::2])
         if not bridge.any():
             break
