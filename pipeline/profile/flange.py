@@ -238,7 +238,8 @@ def _top_start(x: np.ndarray, z: np.ndarray) -> float:
     A Steger spur rising from the flange's back or top (beside a glint) stands over the
     profile there and is left out, so it cannot take the top's windows 4–7 mm off the crest
     (clean seed-7 pass, V001/1/right: a spur 3.8 mm high at x = 11.6 mm, the crest at 15.6).
-    The rule and its constants are fusion's single-valued test (`fusion.SINGLE_VALUED_X_MM`).
+    The rule and its constants are fusion's test for a point lying above the profile
+    (`fusion.DOUBLED_DX_MM`, `fusion.DOUBLED_DZ_MM`).
     """
     order = np.argsort(x, kind="stable")
     xs, zs = x[order], z[order]
