@@ -31,10 +31,9 @@ from scipy.spatial import cKDTree
 
 from pipeline.extraction.line_test import SIDE_REACH_SIGMAS, is_line, line_profiles
 from pipeline.extraction.normal_fit import matched_offsets
+from pipeline.extraction.segmentation import END_TANGENT_POINTS, chain_ends
 from pipeline.imaging import GEOMETRY_FLOAT
 
-END_POINTS = 6
-"""Centres over which a chain's end position, direction and scale are taken."""
 MIN_GAP_PX = 16.0
 """Shorter gaps are left to fusion, which bridges 2.5 mm of profile (about 16 px of flank on
 the simulated outer frames): bridges of 4–16 px between pieces of one stripe added points
@@ -130,17 +129,12 @@ class Bridges:
 
 
 def _ends(x, y, sigma, chains) -> np.ndarray:
-    """(2·len(chains), 5) rows (x, y, tx, ty, σ) of each chain's two ends: tx, ty the unit
-    direction out of the chain over its last END_POINTS centres, σ their mean scale."""
-    ends = np.zeros((2 * len(chains), 5))
-    for i, chain in enumerate(chains):
-        k = min(END_POINTS, chain.size) - 1
-        for j, (end, tail) in enumerate(((chain[0], chain[: k + 1]), (chain[-1], chain[-k - 1 :]))):
-            inner = tail[-1] if j == 0 else tail[0]
-            tx, ty = x[end] - x[inner], y[end] - y[inner]
-            norm = max(math.hypot(tx, ty), 1e-9)
-            ends[2 * i + j] = (x[end], y[end], tx / norm, ty / norm, sigma[tail].mean())
-    return ends
+    """(2·len(chains), 5) rows (x, y, tx, ty, σ) of each chain's two ends: x, y, tx, ty as
+    `segmentation.chain_ends` gives them, σ the mean scale over the same END_TANGENT_POINTS
+    centres."""
+    k = [min(END_TANGENT_POINTS, chain.size) for chain in chains]
+    scales = [(sigma[c[:n]].mean(), sigma[c[-n:]].mean()) for c, n in zip(chains, k, strict=True)]
+    return np.column_stack([chain_ends(x, y, chains), np.ravel(scales)])
 
 
 def _facing_pairs(ends: np.ndarray) -> list[tuple[int, int]]:
@@ -339,7 +333,7 @@ def bridge_gaps(
     Notes
     -----
     Ends of different chains are paired when each end's outward direction (over its last
-    END_POINTS centres) lies within 60° of the line to the other and they lie MIN_GAP_PX
+    END_TANGENT_POINTS centres) lies within 60° of the line to the other and they lie MIN_GAP_PX
     to MAX_GAP_PX apart, nearest pairs first. The path is predicted by the cubic Hermite
     curve P(s) = h00·a + h10·L·t_a + h01·b − h11·L·t_b (L the gap, t the outward
     directions), sampled 1 px apart; offsets of up to ±max(MIN_CORRIDOR_PX,
