@@ -140,11 +140,20 @@ def _capture_until_done(
 
     thread = threading.Thread(target=run, name="capture")
     thread.start()
-    while thread.is_alive():
-        thread.join(TICK_S)
-        on_tick(progress)
-        if uploader.stopped:
-            stop.set()
+    try:
+        while thread.is_alive():
+            thread.join(TICK_S)
+            on_tick(progress)
+            if uploader.stopped:
+                stop.set()
+    except BaseException:
+        # An interrupt (Ctrl-C) or a failing tick: the capture loop must end before the
+        # cameras' workers are stopped, or an axle it queues after their stop is never
+        # grabbed and its end of pass waits for it for ever (the process would not exit).
+        # The loop notices `stop` within POLL_S; the axles already triggered are finished.
+        stop.set()
+        thread.join()
+        raise
     if failure:
         raise failure[0]
 

@@ -4,6 +4,7 @@ sequence (the manifest's axle order as software triggers), pixels from the camer
 from __future__ import annotations
 
 import json
+import os
 import queue
 import threading
 import time
@@ -206,3 +207,52 @@ def test_a_camera_lost_mid_pass_is_declared_missing_at_once_for_later_wheels(
     assert "right_outer (0815-0003) failed" in missing[0].reason
     assert missing[1].reason.endswith("(camera lost)")
     assert sum(isinstance(i, FrameItem) for i in items) == 3 * 2 * 3 + 2
+
+
+def test_an_interrupt_ends_capture_before_the_camera_workers_and_leaves_no_thread(
+    tmp_path: Path, emulated_cameras: int
+) -> None:
+    """Ctrl-C while axles are still arriving: run_agent re-raises it only after the capture
+    loop has ended its pass (the axles already triggered are grabbed and spooled), so no
+    axle is queued to a stopped camera worker and no thread is left for the process to
+    wait on at exit (the agent once hung after SIGINT with the server down)."""
+    from backend.agent.runner import run_agent
+
+    vehicles = tuple(f"80-{n:02d}" for n in range(12))
+    archive_dir, _ = make_archive(tmp_path / "pass", vehicles=vehicles)
+    station = load_station(write_replay_station(archive_dir, tmp_path / "station"))
+    events = tmp_path / "station" / "axles.jsonl"
+    lines = events.read_text().splitlines(keepends=True)
+    events.unlink()
+    os.mkfifo(events)
+
+    def trigger_slowly() -> None:  # a train at speed: one axle every 40 ms
+        with open(events, "w", encoding="utf-8") as fifo:
+            for line in lines:
+                fifo.write(line)
+                fifo.flush()
+                time.sleep(0.04)
+
+    threading.Thread(target=trigger_slowly, daemon=True).start()
+    said: list[str] = []
+
+    def interrupt_once_frames_are_spooled(progress: Progress) -> None:
+        if sum(progress.captured.values()) > 0:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run_agent(
+            station,
+            "http://127.0.0.1:9",  # nothing listens: the agent buffers
+            "token",
+            allow_missing_cameras=False,
+            sink=said.append,
+            on_tick=interrupt_once_frames_are_spooled,
+            stop=threading.Event(),
+        )
+    left = [t.name for t in threading.enumerate() if t.name == "capture" or "camera" in t.name]
+    assert left == [], left
+    items = drain(Spool(station.spool_dir, 64 * 2**20))
+    per_axle = 4 * station.frames_per_wheel  # four sensors
+    assert 0 < len(items) < len(vehicles) * 2 * per_axle, said
+    assert len(items) % per_axle == 0  # every triggered axle grabbed whole
