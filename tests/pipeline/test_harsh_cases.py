@@ -46,17 +46,17 @@ RMS_BAR_PX = 0.05
 BOUND_BAR_RATIO = 1.5
 
 NOT_YET = {
-    ("lit-textured", "rms"): "0.123 px (Hessian centres 0.174): the texture under the stripe "
-    "(0.124 px with no sensor noise, 0.022 px with no texture; the bound counts sensor noise "
-    "only, docs/extraction-cases.md)",
-    ("lit-edge-crossing", "rms"): "0.150 px (Hessian centres 0.233)",
+    ("lit-textured", "rms"): "0.116 px (Hessian centres 0.174): the texture under the stripe "
+    "(0.124 px with no sensor noise, 0.022 px with no texture; the sensor-noise bound 0.015, "
+    "with the texture as correlated noise 0.061 px, docs/extraction-cases.md)",
+    ("lit-edge-crossing", "rms"): "0.131 px (Hessian centres 0.233; bound with texture 0.095 px)",
     ("asymmetric-0.5", "rms"): "1.034 px (Hessian centres 0.938): the centre moves to the "
     "brighter side; the asymmetry correction's unequal-width model does not fit a "
     "reflectance step (1.61 px with it)",
-    ("lit-specular", "rms"): "0.123 px (Hessian centres 0.174)",
-    ("speckle-0.1", "rms"): "0.090 px (Hessian centres 0.111, Steger 0.232 px): grain on the "
-    "stripe itself, which the sensor-noise bound does not count",
-    ("field-all", "rms"): "0.216 px (Hessian centres 0.225)",
+    ("lit-specular", "rms"): "0.116 px (Hessian centres 0.174)",
+    ("speckle-0.1", "rms"): "0.083 px (Hessian centres 0.111, Steger 0.232 px): grain on the "
+    "stripe itself (0.088 px with no sensor noise; bound with the speckle 0.047 px)",
+    ("field-all", "rms"): "0.205 px (Hessian centres 0.225; bound with texture 0.085 px)",
 }
 
 
