@@ -22,7 +22,6 @@ from pipeline.extraction.band import (
     MAX_BAND_FRACTION,
     WIDER_MARGIN_PX,
     StripeBand,
-    band_ring,
     locate_band,
 )
 from pipeline.extraction.band_filters import band_derivatives
@@ -188,10 +187,9 @@ def _max_along_columns(field, blocks, half, out) -> None:
                 target[at + i] = max(windows[top + i], windows[bottom + i])
 
 
-def _max_filter_blocks(
-    field: np.ndarray, blocks: np.ndarray, ring: np.ndarray, half: int
-) -> np.ndarray:
-    """Max over the (2·half+1)² square around each band pixel (clipped at the grid; C ≥ 0).
+def _max_filter_blocks(field: np.ndarray, blocks: np.ndarray, half: int) -> np.ndarray:
+    """Max over the (2·half+1)² square around each band pixel (clipped at the grid; C ≥ 0),
+    valid on the band's blocks only (nothing else is written).
 
     Separable, on whole runs of blocks: along rows on the rows within `half` of the band,
     then along columns on the band. Each loop reads one array and writes another, so it
@@ -203,7 +201,6 @@ def _max_filter_blocks(
     _max_along_rows(field, need, half, along_rows)
     out = np.empty(field.shape, np.float32)
     _max_along_columns(along_rows, blocks, half, out)
-    zero_blocks(out, ring)
     return out
 
 
@@ -239,12 +236,15 @@ def analyse_band_level(
     Returns
     -------
     LevelResponse
-        V, valid on the band and its ring, and the hints, valid on `hint_blocks`;
-        `peak_strength` holds C itself.
+        V, valid on the band and, on a decimated level, its ring, and the hints, valid on
+        `hint_blocks`; `peak_strength` holds C itself, valid on the band and its ring.
     """
     d = level.derivatives
-    hints = np.empty(frame_shape, np.bool_)
-    zero_blocks(hints, hint_blocks)
+    if hint_blocks.all():
+        hints = np.zeros(frame_shape, np.bool_)  # one memset, not a loop over 8-px rows
+    else:
+        hints = np.empty(frame_shape, np.bool_)
+        zero_blocks(hints, hint_blocks)
     response, strength = _analyse_blocks(
         d.ix,
         d.iy,
@@ -258,7 +258,9 @@ def analyse_band_level(
         c_grey,
         hints,
     )
-    for field in (response, strength):
+    # The frame grid's V is read on the band only (`band_segmentation._stripe_runs`); a
+    # coarser grid's by bilinear reads, and C by the max filter, reach into the ring.
+    for field in (strength,) if level.stride == 1 else (response, strength):
         zero_blocks(field, ring)
     return LevelResponse(level=level, response=response, peak_strength=strength, hints=hints)
 
@@ -269,11 +271,11 @@ def with_peak_strength(
     """The scale with C max-filtered (its ridge-peak value) on the blocks holding the mask.
 
     `mask_blocks` are the level's blocks that hold mask pixels, widened by one block for the
-    bilinear reads of coarser levels; only there is the peak strength read.
+    bilinear reads of coarser levels; only there is the peak strength read
+    (`adaptive.choose_in_band`), and only there is it written.
     """
     half = max(1, round(peak_reach_px / scale.level.stride))
-    ring = band_ring(mask_blocks)
-    peak = _max_filter_blocks(scale.peak_strength, mask_blocks, ring, half)
+    peak = _max_filter_blocks(scale.peak_strength, mask_blocks, half)
     return replace(scale, peak_strength=peak)
 
 
