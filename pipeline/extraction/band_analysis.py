@@ -64,6 +64,8 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
     least = 0.25 * min_s2
     d_xx, d_xy, d_yy = ixx.ravel(), ixy.ravel(), iyy.ravel()
     candidate = np.empty(width, np.bool_)
+    flat_hints = hints.ravel()
+    row_step, one, two = np.uint64(frame_cols), np.uint64(1), np.uint64(2)
     for br, bc0, bc1 in block_runs(blocks):
         c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
         for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
@@ -92,9 +94,16 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
                 y = r * stride + origin + offset * ny
                 hr = min(max(int(np.rint(y)), 0), frame_rows - 1)
                 hc = min(max(int(np.rint(x)), 0), frame_cols - 1)
+                if 0 < hr < frame_rows - 1 and 0 < hc < frame_cols - 1:
+                    # The 3×3 pixels by flat offsets: no bounds per pixel, no view per hint.
+                    at = np.uint64((hr - 1) * frame_cols + hc - 1)
+                    for _ in range(3):
+                        flat_hints[at] = flat_hints[at + one] = flat_hints[at + two] = True
+                        at += row_step
+                    continue
                 for rr in range(max(hr - 1, 0), min(hr + 2, frame_rows)):
                     for cc in range(max(hc - 1, 0), min(hc + 2, frame_cols)):
-                        hints[rr, cc] = True  # the 3×3 pixels, no view made per hint
+                        hints[rr, cc] = True
     return response, strength
 
 
