@@ -144,10 +144,16 @@ def locate_band(
     if leave_out_small:
         band, left_out, left_out_px = _small_regions(band, stride)
     flags = band.view(np.bool_)
-    blocks = []
-    for level, shape in enumerate(level_shapes):
-        ratio = BLOCK_PX * 2**level // stride
-        blocks.append(pool_blocks(flags, max(ratio, 1), block_grid(shape)))
+    blocks = [pool_blocks(flags, max(BLOCK_PX // stride, 1), block_grid(level_shapes[0]))]
+    for level, shape in enumerate(level_shapes[1:], start=1):
+        if stride <= BLOCK_PX:
+            # A level-0 block pools BLOCK_PX/stride seed cells without clipping (the seed
+            # grid spans ceil(M/stride) rows), so pooling those blocks by 2^level gives
+            # the same grid as pooling the seeds, from a 16× smaller one.
+            blocks.append(pool_blocks(blocks[0], 2**level, block_grid(shape)))
+        else:
+            ratio = BLOCK_PX * 2**level // stride
+            blocks.append(pool_blocks(flags, max(ratio, 1), block_grid(shape)))
     rings = tuple(band_ring(grid) for grid in blocks)
     return StripeBand(
         blocks=tuple(blocks),
