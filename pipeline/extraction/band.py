@@ -40,7 +40,9 @@ RING_BLOCKS = 2
 """The band path's fields hold their values on the band and 0 on this many blocks around
 it, and nothing reads further: the width search (13 px at σ1), the bilinear and cubic reads
 and the max filter of C (10 px) all stay within 2 blocks of a mask EDGE_REACH_PX inside the
-band. The rest of each field is left unwritten (no frame-sized memset)."""
+band. The rest of each field is left unwritten (no frame-sized memset). The frame grid's V
+and C are not cleared on the ring either: V is read on the band only, and the max filter
+reads C as 0 off the band's blocks."""
 
 WIDER_MARGIN_PX = 36.0
 """Margin of the one wider band tried when a stripe component reaches the first band's
