@@ -32,8 +32,9 @@ class LevelResponse:
 
     `response` (float32, level grid) is V, 0 where λ1 ≥ 0 or the structure is too weak to
     matter; `peak_strength` (float32, level grid) is C = σ²|λ1| [grey levels] max-filtered
-    across the stripe, the value at the ridge; `hints` (bool, frame grid) marks frame pixels
-    that may hold a centre at this scale.
+    across the stripe, the value at the ridge (valid on the blocks holding the mask, where
+    it is read); `hints` (bool, frame grid) marks frame pixels that may hold a centre at
+    this scale.
     """
 
     level: ScaleLevel

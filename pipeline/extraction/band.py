@@ -40,7 +40,9 @@ RING_BLOCKS = 2
 """The band path's fields hold their values on the band and 0 on this many blocks around
 it, and nothing reads further: the width search (13 px at σ1), the bilinear and cubic reads
 and the max filter of C (10 px) all stay within 2 blocks of a mask EDGE_REACH_PX inside the
-band. The rest of each field is left unwritten (no frame-sized memset)."""
+band. The rest of each field is left unwritten (no frame-sized memset). The frame grid's V
+and C are not cleared on the ring either: V is read on the band only, and the max filter
+reads C as 0 off the band's blocks."""
 
 WIDER_MARGIN_PX = 36.0
 """Margin of the one wider band tried when a stripe component reaches the first band's
@@ -144,10 +146,16 @@ def locate_band(
     if leave_out_small:
         band, left_out, left_out_px = _small_regions(band, stride)
     flags = band.view(np.bool_)
-    blocks = []
-    for level, shape in enumerate(level_shapes):
-        ratio = BLOCK_PX * 2**level // stride
-        blocks.append(pool_blocks(flags, max(ratio, 1), block_grid(shape)))
+    blocks = [pool_blocks(flags, max(BLOCK_PX // stride, 1), block_grid(level_shapes[0]))]
+    for level, shape in enumerate(level_shapes[1:], start=1):
+        if stride <= BLOCK_PX:
+            # A level-0 block pools BLOCK_PX/stride seed cells without clipping (the seed
+            # grid spans ceil(M/stride) rows), so pooling those blocks by 2^level gives
+            # the same grid as pooling the seeds, from a 16× smaller one.
+            blocks.append(pool_blocks(blocks[0], 2**level, block_grid(shape)))
+        else:
+            ratio = BLOCK_PX * 2**level // stride
+            blocks.append(pool_blocks(flags, max(ratio, 1), block_grid(shape)))
     rings = tuple(band_ring(grid) for grid in blocks)
     return StripeBand(
         blocks=tuple(blocks),

@@ -22,7 +22,6 @@ from pipeline.extraction.band import (
     MAX_BAND_FRACTION,
     WIDER_MARGIN_PX,
     StripeBand,
-    band_ring,
     locate_band,
 )
 from pipeline.extraction.band_filters import band_derivatives
@@ -34,6 +33,7 @@ from pipeline.extraction.blocks import (
     block_runs,
     blocks_holding,
     pool_blocks,
+    run_starts,
     zero_blocks,
 )
 from pipeline.extraction.hessian import eigen2
@@ -65,6 +65,8 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
     least = 0.25 * min_s2
     d_xx, d_xy, d_yy = ixx.ravel(), ixy.ravel(), iyy.ravel()
     candidate = np.empty(width, np.bool_)
+    flat_hints = hints.ravel()
+    row_step, one, two = np.uint64(frame_cols), np.uint64(1), np.uint64(2)
     for br, bc0, bc1 in block_runs(blocks):
         c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
         for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
@@ -93,9 +95,16 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
                 y = r * stride + origin + offset * ny
                 hr = min(max(int(np.rint(y)), 0), frame_rows - 1)
                 hc = min(max(int(np.rint(x)), 0), frame_cols - 1)
+                if 0 < hr < frame_rows - 1 and 0 < hc < frame_cols - 1:
+                    # The 3×3 pixels by flat offsets: no bounds per pixel, no view per hint.
+                    at = np.uint64((hr - 1) * frame_cols + hc - 1)
+                    for _ in range(3):
+                        flat_hints[at] = flat_hints[at + one] = flat_hints[at + two] = True
+                        at += row_step
+                    continue
                 for rr in range(max(hr - 1, 0), min(hr + 2, frame_rows)):
                     for cc in range(max(hc - 1, 0), min(hc + 2, frame_cols)):
-                        hints[rr, cc] = True  # the 3×3 pixels, no view made per hint
+                        hints[rr, cc] = True
     return response, strength
 
 
@@ -127,28 +136,36 @@ def _running_max(a, b, length, stride, span):
 
 
 @kernel
-def _max_along_rows(field, need, half, out) -> None:
-    """out[r, c] = max of field[r, c − half .. c + half] (clipped) on the needed blocks."""
+def _max_along_rows(field, need, valid, half, out) -> None:
+    """out[r, c] = max of field[r, c − half .. c + half] (clipped) on the needed blocks,
+    the field read as 0 outside its `valid` blocks."""
     height, width = field.shape
     source, target = field.ravel(), out.ravel()
     span = 2 * half + 1
     last = np.uint64(span - _power_below(span))
     a = np.empty(BLOCK_PX * (width + 2 * half), np.float32)
     b = np.empty(BLOCK_PX * (width + 2 * half), np.float32)
+    held = block_runs(valid)
+    starts = run_starts(held, valid.shape[0])
     for br, first, stop in block_runs(need):
         c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
         r0, r1 = br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)
         length = c1 - c0 + 2 * half
-        lo, hi = max(c0 - half, 0), min(c1 + half, width)
         # Row r of the block row at a[(r − r0)·length + j] = field[r, c0 − half + j], 0 beyond
-        # the grid (C ≥ 0: the same as clipping). The doubling runs over all its rows at
-        # once: a window running past its row's end is never read.
+        # the grid (C ≥ 0: the same as clipping) and off the valid blocks (the band's ring
+        # need not be cleared). The doubling runs over all its rows at once: a window
+        # running past its row's end is never read.
         a[: BLOCK_PX * length] = 0.0
-        for r in range(r0, r1):
-            read = np.uint64(r * width + lo)
-            write = np.uint64((r - r0) * length + lo - (c0 - half))
-            for j in range(np.uint64(hi - lo)):
-                a[write + j] = source[read + j]
+        for k in range(starts[br], starts[br + 1]):
+            lo = max(c0 - half, held[k, 1] * BLOCK_PX)
+            hi = min(c1 + half, held[k, 2] * BLOCK_PX, width)
+            if lo >= hi:
+                continue
+            for r in range(r0, r1):
+                read = np.uint64(r * width + lo)
+                write = np.uint64((r - r0) * length + lo - (c0 - half))
+                for j in range(np.uint64(hi - lo)):
+                    a[write + j] = source[read + j]
         windows = _running_max(a, b, BLOCK_PX * length, 1, span)
         for r in range(r0, r1):
             at = np.uint64(r * width + c0)
@@ -189,21 +206,23 @@ def _max_along_columns(field, blocks, half, out) -> None:
 
 
 def _max_filter_blocks(
-    field: np.ndarray, blocks: np.ndarray, ring: np.ndarray, half: int
+    field: np.ndarray, blocks: np.ndarray, half: int, valid: np.ndarray | None = None
 ) -> np.ndarray:
-    """Max over the (2·half+1)² square around each band pixel (clipped at the grid; C ≥ 0).
+    """Max over the (2·half+1)² square around each pixel of `blocks` (clipped at the grid;
+    C ≥ 0, read as 0 outside its `valid` blocks, all when None), written on `blocks` only.
 
-    Separable, on whole runs of blocks: along rows on the rows within `half` of the band,
-    then along columns on the band. Each loop reads one array and writes another, so it
+    Separable, on whole runs of blocks: along rows on the rows within `half` of the blocks,
+    then along columns on the blocks. Each loop reads one array and writes another, so it
     vectorises.
     """
     reach = -(-half // BLOCK_PX)
     need = cv2.dilate(blocks.astype(np.uint8), np.ones((2 * reach + 1, 1), np.uint8)) > 0
     along_rows = np.empty(field.shape, np.float32)
-    _max_along_rows(field, need, half, along_rows)
+    if valid is None:
+        valid = all_blocks(field.shape)
+    _max_along_rows(field, need, valid, half, along_rows)
     out = np.empty(field.shape, np.float32)
     _max_along_columns(along_rows, blocks, half, out)
-    zero_blocks(out, ring)
     return out
 
 
@@ -239,12 +258,15 @@ def analyse_band_level(
     Returns
     -------
     LevelResponse
-        V, valid on the band and its ring, and the hints, valid on `hint_blocks`;
-        `peak_strength` holds C itself.
+        V and C (`peak_strength` holds C itself), valid on the band and, on a decimated
+        level, its ring; the hints, valid on `hint_blocks`.
     """
     d = level.derivatives
-    hints = np.empty(frame_shape, np.bool_)
-    zero_blocks(hints, hint_blocks)
+    if hint_blocks.all():
+        hints = np.zeros(frame_shape, np.bool_)  # one memset, not a loop over 8-px rows
+    else:
+        hints = np.empty(frame_shape, np.bool_)
+        zero_blocks(hints, hint_blocks)
     response, strength = _analyse_blocks(
         d.ix,
         d.iy,
@@ -258,22 +280,31 @@ def analyse_band_level(
         c_grey,
         hints,
     )
-    for field in (response, strength):
-        zero_blocks(field, ring)
+    # The frame grid's V and C are read on the band only (`band_segmentation`; the max
+    # filter reads C on the band's blocks); a coarser grid's by bilinear reads, which reach
+    # into the ring.
+    if level.stride > 1:
+        for field in (response, strength):
+            zero_blocks(field, ring)
     return LevelResponse(level=level, response=response, peak_strength=strength, hints=hints)
 
 
 def with_peak_strength(
-    scale: LevelResponse, mask_blocks: np.ndarray, *, peak_reach_px: float
+    scale: LevelResponse,
+    mask_blocks: np.ndarray,
+    *,
+    peak_reach_px: float,
+    valid: np.ndarray | None = None,
 ) -> LevelResponse:
     """The scale with C max-filtered (its ridge-peak value) on the blocks holding the mask.
 
     `mask_blocks` are the level's blocks that hold mask pixels, widened by one block for the
-    bilinear reads of coarser levels; only there is the peak strength read.
+    bilinear reads of coarser levels; only there is the peak strength read
+    (`adaptive.choose_in_band`), and only there is it written. C is read as 0 outside its
+    `valid` blocks (None: all; the frame grid's band, whose ring is not cleared).
     """
     half = max(1, round(peak_reach_px / scale.level.stride))
-    ring = band_ring(mask_blocks)
-    peak = _max_filter_blocks(scale.peak_strength, mask_blocks, ring, half)
+    peak = _max_filter_blocks(scale.peak_strength, mask_blocks, half, valid)
     return replace(scale, peak_strength=peak)
 
 
@@ -385,7 +416,8 @@ def analyse_fixed_scale(
 def _with_peaks(
     scales, levels, shapes, mask: np.ndarray, blocks: np.ndarray, peak_reach_px: float
 ) -> tuple[LevelResponse, ...]:
-    """Each scale with C max-filtered on the blocks holding the mask (see `with_peak_strength`)."""
+    """Each scale with C max-filtered on the blocks holding the mask (see `with_peak_strength`);
+    `blocks` the band's frame (level-0) blocks."""
     held = blocks_holding(mask, blocks)
     peaked = []
     for scale, level in zip(scales, levels, strict=True):
@@ -393,7 +425,11 @@ def _with_peaks(
         if level:
             mask_blocks = pool_blocks(held, 2**level, block_grid(shapes[level]))
             mask_blocks = cv2.dilate(mask_blocks.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-        peaked.append(with_peak_strength(scale, mask_blocks, peak_reach_px=peak_reach_px))
+        peaked.append(
+            with_peak_strength(
+                scale, mask_blocks, peak_reach_px=peak_reach_px, valid=None if level else blocks
+            )
+        )
     return tuple(peaked)
 
 

@@ -22,6 +22,7 @@ from pipeline.extraction.scalespace import blend, column_taps, linear_tap
 from pipeline.extraction.segmentation import (
     CONTINUITY_GAP_PX,
     candidates,
+    needs_continuity,
     stripe_components,
     strong_candidates,
 )
@@ -223,7 +224,9 @@ def segment_band(
     pixel_strength = _pixel_strengths(runs, strengths, strides, shape[1])
     label, shapes, strength = _components(runs, _run_peaks(runs, pixel_strength))
     strong = strong_candidates(shapes, strength, c_grey)
-    near = labels_within(runs, label, strong, CONTINUITY_GAP_PX)
+    near = None
+    if needs_continuity(strong, shapes, every_strong):
+        near = labels_within(runs, label, strong, CONTINUITY_GAP_PX)
     keep = stripe_components(shapes, strength, near, c_grey, every_strong=every_strong)
     # A component the band may have cut: one shaped like a stripe piece (kept ones are). A
     # round spot (a specular reflection beside the stripe) is not, whole or cut, so it may.

@@ -112,7 +112,7 @@ to 12 px)."""
 def stripe_components(
     shapes: ComponentShapes,
     strength: np.ndarray,
-    near: np.ndarray,
+    near: np.ndarray | None,
     c_grey: float,
     *,
     every_strong: bool = False,
@@ -125,9 +125,10 @@ def stripe_components(
         Area, length and elongation of components 0..K − 1.
     strength : ndarray of shape (K,)
         Largest ridge strength C = σ²|λ1| on each component [grey levels].
-    near : ndarray of shape (K, K), bool
+    near : ndarray of shape (K, K), bool, or None
         Which strong candidates lie within CONTINUITY_GAP_PX of each other
-        (`components.labels_within`).
+        (`components.labels_within`); None when `needs_continuity` is False (no strong
+        candidate is left that continuity could add).
     c_grey : float
         The ridge response's structure constant c [grey levels].
     every_strong : bool
@@ -146,12 +147,28 @@ def stripe_components(
     strong = strong_candidates(shapes, strength, c_grey)
     if every_strong or not strong.any():
         return strong
-    keep = strong & (shapes.length_px >= KEEP_FRACTION * shapes.length_px[strong].max())
+    keep = _long_enough(shapes, strong)
+    if near is None:
+        return keep
     while True:
         grown = keep | (strong & near[keep].any(axis=0))
         if (grown == keep).all():
             return keep
         keep = grown
+
+
+def _long_enough(shapes: ComponentShapes, strong: np.ndarray) -> np.ndarray:
+    """Strong candidates ≥ KEEP_FRACTION of the longest strong one's length (some strong)."""
+    return strong & (shapes.length_px >= KEEP_FRACTION * shapes.length_px[strong].max())
+
+
+def needs_continuity(strong: np.ndarray, shapes: ComponentShapes, every_strong: bool) -> bool:
+    """Whether `stripe_components` may keep a strong candidate by continuity: some strong
+    one too short to be kept by its length. Else the pairs of `near` are never read (on a
+    frame with one stripe, finding them cost about as much as labelling the mask)."""
+    if every_strong or not strong.any():
+        return False
+    return bool((strong & ~_long_enough(shapes, strong)).any())
 
 
 def candidates(shapes: ComponentShapes) -> np.ndarray:

@@ -78,11 +78,33 @@ def test_max_filter_is_the_opencv_dilation_on_the_band(seed, shape, half) -> Non
     field = (rng.random(shape) * (rng.random(shape) < 0.3)).astype(np.float32)
     grid = (-(-shape[0] // BLOCK_PX), -(-shape[1] // BLOCK_PX))
     blocks = rng.random(grid) < 0.6
-    ring = np.zeros(grid, bool)
-    ours = _max_filter_blocks(field, blocks, ring, half)
+    ours = _max_filter_blocks(field, blocks, half)
     reference = cv2.dilate(field, np.ones((2 * half + 1, 2 * half + 1), np.uint8))
     inside = np.kron(blocks, np.ones((BLOCK_PX, BLOCK_PX), bool))[: shape[0], : shape[1]]
     np.testing.assert_array_equal(ours[inside], reference[inside])
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seed=st.integers(0, 2**31 - 1),
+    shape=st.tuples(st.integers(5, 90), st.integers(5, 90)),
+    half=st.integers(1, 12),
+)
+def test_max_filter_reads_the_field_as_0_off_its_valid_blocks(seed, shape, half) -> None:
+    # The frame grid's C is left unwritten on the band's ring: whatever it holds there,
+    # the max filter reads 0, as from a cleared ring.
+    rng = np.random.default_rng(seed)
+    grid = (-(-shape[0] // BLOCK_PX), -(-shape[1] // BLOCK_PX))
+    valid = rng.random(grid) < 0.6
+    blocks = valid & (rng.random(grid) < 0.7)
+    inside = np.kron(valid, np.ones((BLOCK_PX, BLOCK_PX), bool))[: shape[0], : shape[1]]
+    field = (rng.random(shape) * (rng.random(shape) < 0.3)).astype(np.float32)
+    cleared = np.where(inside, field, 0).astype(np.float32)
+    field[~inside] = rng.random(int((~inside).sum())).astype(np.float32) + 5
+    ours = _max_filter_blocks(field, blocks, half, valid)
+    reference = cv2.dilate(cleared, np.ones((2 * half + 1, 2 * half + 1), np.uint8))
+    wanted = np.kron(blocks, np.ones((BLOCK_PX, BLOCK_PX), bool))[: shape[0], : shape[1]]
+    np.testing.assert_array_equal(ours[wanted], reference[wanted])
 
 
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
