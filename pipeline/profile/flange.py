@@ -46,7 +46,9 @@ averages more of it; on the true LMA and S1002 outlines it departs from the flan
 ≤ 0.003 mm. Against ±1 mm, same frames (seed 2027, 9 harsh passes / 3 passes with the
 scene, the texture alone / 3 clean), paired |Sd error| change −0.003 ± 0.005 / −0.008 ±
 0.007, −0.008 ± 0.007 / −0.0007 ± 0.0003 mm, the harsh passes' largest error 0.331 →
-0.271 mm. qR's height Sh − 2 keeps ±1 mm: the top arc is 2 mm above it."""
+0.271 mm; the clean repeatability benchmark (seed 2026, 72 wheels): Sd MAE 0.007 both,
+largest per-wheel Std 0.016 → 0.018, largest error 0.040 → 0.047 mm (V001/4/right). qR's
+height Sh − 2 keeps ±1 mm: the top arc is 2 mm above it."""
 FLANK_BRIDGE_HALF_WINDOW_MM = 3.0
 MAX_FLANK_GAP_MM = 2.5
 """A flank with fewer than 5 points within ±1 mm of a height, or a gap of > 1 mm about it,
