@@ -390,6 +390,15 @@ def pass_start_time(index: int) -> datetime:
     return datetime(2026, 11, 23, 8, 0, tzinfo=UTC) + timedelta(hours=index)
 
 
+def synthetic_train(
+    vehicles: int, seed: int, *, axles_per_vehicle: int = AXLES_PER_VEHICLE
+) -> Train:
+    """The train `write_synthetic_passes` draws for `seed` (before any added wear): its
+    wheels' true outlines, for comparing measured profiles with them."""
+    train_rng = np.random.default_rng(seed).spawn(1)[0]
+    return build_train(vehicles, train_rng, axles_per_vehicle=axles_per_vehicle)
+
+
 def write_synthetic_passes(
     out: str | Path,
     *,
@@ -441,8 +450,8 @@ def write_synthetic_passes(
     if not flange_wear_per_pass_mm >= 0:
         raise ValueError(f"flange_wear_per_pass_mm must be ≥ 0, got {flange_wear_per_pass_mm}")
     station = build_station(bit_depth=bit_depth)
-    train_rng, *pass_rngs = np.random.default_rng(seed).spawn(repeat + 1)
-    train = build_train(vehicles, train_rng, axles_per_vehicle=axles_per_vehicle)
+    _, *pass_rngs = np.random.default_rng(seed).spawn(repeat + 1)
+    train = synthetic_train(vehicles, seed, axles_per_vehicle=axles_per_vehicle)
     out = Path(out)
     folders = []
     for index, rng in enumerate(pass_rngs):
