@@ -8,6 +8,8 @@ least times mean much: each round times the blur and the band path back to back,
 ratio is taken of the least (and of the median) thread times.
 
     python -m benchmarks.band_probe [--rounds N] [--stages] [--case NAME]
+
+The lit scene (every frame falls back today, docs/extraction.md §7): --case "lit scene, glints".
 """
 
 from __future__ import annotations
