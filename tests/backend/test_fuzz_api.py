@@ -206,6 +206,8 @@ def test_every_operation_answers_as_documented(client, tokens, measured_pass, ca
         "/api/passes/1/wheels/-99999999999999999999",
         "/api/passes?offset=99999999999999999999",
         "/api/calibrations/2147483648",
+        "/api/references/agreement?pass_id=99999999999999999999",
+        "/api/references/agreement.csv?pass_id=-99999999999999999999",
     ],
 )
 def test_ids_beyond_the_integer_columns_are_refused_not_crashed(client, auth, path) -> None:

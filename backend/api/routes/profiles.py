@@ -7,6 +7,7 @@ from datetime import datetime
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Form, Query, Response, UploadFile, status
+from pydantic import Field
 
 from backend.api.deps import OperatorDep, PassWheelDep, SessionDep, ViewerDep, WheelDep
 from backend.api.schemas import AgreementRead, ReferenceComparison, ReferenceRead
@@ -20,6 +21,7 @@ from backend.services.references import (
     compare_with_reference,
     wheel_references,
 )
+from db.types import MAX_INTEGER
 
 router = APIRouter(prefix="/api", tags=["profiles"], responses=ERROR_RESPONSES)
 
@@ -80,7 +82,10 @@ def get_reference_comparison(
     return compare_with_reference(session, pass_wheel)
 
 
-PassIds = Annotated[list[int] | None, Query(description="only these passes (default all)")]
+PassIds = Annotated[
+    list[Annotated[int, Field(ge=1, le=MAX_INTEGER)]] | None,
+    Query(description="only these passes (default all)"),
+]
 
 
 @router.get("/references/agreement")
