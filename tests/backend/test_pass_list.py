@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import asyncio
+from types import SimpleNamespace
+
 import pytest
 from starlette.websockets import WebSocketDisconnect
 
-from backend.api.routes import ROUTERS
+from backend.api.routes import ROUTERS, jobs
 from db.models import Measurement, PassWheel
 from tests.backend.archives import calibration_document, frame_png
 
@@ -140,3 +143,37 @@ def test_a_socket_without_a_valid_token_is_closed(client) -> None:
         with client.websocket_connect("/api/ws/passes?token=nope") as socket:
             socket.receive_json()
     assert closed.value.code == 4401
+
+
+class _ClosingSocket:
+    """A progress socket whose client closes after `open_s` while nothing changes."""
+
+    def __init__(self, open_s: float) -> None:
+        self.open_s = open_s
+        self.query_params = {"token": "t"}
+        self.app = SimpleNamespace(state=SimpleNamespace(session_factory=None))
+        self.sent: list[dict] = []
+
+    async def accept(self) -> None:
+        pass
+
+    async def receive(self) -> dict:
+        await asyncio.sleep(self.open_s)
+        return {"type": "websocket.disconnect", "code": 1001}
+
+    async def send_json(self, data: dict) -> None:
+        self.sent.append(data)
+
+
+def test_a_progress_socket_ends_when_its_client_closes_though_nothing_changes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The pass list's socket sends only on a change; once its page is closed it must stop
+    polling the database (it once polled until the server stopped, and held the server's
+    shutdown in "Waiting for background tasks to complete")."""
+    polls = []
+    monkeypatch.setattr(jobs, "_authorised", lambda _factory, _token: None)
+    monkeypatch.setattr(jobs, "_read_progress", lambda _factory, _job: polls.append(1) or [])
+    socket = _ClosingSocket(open_s=3 * jobs.POLL_INTERVAL_S)
+    asyncio.run(asyncio.wait_for(jobs._push_progress(socket, None), timeout=10))  # type: ignore[arg-type]
+    assert 2 <= len(polls) <= 6 and socket.sent == []

@@ -50,8 +50,12 @@ async def _push_progress(websocket: WebSocket, job_id: int | None) -> None:
         return
     await websocket.accept()
     sent: dict[int, JobProgress] = {}
+    # A socket only learns of a closed client when it sends or receives; the pass list's
+    # sends only on a change, so the client's close is awaited beside the polling (else a
+    # closed page would leave a task polling the database until the server stops).
+    closed = asyncio.ensure_future(_until_closed(websocket))
     try:
-        while True:
+        while not closed.done():
             for progress in await run_in_threadpool(_read_progress, factory, job_id):
                 if sent.get(progress.job_id) != progress:
                     await websocket.send_json(progress.model_dump())
@@ -59,9 +63,19 @@ async def _push_progress(websocket: WebSocket, job_id: int | None) -> None:
             if job_id is not None and (job_id not in sent or sent[job_id].state == "done"):
                 await websocket.close()
                 return
-            await asyncio.sleep(POLL_INTERVAL_S)
+            await asyncio.wait({closed}, timeout=POLL_INTERVAL_S)
     except WebSocketDisconnect:
         return
+    finally:
+        closed.cancel()
+        if closed.done() and not closed.cancelled():
+            closed.exception()  # a receive that failed: the socket is gone all the same
+
+
+async def _until_closed(websocket: WebSocket) -> None:
+    """Return when the client closes (anything else it sends is ignored)."""
+    while (await websocket.receive())["type"] != "websocket.disconnect":
+        pass
 
 
 @router.websocket("/ws/jobs/{job_id}")
