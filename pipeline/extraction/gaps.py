@@ -26,11 +26,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import map_coordinates
 from scipy.spatial import cKDTree
 
 from pipeline.extraction.line_test import SIDE_REACH_SIGMAS, is_line, line_profiles
 from pipeline.extraction.normal_fit import matched_offsets
+from pipeline.extraction.scalespace import bilinear_points
 from pipeline.extraction.segmentation import END_TANGENT_POINTS, chain_ends
 from pipeline.imaging import GEOMETRY_FLOAT
 
@@ -173,11 +173,6 @@ def _predicted(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return path, np.column_stack([-tangent[:, 1], tangent[:, 0]])
 
 
-def _grey(image: np.ndarray, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Bilinear grey at (x, y) [px], reflect border."""
-    return map_coordinates(image, [y, x], order=1, mode="mirror")
-
-
 def _ridge_scores(image, path, normal, sigma, half_width) -> np.ndarray:
     """(K, 2·half_width + 1) score of the ridge at each path point and offset: the grey
     averaged ±ALONG_PX along the path, less the brighter of its levels ±d across
@@ -191,7 +186,7 @@ def _ridge_scores(image, path, normal, sigma, half_width) -> np.ndarray:
         for along in range(-ALONG_PX, ALONG_PX + 1):
             at = path[:, None, :] + (offsets[None, :, None] + shift) * normal[:, None, :]
             at = at + along * tangent[:, None, :]
-            total = total + _grey(image, at[..., 0].ravel(), at[..., 1].ravel())
+            total = total + bilinear_points(image, at[..., 0].ravel(), at[..., 1].ravel())
         reads[shift] = (total / (2 * ALONG_PX + 1)).reshape(len(path), offsets.size)
     return reads[0.0] - np.maximum(reads[-reach], reads[reach])
 
@@ -294,7 +289,7 @@ def _curvature_across(image, x, y, nx, ny, sigma) -> np.ndarray:
     reads = []
     for t in (-sigma, 0.0, sigma):
         taps = np.linspace(-sigma, sigma, 5)
-        total = sum(_grey(image, x + (t + u) * nx, y + (t + u) * ny) for u in taps)
+        total = sum(bilinear_points(image, x + (t + u) * nx, y + (t + u) * ny) for u in taps)
         reads.append(total / taps.size)
     return np.maximum((2 * reads[1] - reads[0] - reads[2]) / sigma**2, 0.0)
 

@@ -376,3 +376,30 @@ def bilinear_at(field, u: float, v: float, inside: bool) -> float:
         u1, v1 = fold_index(u0 + 1, width), fold_index(v0 + 1, height)
         u0, v0 = fold_index(u0, width), fold_index(v0, height)
     return blend(field, v0, v1, v - v_floor, u0, u1, u - u_floor)
+
+
+@kernel
+def _bilinear_points(field, u, v, out) -> None:
+    for k in range(u.size):
+        out[k] = bilinear_at(field, u[k], v[k], False)
+
+
+def bilinear_points(field: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """`bilinear_at` of a 2-D field at many grid coordinates (u = column, v = row) [px],
+    reflect border.
+
+    Parameters
+    ----------
+    field : ndarray of shape (H, W), real
+    u, v : ndarray, same shape
+        Coordinates on the field's grid [px].
+
+    Returns
+    -------
+    ndarray of the shape of `u`, float64
+    """
+    u = np.ascontiguousarray(u, np.float64)
+    v = np.ascontiguousarray(v, np.float64)
+    out = np.empty(u.size)
+    _bilinear_points(field, u.ravel(), v.ravel(), out)
+    return out.reshape(u.shape)
