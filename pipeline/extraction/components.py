@@ -274,37 +274,42 @@ def _near_pairs(runs, label, consider, gap_px):
 @kernel
 def _runs_near_others(runs, label, consider, gap_px):
     """Which runs can hold a pixel of a pair of `labels_within`: runs of a considered label
-    that reach within `gap_px` (along rows and along columns) of the bounding box of another
-    considered label. Only these are compared (a textured frame's stripe component, joined
-    to the texture, holds thousands of runs, nearly all of them far from any other
-    considered component)."""
+    whose columns, widened by the gap, meet those of another considered label's runs on the
+    rows within the gap of their own. Only these are compared (a textured frame's stripe
+    component, joined to the texture, holds thousands of runs, nearly all of them far from
+    any other considered component)."""
     count = 0
     index = np.full(consider.size, -1, np.int64)
     for a in range(consider.size):
         if consider[a]:
             index[a] = count
             count += 1
-    box = np.empty((count, 4), np.int64)  # first row, last row, first column, last column
-    box[:, 0] = box[:, 2] = np.iinfo(np.int64).max
-    box[:, 1] = box[:, 3] = np.iinfo(np.int64).min
-    for k in range(runs.shape[0]):
-        a = index[label[k]]
-        if a >= 0:
-            box[a, 0], box[a, 1] = min(box[a, 0], runs[k, 0]), max(box[a, 1], runs[k, 0])
-            box[a, 2], box[a, 3] = min(box[a, 2], runs[k, 1]), max(box[a, 3], runs[k, 2] - 1)
-    reach = int(np.floor(gap_px))
     keep = np.zeros(runs.shape[0], np.bool_)
+    if runs.shape[0] == 0 or count < 2:
+        return keep
+    reach = int(np.floor(gap_px))
+    rows = runs[-1, 0] + 1
+    # Per label and row: the first and last column of its runs on the rows within the
+    # gap (none: first > last).
+    first = np.full((count, rows), np.iinfo(np.int64).max, np.int64)
+    last = np.full((count, rows), np.iinfo(np.int64).min, np.int64)
     for k in range(runs.shape[0]):
         a = index[label[k]]
         if a < 0:
             continue
-        r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2] - 1
+        for r in range(max(runs[k, 0] - reach, 0), min(runs[k, 0] + reach + 1, rows)):
+            first[a, r] = min(first[a, r], runs[k, 1])
+            last[a, r] = max(last[a, r], runs[k, 2] - 1)
+    for k in range(runs.shape[0]):
+        a = index[label[k]]
+        if a < 0:
+            continue
+        r = runs[k, 0]
         for b in range(count):
             if (
                 b != a
-                and box[b, 0] - reach <= r <= box[b, 1] + reach
-                and box[b, 2] - reach <= c1
-                and c0 <= box[b, 3] + reach
+                and first[b, r] - reach <= runs[k, 2] - 1
+                and runs[k, 1] <= last[b, r] + reach
             ):
                 keep[k] = True
                 break
@@ -312,9 +317,9 @@ def _runs_near_others(runs, label, consider, gap_px):
 
 
 MAX_BOXED_LABELS = 64
-"""`labels_within` narrows the runs by the considered labels' bounding boxes
+"""`labels_within` narrows the runs to those near another considered label
 (`_runs_near_others`) when at most this many are considered (each run is tested against
-each box)."""
+each label, which holds a (labels, rows) table)."""
 
 
 def labels_within(
@@ -328,8 +333,8 @@ def labels_within(
     nothing where no considered pair lies).
     """
     if np.count_nonzero(consider) <= MAX_BOXED_LABELS:
-        # A pair's pixels lie within the gap of each other's boxes: the runs outside every
-        # other box find none, and leaving them out keeps the raster order of the rest.
+        # A pair's pixels lie within the gap of each other's columns on rows within the gap:
+        # the runs left out find none, and leaving them out keeps the raster order of the rest.
         keep = _runs_near_others(runs, label, consider, float(gap_px))
         runs, label = runs[keep], label[keep]
     pairs = _near_pairs(runs, label, consider, float(gap_px))
