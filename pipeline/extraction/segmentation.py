@@ -125,10 +125,10 @@ def stripe_components(
         Area, length and elongation of components 0..K − 1.
     strength : ndarray of shape (K,)
         Largest ridge strength C = σ²|λ1| on each component [grey levels].
-    near : ndarray of shape (K, K), bool, or None
-        Which strong candidates lie within CONTINUITY_GAP_PX of each other
-        (`components.labels_within`); None when `needs_continuity` is False (no strong
-        candidate is left that continuity could add).
+    near : ndarray of shape (P, 2), int64, or None
+        The pairs of strong candidates within CONTINUITY_GAP_PX of each other
+        (`components.labels_within`, each pair once); None when `needs_continuity` is
+        False (no strong candidate is left that continuity could add).
     c_grey : float
         The ridge response's structure constant c [grey levels].
     every_strong : bool
@@ -151,7 +151,10 @@ def stripe_components(
     if near is None:
         return keep
     while True:
-        grown = keep | (strong & near[keep].any(axis=0))
+        reached = np.zeros(keep.size, bool)
+        reached[near[keep[near[:, 0]], 1]] = True
+        reached[near[keep[near[:, 1]], 0]] = True
+        grown = keep | (strong & reached)
         if (grown == keep).all():
             return keep
         keep = grown
