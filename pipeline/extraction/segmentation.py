@@ -195,12 +195,18 @@ def chain_ends(x: np.ndarray, y: np.ndarray, chains: list[np.ndarray]) -> np.nda
     """Both ends of each chain: (2·len(chains), 4) rows (x, y, tx, ty), tx, ty the unit
     direction out of the chain over its last END_TANGENT_POINTS centres."""
     ends = np.zeros((2 * len(chains), 4))
-    for i, chain in enumerate(chains):
-        k = min(END_TANGENT_POINTS, chain.size) - 1
-        for j, (end, inner) in enumerate(((chain[0], chain[k]), (chain[-1], chain[-1 - k]))):
-            tx, ty = x[end] - x[inner], y[end] - y[inner]
-            norm = max(float(np.hypot(tx, ty)), 1e-9)
-            ends[2 * i + j] = (x[end], y[end], tx / norm, ty / norm)
+    if not chains:
+        return ends
+    points = np.concatenate(chains)
+    size = np.fromiter((c.size for c in chains), np.int64, len(chains))
+    first = np.cumsum(size) - size
+    k = np.minimum(END_TANGENT_POINTS, size) - 1
+    # Rows 2i and 2i + 1: chain i's first end (inner point k on) and its last.
+    end = np.stack([points[first], points[first + size - 1]], axis=1).ravel()
+    inner = np.stack([points[first + k], points[first + size - 1 - k]], axis=1).ravel()
+    tx, ty = x[end] - x[inner], y[end] - y[inner]
+    norm = np.maximum(np.hypot(tx, ty), 1e-9)
+    ends[:, 0], ends[:, 1], ends[:, 2], ends[:, 3] = x[end], y[end], tx / norm, ty / norm
     return ends
 
 
