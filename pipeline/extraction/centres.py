@@ -568,10 +568,16 @@ def _grown_near(
     chain's, until none is added; `xy` (K, 2) are the centres [px]."""
     while any(kept):
         near = cKDTree(xy[np.concatenate([c for c, k in zip(chains, kept, strict=True) if k])])
-        grown = [
-            k or (g and near.query(xy[c], distance_upper_bound=CONTINUITY_GAP_PX)[0].min() < np.inf)
-            for c, k, g in zip(chains, kept, long, strict=True)
-        ]
+        open_chains = [i for i, (k, g) in enumerate(zip(kept, long, strict=True)) if g and not k]
+        if not open_chains:
+            break
+        # One query for the centres of every open chain, not one per chain.
+        points = np.concatenate([chains[i] for i in open_chains])
+        reached = near.query(xy[points], distance_upper_bound=CONTINUITY_GAP_PX)[0] < np.inf
+        ends = np.cumsum([chains[i].size for i in open_chains])
+        grown = list(kept)
+        for i, hits in zip(open_chains, np.split(reached, ends[:-1]), strict=True):
+            grown[i] = bool(hits.any())
         if grown == kept:
             break
         kept = grown
