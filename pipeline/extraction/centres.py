@@ -504,15 +504,34 @@ def _continuing(
 def _continues(dim: np.ndarray, held: np.ndarray) -> np.ndarray:
     """Which chain ends `dim` (D, 4) continue which ends `held` (H, 4) (rows x, y, tx, ty of
     `chain_ends`): bool (D, H), within CONTINUITY_GAP_PX ahead of the held end (or touching
-    it), within CONTINUING_OFFSET_PX of its line and heading back against it."""
-    gap = dim[:, None, :2] - held[None, :, :2]
-    direction = held[None, :, 2:]
-    length = np.hypot(gap[..., 0], gap[..., 1])
-    along = np.einsum("dhk,dhk->dh", gap, direction)
-    across = np.abs(gap[..., 0] * direction[..., 1] - gap[..., 1] * direction[..., 0])
-    heading = np.einsum("dk,hk->dh", dim[:, 2:], held[:, 2:]) <= -CONTINUING_COS
+    it), within CONTINUING_OFFSET_PX of its line and heading back against it.
+
+    Only the pairs of ends within the gap (a k-d tree, its radius a hair wider) are tested:
+    a lit frame has hundreds of chains, and the (D, H) float temporaries of every pair cost
+    more than the rest of the chain selection."""
+    out = np.zeros((dim.shape[0], held.shape[0]), bool)
+    if out.size == 0:
+        return out
+    near = cKDTree(held[:, :2]).query_ball_point(dim[:, :2], CONTINUITY_GAP_PX + _GAP_SLACK_PX)
+    counts = np.fromiter((len(n) for n in near), np.int64, len(near))
+    if counts.sum() == 0:
+        return out
+    d = np.repeat(np.arange(dim.shape[0]), counts)
+    h = np.concatenate([n for n in near if n]).astype(np.int64)
+    gap = dim[d, :2] - held[h, :2]
+    direction = held[h, 2:]
+    length = np.hypot(gap[:, 0], gap[:, 1])
+    along = np.einsum("pk,pk->p", gap, direction)
+    across = np.abs(gap[:, 0] * direction[:, 1] - gap[:, 1] * direction[:, 0])
+    heading = np.einsum("pk,pk->p", dim[d, 2:], held[h, 2:]) <= -CONTINUING_COS
     ahead = (along >= CONTINUING_COS * length) | (length <= CONTINUING_TOUCH_PX)
-    return (length <= CONTINUITY_GAP_PX) & ahead & (across <= CONTINUING_OFFSET_PX) & heading
+    out[d, h] = (length <= CONTINUITY_GAP_PX) & ahead & (across <= CONTINUING_OFFSET_PX) & heading
+    return out
+
+
+_GAP_SLACK_PX = 1e-6
+"""Widening of the k-d tree's radius over CONTINUITY_GAP_PX [px], so that no pair within the
+gap by `np.hypot` is missed by the tree's own rounding of the distance."""
 
 
 def _bridging(
@@ -549,10 +568,16 @@ def _grown_near(
     chain's, until none is added; `xy` (K, 2) are the centres [px]."""
     while any(kept):
         near = cKDTree(xy[np.concatenate([c for c, k in zip(chains, kept, strict=True) if k])])
-        grown = [
-            k or (g and near.query(xy[c], distance_upper_bound=CONTINUITY_GAP_PX)[0].min() < np.inf)
-            for c, k, g in zip(chains, kept, long, strict=True)
-        ]
+        open_chains = [i for i, (k, g) in enumerate(zip(kept, long, strict=True)) if g and not k]
+        if not open_chains:
+            break
+        # One query for the centres of every open chain, not one per chain.
+        points = np.concatenate([chains[i] for i in open_chains])
+        reached = near.query(xy[points], distance_upper_bound=CONTINUITY_GAP_PX)[0] < np.inf
+        ends = np.cumsum([chains[i].size for i in open_chains])
+        grown = list(kept)
+        for i, hits in zip(open_chains, np.split(reached, ends[:-1]), strict=True):
+            grown[i] = bool(hits.any())
         if grown == kept:
             break
         kept = grown

@@ -271,18 +271,70 @@ def _near_pairs(runs, label, consider, gap_px):
     return pairs[:total]
 
 
+@kernel
+def _runs_near_others(runs, label, consider, gap_px):
+    """Which runs can hold a pixel of a pair of `labels_within`: runs of a considered label
+    whose columns, widened by the gap, meet those of another considered label's runs on the
+    rows within the gap of their own. Only these are compared (a textured frame's stripe
+    component, joined to the texture, holds thousands of runs, nearly all of them far from
+    any other considered component)."""
+    count = 0
+    index = np.full(consider.size, -1, np.int64)
+    for a in range(consider.size):
+        if consider[a]:
+            index[a] = count
+            count += 1
+    keep = np.zeros(runs.shape[0], np.bool_)
+    if runs.shape[0] == 0 or count < 2:
+        return keep
+    reach = int(np.floor(gap_px))
+    rows = runs[-1, 0] + 1
+    # Per label and row: the first and last column of its runs on the rows within the
+    # gap (none: first > last).
+    first = np.full((count, rows), np.iinfo(np.int64).max, np.int64)
+    last = np.full((count, rows), np.iinfo(np.int64).min, np.int64)
+    for k in range(runs.shape[0]):
+        a = index[label[k]]
+        if a < 0:
+            continue
+        for r in range(max(runs[k, 0] - reach, 0), min(runs[k, 0] + reach + 1, rows)):
+            first[a, r] = min(first[a, r], runs[k, 1])
+            last[a, r] = max(last[a, r], runs[k, 2] - 1)
+    for k in range(runs.shape[0]):
+        a = index[label[k]]
+        if a < 0:
+            continue
+        r = runs[k, 0]
+        for b in range(count):
+            if (
+                b != a
+                and first[b, r] - reach <= runs[k, 2] - 1
+                and runs[k, 1] <= last[b, r] + reach
+            ):
+                keep[k] = True
+                break
+    return keep
+
+
+MAX_BOXED_LABELS = 64
+"""`labels_within` narrows the runs to those near another considered label
+(`_runs_near_others`) when at most this many are considered (each run is tested against
+each label, which holds a (labels, rows) table)."""
+
+
 def labels_within(
     runs: np.ndarray, label: np.ndarray, consider: np.ndarray, gap_px: float
 ) -> np.ndarray:
     """Pairs of the considered labels with pixels within `gap_px` of each other (Euclidean,
-    pixel centres): (count, count) bool, symmetric, from labelled runs in raster order.
+    pixel centres): (P, 2) int64, each pair once, from labelled runs in raster order.
 
-    `consider` (bool, one per label) marks the labels compared. The matrix is NumPy's
-    (zeroed as the system hands out pages: a textured frame's thousands of labels cost
-    nothing where no considered pair lies).
+    `consider` (bool, one per label) marks the labels compared. Pairs, not a (labels,
+    labels) matrix: a textured frame has thousands of labels, and zeroing that matrix
+    (39 MB on the lit speed frame) cost more than finding the pairs.
     """
-    pairs = _near_pairs(runs, label, consider, float(gap_px))
-    near = np.zeros((consider.size, consider.size), np.bool_)
-    near[pairs[:, 0], pairs[:, 1]] = True
-    near[pairs[:, 1], pairs[:, 0]] = True
-    return near
+    if np.count_nonzero(consider) <= MAX_BOXED_LABELS:
+        # A pair's pixels lie within the gap of each other's columns on rows within the gap:
+        # the runs left out find none, and leaving them out keeps the raster order of the rest.
+        keep = _runs_near_others(runs, label, consider, float(gap_px))
+        runs, label = runs[keep], label[keep]
+    return _near_pairs(runs, label, consider, float(gap_px))

@@ -125,10 +125,10 @@ def stripe_components(
         Area, length and elongation of components 0..K − 1.
     strength : ndarray of shape (K,)
         Largest ridge strength C = σ²|λ1| on each component [grey levels].
-    near : ndarray of shape (K, K), bool, or None
-        Which strong candidates lie within CONTINUITY_GAP_PX of each other
-        (`components.labels_within`); None when `needs_continuity` is False (no strong
-        candidate is left that continuity could add).
+    near : ndarray of shape (P, 2), int64, or None
+        The pairs of strong candidates within CONTINUITY_GAP_PX of each other
+        (`components.labels_within`, each pair once); None when `needs_continuity` is
+        False (no strong candidate is left that continuity could add).
     c_grey : float
         The ridge response's structure constant c [grey levels].
     every_strong : bool
@@ -151,7 +151,10 @@ def stripe_components(
     if near is None:
         return keep
     while True:
-        grown = keep | (strong & near[keep].any(axis=0))
+        reached = np.zeros(keep.size, bool)
+        reached[near[keep[near[:, 0]], 1]] = True
+        reached[near[keep[near[:, 1]], 0]] = True
+        grown = keep | (strong & reached)
         if (grown == keep).all():
             return keep
         keep = grown
@@ -192,12 +195,18 @@ def chain_ends(x: np.ndarray, y: np.ndarray, chains: list[np.ndarray]) -> np.nda
     """Both ends of each chain: (2·len(chains), 4) rows (x, y, tx, ty), tx, ty the unit
     direction out of the chain over its last END_TANGENT_POINTS centres."""
     ends = np.zeros((2 * len(chains), 4))
-    for i, chain in enumerate(chains):
-        k = min(END_TANGENT_POINTS, chain.size) - 1
-        for j, (end, inner) in enumerate(((chain[0], chain[k]), (chain[-1], chain[-1 - k]))):
-            tx, ty = x[end] - x[inner], y[end] - y[inner]
-            norm = max(float(np.hypot(tx, ty)), 1e-9)
-            ends[2 * i + j] = (x[end], y[end], tx / norm, ty / norm)
+    if not chains:
+        return ends
+    points = np.concatenate(chains)
+    size = np.fromiter((c.size for c in chains), np.int64, len(chains))
+    first = np.cumsum(size) - size
+    k = np.minimum(END_TANGENT_POINTS, size) - 1
+    # Rows 2i and 2i + 1: chain i's first end (inner point k on) and its last.
+    end = np.stack([points[first], points[first + size - 1]], axis=1).ravel()
+    inner = np.stack([points[first + k], points[first + size - 1 - k]], axis=1).ravel()
+    tx, ty = x[end] - x[inner], y[end] - y[inner]
+    norm = np.maximum(np.hypot(tx, ty), 1e-9)
+    ends[:, 0], ends[:, 1], ends[:, 2], ends[:, 3] = x[end], y[end], tx / norm, ty / norm
     return ends
 
 
