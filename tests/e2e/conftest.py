@@ -178,6 +178,13 @@ def zip_pass(folder: Path, archive: Path) -> Path:
     return archive
 
 
+VIEWPORT_3D = {"width": 1200, "height": 720}
+"""The browser window of the tests that open the 3D view: Chromium draws viser's WebGL
+scene in software (--disable-gpu) and the tests take pictures of it until it settles, so
+its pixels cost time: the view here is some half of its size at 1600×1000, and the page
+keeps its two columns (it stacks them below 1100 px)."""
+
+
 SCENE_LIT_FRACTION = 0.005
 """Share of the 3D view's pixels brighter than grey 100 once the wheel is drawn (the light
 grey wheel, the cameras and planes fill some 10 % of it; the empty scene is dark)."""

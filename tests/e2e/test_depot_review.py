@@ -33,6 +33,7 @@ from sqlalchemy import create_engine, update
 from db.models import Pass
 from tests.e2e.conftest import (
     ROOT,
+    VIEWPORT_3D,
     WHEELSCAN,
     Service,
     change_once_settled,
@@ -459,7 +460,7 @@ def test_defect_1_each_user_gets_a_3d_scene_of_their_own(
         wheel_at(service, depot.newest, 1, "left"),
         wheel_at(service, depot.newest, 2, "right"),
     ]
-    pages = [new_page(browser, service, "viewer") for _ in targets]
+    pages = [new_page(browser, service, "viewer", VIEWPORT_3D) for _ in targets]
     try:
         urls, pictures = [], []
         for page, target in zip(pages, targets, strict=True):

@@ -19,7 +19,7 @@ import httpx
 import pytest
 
 from pipeline.profile.exchange import parse_profile_file
-from tests.e2e.conftest import Service, wait_for_3d_scene
+from tests.e2e.conftest import VIEWPORT_3D, Service, wait_for_3d_scene
 from tests.e2e.marks import drawn_after
 from tests.pipeline.test_profile_exchange import contour_samples, gauge_file
 
@@ -68,10 +68,10 @@ def measured_pass(browser: Any, service: Service, pass_archive: Path, screenshot
     return pass_id
 
 
-@pytest.fixture()
-def viewer_page(browser: Any, service: Service) -> Iterator[Any]:
-    """A page signed in with a viewer token through the link `make run` prints."""
-    context = browser.new_context(viewport=VIEWPORT, accept_downloads=True)
+def signed_in_viewer(browser: Any, service: Service, viewport: dict) -> Iterator[Any]:
+    """A page in a `viewport` window signed in with a viewer token through the link `make
+    run` prints; no uncaught errors in it when the test is done."""
+    context = browser.new_context(viewport=viewport, accept_downloads=True)
     page = context.new_page()
     errors: list[str] = []
     page.on("pageerror", lambda exc: errors.append(str(exc)))
@@ -80,6 +80,18 @@ def viewer_page(browser: Any, service: Service) -> Iterator[Any]:
     yield page
     context.close()
     assert errors == [], f"uncaught errors in the page: {errors}"
+
+
+@pytest.fixture()
+def viewer_page(browser: Any, service: Service) -> Iterator[Any]:
+    """A viewer's page in a VIEWPORT window."""
+    yield from signed_in_viewer(browser, service, VIEWPORT)
+
+
+@pytest.fixture()
+def viewer_page_3d(browser: Any, service: Service) -> Iterator[Any]:
+    """A viewer's page in the smaller window of the 3D view's tests (VIEWPORT_3D)."""
+    yield from signed_in_viewer(browser, service, VIEWPORT_3D)
 
 
 def wheels_of(service: Service, pass_id: int) -> list[dict[str, Any]]:
@@ -392,9 +404,9 @@ def test_an_operator_imports_a_gauge_file_on_the_wheel_page(
 
 
 def test_3d_view_embeds_the_viser_scene(
-    viewer_page: Any, service: Service, measured_pass: int, screenshots: Path
+    viewer_page_3d: Any, service: Service, measured_pass: int, screenshots: Path
 ) -> None:
-    page = viewer_page
+    page = viewer_page_3d
     wheel_id = measured_wheel(service, measured_pass)
     open_wheel(page, service, measured_pass, wheel_id)
     page.locator("button[data-action='open-3d']").click()
