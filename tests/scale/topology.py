@@ -29,6 +29,7 @@ from backend.api.app import create_app
 from backend.config import Settings
 from backend.services.auth import create_token
 from db.models import Job, Measurement, PassWheel, Wheel
+from pipeline.simulation.field import FieldEffects
 from pipeline.simulation.passes import write_synthetic_passes
 from tests.databases import free_port, redis_server_binary
 
@@ -56,10 +57,21 @@ def wait_until(predicate: Callable[[], bool], timeout_s: float, what: str) -> No
         pause.wait(0.1)
 
 
-def synthetic_pass_zip(folder: Path, vehicles: int, axles_per_vehicle: int, seed: int = 7) -> bytes:
-    """A simulated pass archive (`wheelscan synth-pass`) zipped for upload."""
+def synthetic_pass_zip(
+    folder: Path,
+    vehicles: int,
+    axles_per_vehicle: int,
+    seed: int = 7,
+    field: FieldEffects | None = None,
+) -> bytes:
+    """A simulated pass archive (`wheelscan synth-pass`; clean frames unless `field`) zipped
+    for upload."""
     (pass_dir,) = write_synthetic_passes(
-        folder / "pass", vehicles=vehicles, axles_per_vehicle=axles_per_vehicle, seed=seed
+        folder / "pass",
+        vehicles=vehicles,
+        axles_per_vehicle=axles_per_vehicle,
+        seed=seed,
+        field=field,
     )
     return zip_pass_folder(pass_dir, folder / "pass.zip")
 
