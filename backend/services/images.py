@@ -60,7 +60,7 @@ def frame_png(png_bytes: bytes, max_width_px: int | None) -> bytes:
 def mask_png(mask: np.ndarray, rejected_xy: np.ndarray, max_width_px: int | None) -> bytes:
     """The stripe mask as an 8-bit PNG: 255 on the stripe, REJECTED_GREY on a 3×3 square
     around each rejected candidate centre (x, y [px]), 0 elsewhere."""
-    image = np.where(mask, 255, 0).astype(np.uint8)
+    image = np.where(mask, np.uint8(255), np.uint8(0))  # uint8 from the start, not int64
     cols = np.clip(np.rint(rejected_xy[:, 0]).astype(np.int64), 0, mask.shape[1] - 1)
     rows = np.clip(np.rint(rejected_xy[:, 1]).astype(np.int64), 0, mask.shape[0] - 1)
     spots = np.zeros(mask.shape, np.uint8)
@@ -77,7 +77,9 @@ def sigma_png(
     small = _downscale(sigma_map, max_width_px, nearest=True)
     span = max(sigma_max_px - sigma_min_px, 1e-9)
     unit = np.clip((small - sigma_min_px) / span, 0.0, 1.0)
-    rgba = (colormaps[SIGMA_COLORMAP](unit) * 255).astype(np.uint8)
+    # bytes=True: the colormap's table scaled to uint8 once, then indexed (the same bytes
+    # as scaling a float64 RGBA frame, without making one)
+    rgba = colormaps[SIGMA_COLORMAP](unit, bytes=True)
     rgba[..., 3] = np.where(small > 0, 255, 0)
     return encode_png(cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGRA))
 
