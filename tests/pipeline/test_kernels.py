@@ -67,12 +67,21 @@ def test_sigma_map_equals_the_reference(case: StripeCase) -> None:
     np.testing.assert_array_equal(centres.sigma_map, reference.sigma_map)
 
 
-@settings(max_examples=25, deadline=None)
-@given(
+def _pixels(blocks: np.ndarray, shape: tuple[int, int], dtype=bool) -> np.ndarray:
+    """The frame pixels (`shape`) of a block grid's flags."""
+    return np.kron(blocks, np.ones((BLOCK_PX, BLOCK_PX), dtype))[: shape[0], : shape[1]]
+
+
+_max_filter_cases = given(
     seed=st.integers(0, 2**31 - 1),
     shape=st.tuples(st.integers(5, 90), st.integers(5, 90)),
     half=st.integers(1, 12),
 )
+"""A random field, block grid and half-width for the max filter's property tests."""
+
+
+@settings(max_examples=25, deadline=None)
+@_max_filter_cases
 def test_max_filter_is_the_opencv_dilation_on_the_band(seed, shape, half) -> None:
     rng = np.random.default_rng(seed)
     field = (rng.random(shape) * (rng.random(shape) < 0.3)).astype(np.float32)
@@ -80,16 +89,12 @@ def test_max_filter_is_the_opencv_dilation_on_the_band(seed, shape, half) -> Non
     blocks = rng.random(grid) < 0.6
     ours = _max_filter_blocks(field, blocks, half)
     reference = cv2.dilate(field, np.ones((2 * half + 1, 2 * half + 1), np.uint8))
-    inside = np.kron(blocks, np.ones((BLOCK_PX, BLOCK_PX), bool))[: shape[0], : shape[1]]
+    inside = _pixels(blocks, shape)
     np.testing.assert_array_equal(ours[inside], reference[inside])
 
 
 @settings(max_examples=25, deadline=None)
-@given(
-    seed=st.integers(0, 2**31 - 1),
-    shape=st.tuples(st.integers(5, 90), st.integers(5, 90)),
-    half=st.integers(1, 12),
-)
+@_max_filter_cases
 def test_max_filter_reads_the_field_as_0_off_its_valid_blocks(seed, shape, half) -> None:
     # The frame grid's C is left unwritten on the band's ring: whatever it holds there,
     # the max filter reads 0, as from a cleared ring.
@@ -97,13 +102,13 @@ def test_max_filter_reads_the_field_as_0_off_its_valid_blocks(seed, shape, half)
     grid = (-(-shape[0] // BLOCK_PX), -(-shape[1] // BLOCK_PX))
     valid = rng.random(grid) < 0.6
     blocks = valid & (rng.random(grid) < 0.7)
-    inside = np.kron(valid, np.ones((BLOCK_PX, BLOCK_PX), bool))[: shape[0], : shape[1]]
+    inside = _pixels(valid, shape)
     field = (rng.random(shape) * (rng.random(shape) < 0.3)).astype(np.float32)
     cleared = np.where(inside, field, 0).astype(np.float32)
     field[~inside] = rng.random(int((~inside).sum())).astype(np.float32) + 5
     ours = _max_filter_blocks(field, blocks, half, valid)
     reference = cv2.dilate(cleared, np.ones((2 * half + 1, 2 * half + 1), np.uint8))
-    wanted = np.kron(blocks, np.ones((BLOCK_PX, BLOCK_PX), bool))[: shape[0], : shape[1]]
+    wanted = _pixels(blocks, shape)
     np.testing.assert_array_equal(ours[wanted], reference[wanted])
 
 
@@ -120,8 +125,8 @@ def test_band_derivatives_equal_the_full_filters_inside_the_band(dtype, sigma_px
     ring[10:12, :20] = True
     band = band_derivatives(image, sigma_px, blocks, ring)
     full = gaussian_derivatives(image.astype(np.float32), sigma_px)
-    inside = np.kron(blocks, np.ones((BLOCK_PX, BLOCK_PX), bool))[:203, :301]
-    zeroed = np.kron(ring, np.ones((BLOCK_PX, BLOCK_PX), bool))[:203, :301]
+    inside = _pixels(blocks, (203, 301))
+    zeroed = _pixels(ring, (203, 301))
     for name in ("ix", "iy", "ixx", "ixy", "iyy"):
         ours, reference = getattr(band, name), getattr(full, name)
         assert ours.dtype == np.float32
@@ -179,7 +184,7 @@ def test_band_closing_is_the_opencv_closing(seed, shape, density, whole, scratch
     rng = np.random.default_rng(seed)
     grid = (-(-shape[0] // BLOCK_PX), -(-shape[1] // BLOCK_PX))
     blocks = np.ones(grid, bool) if whole else rng.random(grid) < 0.7
-    band = np.kron(blocks, np.ones((BLOCK_PX, BLOCK_PX), np.uint8))[: shape[0], : shape[1]]
+    band = _pixels(blocks, shape, np.uint8)
     # The mask beyond CLOSING_REACH_PX of the band's edge (the frame's edge is band).
     square = np.ones((2 * CLOSING_REACH_PX + 1,) * 2, np.uint8)
     band = cv2.erode(band, square, borderType=cv2.BORDER_CONSTANT, borderValue=1)
