@@ -63,7 +63,12 @@ def _extract_frames(folder: str, offset: int) -> WorkerRun:
 
     keep_freed_memory()  # as the service's workers do
     cv2.setNumThreads(1)
-    images = [cv2.imread(str(p), cv2.IMREAD_UNCHANGED) for p in sorted(Path(folder).rglob("*.png"))]
+    images = []
+    for path in sorted(Path(folder).rglob("*.png")):
+        image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+        if image is None:
+            raise OSError(f"{path}: not a readable image")
+        images.append(image)
     for image in images[:WARM_UP_FRAMES]:
         extract_centres(image)
     paths: dict[str, int] = {}

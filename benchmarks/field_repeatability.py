@@ -112,7 +112,8 @@ def _ratio_lines(pooled: dict[tuple[str, str], ParameterStats]) -> list[str]:
 def _breakdown() -> list[str]:
     """One effect at a time: pooled MAE of Sh and Sd per method, and wheels not measured."""
     off = FieldEffects(**dict.fromkeys(FieldEffects.names(), False))
-    cases = [("none (clean)", None)] + [(n, replace(off, **{n: True})) for n in off.names()]
+    cases: list[tuple[str, FieldEffects | None]] = [("none (clean)", None)]
+    cases += [(n, replace(off, **{n: True})) for n in off.names()]
     cases.append(("all (harsh)", FIELD_MODES["harsh"]))
     methods = ("adaptive", "adaptive+asymmetry", "steger", "steger+curvature+asymmetry")
     header = "| effect alone | " + " | ".join(f"{m} Sh / Sd MAE" for m in methods)

@@ -95,8 +95,9 @@ def run() -> str:
         settings = Settings(data_dir=Path(folder), workers=2)
         pass_id = load_demo(settings, vehicles=VEHICLES)
         cache = settings.data_dir / "reports"
-        with TestClient(create_app(settings)) as client:
-            with client.app.state.session_factory() as session:
+        app = create_app(settings)
+        with TestClient(app) as client:
+            with app.state.session_factory() as session:
                 token = create_token(session, role="viewer", name="bench")[1]
                 session.commit()
             headers = {"Authorization": f"Bearer {token}"}

@@ -88,9 +88,10 @@ def _fill(session: Session, rng: np.random.Generator) -> int:
     ]
     session.execute(insert(PassWheel), pass_wheels)
     limits = DEFAULT_LIMITS_MM["EN"]
-    measurements, margins = [], []
+    measurements: list[dict] = []
+    margins: list[dict] = []
     for pw in pass_wheels:
-        values = {
+        values: dict[str, float | None] = {
             "flange_height_mm": float(rng.uniform(28.0, 36.6)),
             "flange_thickness_10_mm": float(rng.uniform(21.5, 33.0)),
             "qr_mm": float(rng.uniform(6.2, 10.8)),
