@@ -29,10 +29,11 @@ REAL_FRAME_NAMES = (
     "charuco-red",
     "weld-track",
     "charuco-webcam",
+    "charuco-dim",
 )
-COLOUR_FRAMES = {"charuco-red": "red", "charuco-webcam": "red"}
+COLOUR_FRAMES = {"charuco-red": "red", "charuco-webcam": "red", "charuco-dim": "red"}
 """Frames also kept in colour (NAME.colour.png) and the colour of their laser."""
-COLOUR_WIDTHS_PX = {"charuco-red": (3.0, 21.0), "charuco-webcam": (3.0, 21.0)}
+COLOUR_WIDTHS_PX = dict.fromkeys(COLOUR_FRAMES, (3.0, 21.0))
 """The stripe width range (width_min, width_max) [px] a station would configure for each
 colour frame taken by its laser's colour: its line is 2–5 px wide, thinner than the default
 width_min of 5 px, so the scale set is extended downward to 3 px (σ1 = 1.73 px)."""
