@@ -337,10 +337,14 @@ def run() -> str:
                 "",
                 "Public laser frames with hand-checked truth (tests/pipeline/real_frames/"
                 "PROVENANCE.md): five grey frames of a welding camera behind its filter (lit "
-                "steel, a specular torch, flare, plate edges) and a red laser on a printed board "
-                "converted to grey, and the same board taken by its laser's colour (`laser_grey`: "
-                "red minus the brighter of green and blue) at the width range a station would "
-                "configure for its 2–5 px line. Per method (as above), default widths 5–21 px "
+                "steel, a specular torch, flare, plate edges), a weld-seam tracker's grey frame "
+                "(a thin V line broken at the groove on a dark background, saturated reflection "
+                "spots beside it), and red lasers on printed boards (a folded ChArUco board lit "
+                "and dim, and one in a lit room with a webcam) converted to grey, and the same "
+                "boards taken by their laser's colour (`laser_grey`: red minus the brighter of "
+                "green and blue) at the width range a station would configure for their 2–5 px "
+                "lines. "
+                "Per method (as above), default widths 5–21 px "
                 "unless the row says otherwise: centres on the "
                 "line [%] (within 3 px of a laser pixel) / the line's medial axis covered [%] (a "
                 f"centre within 2.5 px). Bars: adaptive ≥ {REAL_BAR_PCT:.0f} % on both.",

@@ -20,10 +20,20 @@ from tests.pipeline.stripe_scores import COVER_DISTANCE_PX, FALSE_DISTANCE_PX
 
 REAL_FRAMES_DIR = Path(__file__).resolve().parent / "real_frames"
 ON_LINE_DISTANCE_PX = FALSE_DISTANCE_PX
-REAL_FRAME_NAMES = ("weld-1", "weld-2", "weld-5", "weld-8", "weld-9", "charuco-red")
-COLOUR_FRAMES = {"charuco-red": "red"}
+REAL_FRAME_NAMES = (
+    "weld-1",
+    "weld-2",
+    "weld-5",
+    "weld-8",
+    "weld-9",
+    "charuco-red",
+    "weld-track",
+    "charuco-webcam",
+    "charuco-dim",
+)
+COLOUR_FRAMES = {"charuco-red": "red", "charuco-webcam": "red", "charuco-dim": "red"}
 """Frames also kept in colour (NAME.colour.png) and the colour of their laser."""
-COLOUR_WIDTHS_PX = {"charuco-red": (3.0, 21.0)}
+COLOUR_WIDTHS_PX = dict.fromkeys(COLOUR_FRAMES, (3.0, 21.0))
 """The stripe width range (width_min, width_max) [px] a station would configure for each
 colour frame taken by its laser's colour: its line is 2–5 px wide, thinner than the default
 width_min of 5 px, so the scale set is extended downward to 3 px (σ1 = 1.73 px)."""

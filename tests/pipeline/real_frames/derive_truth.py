@@ -1,7 +1,8 @@
 """Make the real frames' files from their sources (PROVENANCE.md): frame, laser mask, medial axis.
 
     python tests/pipeline/real_frames/derive_truth.py weld FIGURE.png NAME
-    python tests/pipeline/real_frames/derive_truth.py colour FRAME.png NAME X0 X1 KINK_ROW
+    python tests/pipeline/real_frames/derive_truth.py colour FRAME.png NAME X0 X1 KINK_ROW [MARGIN]
+    python tests/pipeline/real_frames/derive_truth.py dark FRAME.png NAME R0 R1
 
 "weld": a figure of three panels (input, hand-labelled mask, prediction); the input and the
 label are cut out at the same place, 2 px inside each panel's border, the label thresholded
@@ -15,9 +16,19 @@ Per row (the line runs along the columns) the centroid of the red excess over ma
 blue) above RED_EXCESS, within 6 px of the row's strongest, marks the laser where it is red;
 on each face a quadratic x(y) is fitted to those marks (rejecting marks FIT_REJECT_PX off:
 other red), so the line is continued where its core saturates to white. The medial axis is
-that fit at every row; the laser pixels are those within LASER_HALF_WIDTH_PX of it. The cut
+that fit at every row but the MARGIN rows (default MARGIN_ROWS) at the frame's top and bottom;
+the laser pixels are those within LASER_HALF_WIDTH_PX of it. The cut
 colour frame is written too (NAME.colour.png), for the laser-colour path
 (`pipeline.imaging.laser_grey`).
+
+"dark": a grey frame of a thin laser line on a dark background with saturated spots (a weld
+seam camera), cut to rows R0..R1. The line's regions are the connected regions of the grey
+smoothed by σ 2 px above LINE_LEVEL that are long (major axis over MIN_LINE_LENGTH_PX), thin
+(minor axis under MAX_WIDTH_SHARE of the major) and not saturated (under SPOT_SATURATED_SHARE
+of their pixels at 250 or more: the spots are saturated ellipses); the laser pixels are the
+pixels of those regions at half or more of the local peak (grey smoothed by σ 1 px over a
+9 × 9 px window), closed by a 5 × 5 px ellipse to bridge the line's speckle. The medial axis
+is made from them as for "weld".
 
 Writes NAME.png (grey), NAME.laser.png (laser pixels, 0/255) and NAME.json (medial points
 x, y [px], pixel centres at integers) beside this file.
@@ -31,7 +42,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from scipy.ndimage import map_coordinates
+from scipy.ndimage import map_coordinates, maximum_filter
 from scipy.spatial import cKDTree
 
 HERE = Path(__file__).resolve().parent
@@ -43,6 +54,14 @@ MARGIN_ROWS = 30
 """Rows left out at the frame's top and bottom, where the line leaves the board."""
 LASER_HALF_WIDTH_PX = 2.5
 """Half the laser line's width in the colour frame [px] (2–5 px wide where it is red)."""
+LINE_LEVEL = 35
+"""Grey (smoothed by σ 2 px) above which a dark frame's pixel may be the laser's (8-bit)."""
+MIN_LINE_LENGTH_PX = 60
+"""A bright region shorter than this (4 × the standard deviation along it) is not the line."""
+MAX_WIDTH_SHARE = 0.3
+"""A bright region wider than this share of its length is a spot, not the line."""
+SPOT_SATURATED_SHARE = 0.05
+"""A bright region with more than this share of saturated pixels is a spot (a reflection)."""
 
 
 def _thin(mask: np.ndarray) -> np.ndarray:
@@ -119,7 +138,7 @@ def _robust_quadratic(y: np.ndarray, x: np.ndarray) -> np.ndarray:
     return coefficients
 
 
-def colour_truth(frame_path: Path, x0: int, x1: int, kink_row: int):
+def colour_truth(frame_path: Path, x0: int, x1: int, kink_row: int, margin_rows: int = MARGIN_ROWS):
     """Grey frame, laser pixels and medial points of a red laser crossing two flat faces."""
     colour = cv2.imread(str(frame_path))[:, x0:x1]
     grey = cv2.cvtColor(colour, cv2.COLOR_BGR2GRAY)
@@ -134,7 +153,7 @@ def colour_truth(frame_path: Path, x0: int, x1: int, kink_row: int):
     x, y = np.asarray(found).T
     rows = np.arange(grey.shape[0], dtype=float)
     medial_x = np.full(len(rows), np.nan)
-    for lower, upper in ((MARGIN_ROWS, kink_row), (kink_row, grey.shape[0] - MARGIN_ROWS)):
+    for lower, upper in ((margin_rows, kink_row), (kink_row, grey.shape[0] - margin_rows)):
         piece = (y >= lower) & (y < upper)
         inside = (rows >= lower) & (rows < upper)
         medial_x[inside] = np.polyval(_robust_quadratic(y[piece], x[piece]), rows[inside])
@@ -142,6 +161,28 @@ def colour_truth(frame_path: Path, x0: int, x1: int, kink_row: int):
     laser = np.abs(cols - medial_x[:, None]) <= LASER_HALF_WIDTH_PX
     keep = ~np.isnan(medial_x)
     return colour, grey, laser, np.stack([medial_x[keep], rows[keep]], axis=1)
+
+
+def dark_line_truth(frame_path: Path, r0: int, r1: int):
+    """Grey frame cut to rows r0..r1 and the pixels of its thin laser line (dark background)."""
+    frame = cv2.imread(str(frame_path), cv2.IMREAD_GRAYSCALE)[r0:r1]
+    smooth = cv2.GaussianBlur(frame.astype(np.float32), (0, 0), 2.0)
+    count, labels = cv2.connectedComponents((smooth > LINE_LEVEL).astype(np.uint8), connectivity=8)
+    line = np.zeros(frame.shape, bool)
+    for k in range(1, count):
+        region = labels == k
+        rows, cols = np.nonzero(region)
+        if len(rows) < 30:
+            continue
+        minor, major = 4 * np.sqrt(np.linalg.eigvalsh(np.cov(np.stack([cols, rows]))))
+        spot = (frame[region] >= 250).mean() > SPOT_SATURATED_SHARE
+        if major > MIN_LINE_LENGTH_PX and minor < MAX_WIDTH_SHARE * major and not spot:
+            line |= region
+    fine = cv2.GaussianBlur(frame.astype(np.float32), (0, 0), 1.0)
+    laser = (line & (fine >= 0.5 * maximum_filter(fine, 9))).astype(np.uint8)
+    bridge = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
+    laser = cv2.morphologyEx(laser, cv2.MORPH_CLOSE, bridge)
+    return frame, laser.astype(bool) & line
 
 
 def write(name: str, frame: np.ndarray, laser: np.ndarray, medial: np.ndarray) -> None:
@@ -157,9 +198,12 @@ def main(argv: list[str]) -> None:
     if kind == "weld":
         frame, laser = weld_panels(Path(source))
         write(name, frame, laser, _medial_on_ridge(frame, laser))
+    elif kind == "dark":
+        frame, laser = dark_line_truth(Path(source), int(argv[3]), int(argv[4]))
+        write(name, frame, laser, _medial_on_ridge(frame, laser))
     else:
-        x0, x1, kink_row = (int(a) for a in argv[3:6])
-        colour, *truth = colour_truth(Path(source), x0, x1, kink_row)
+        x0, x1, kink_row, *margin = (int(a) for a in argv[3:7])
+        colour, *truth = colour_truth(Path(source), x0, x1, kink_row, *margin)
         cv2.imwrite(str(HERE / f"{name}.colour.png"), colour)
         write(name, *truth)
 
