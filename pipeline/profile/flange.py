@@ -55,7 +55,11 @@ MAX_FLANK_GAP_MM = 2.5
 is bridged when the gap (its edges looked for within ±3 mm) is ≤ 2.5 mm of z: the
 quadratic x(z) through 1 mm of points on each side of it then departs from the LMA and
 S1002 flanks at Sd (12 and 10 mm) by ≤ 0.02 mm wherever the gap lies about the height
-(0.012 for 2 mm, 0.029 for 3 mm); tested with 0.01 mm noise. The gap is reported
+(0.012 for 2 mm, 0.029 for 3 mm); tested with 0.01 mm noise. On the simulator's worn
+outlines (field wear ranges, 0.02 mm noise) a 2.5 mm gap is bridged within 0.030 mm at 12 mm
+and 0.039 at 10; 3.5 mm: 0.035 and 0.155 (the root arc), the reference flank shifted in x and
+z: 0.148 and 0.046; on field profiles every bridge moves Sd by up to 0.3–0.4 mm (the centres'
+wave along the flank; docs/simulator.md, "Wider flank bridges"). The gap is reported
 (`FlangeParameters.flank_gap_mm`); a longer one leaves the wheel not measured."""
 MIN_FIT_POINTS = 5
 OUTLIER_MADS = 3.0
