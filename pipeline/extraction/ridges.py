@@ -22,6 +22,13 @@ RIDGE_THRESHOLD = 0.5
 """Threshold on the multi-scale ridge response V ∈ [0, 1): half the saturated response."""
 
 
+STRUCTURE_SATURATED = 40.0
+"""S²/2c² beyond which the structure term 1 − exp(−S²/2c²) is exactly 1 in float64: from
+37.43 on, exp(−S²/2c²) ≤ 2⁻⁵⁴ and 1 minus it rounds to 1 (at 40 it is 4.2·10⁻¹⁸, a margin
+of 13× over any error of the exp). A stripe's pixels lie far beyond it (S²/2c² ≈ 250 for
+a peak contrast of 150 grey levels), so their V costs one exp, not two, with the same bits."""
+
+
 @kernel
 def ridge_value(lambda1: float, lambda2: float, c_grey: float) -> float:
     """V of one pixel from its σ²-normalised eigenvalues (see `ridge_response`)."""
@@ -29,8 +36,10 @@ def ridge_value(lambda1: float, lambda2: float, c_grey: float) -> float:
         return 0.0
     ratio = lambda2 / lambda1
     blob = np.exp(ratio * ratio * (-1 / (2 * RIDGE_BETA**2)))
-    structure = 1 - np.exp((lambda1 * lambda1 + lambda2 * lambda2) * (-1 / (2 * c_grey**2)))
-    return blob * structure
+    exponent = (lambda1 * lambda1 + lambda2 * lambda2) * (-1 / (2 * c_grey**2))
+    if exponent < -STRUCTURE_SATURATED:
+        return blob  # × a structure term of exactly 1
+    return blob * (1 - np.exp(exponent))
 
 
 @kernel
