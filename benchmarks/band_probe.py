@@ -32,7 +32,7 @@ from pipeline import extract_centres
 from tests.pipeline.stripe_images import make_stripe
 
 STAGES = (
-    ("pipeline.extraction.scalespace", "build_pyramid"),
+    ("pipeline.extraction.band_analysis", "build_pyramid"),
     ("pipeline.extraction.band_analysis", "band_derivatives"),
     ("pipeline.extraction.band_analysis", "analyse_band_level"),
     ("pipeline.extraction.band_analysis", "locate_band"),
