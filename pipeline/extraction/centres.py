@@ -395,7 +395,7 @@ def _finer(selected: _Selected, failed: np.ndarray, shape: tuple[int, int]) -> _
     first = np.concatenate(([True], pixel[1:] != pixel[:-1]))
     pixel, level = pixel[first], level[first]
     passed = selected.rows[~failed] * shape[1] + selected.cols[~failed]
-    free = ~np.isin(pixel, passed)
+    free = ~np.isin(pixel, passed, kind="sort")  # not a table spanning the frame's pixels
     pixel, level = pixel[free], level[free]
     for i in np.unique(level):
         pick = pixel[level == i]
