@@ -567,10 +567,10 @@ def _grown_near(
     """`kept` grown by the `long` chains with a centre within CONTINUITY_GAP_PX of a kept
     chain's, until none is added; `xy` (K, 2) are the centres [px]."""
     while any(kept):
-        near = cKDTree(xy[np.concatenate([c for c, k in zip(chains, kept, strict=True) if k])])
         open_chains = [i for i, (k, g) in enumerate(zip(kept, long, strict=True)) if g and not k]
         if not open_chains:
             break
+        near = cKDTree(xy[np.concatenate([c for c, k in zip(chains, kept, strict=True) if k])])
         # One query for the centres of every open chain, not one per chain.
         points = np.concatenate([chains[i] for i in open_chains])
         reached = near.query(xy[points], distance_upper_bound=CONTINUITY_GAP_PX)[0] < np.inf
