@@ -34,11 +34,10 @@ from pipeline.extraction.curvature import (
 from pipeline.extraction.gaps import bridge_gaps
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
 from pipeline.extraction.line_test import (
-    body_shares,
     is_line,
-    is_on_body,
     is_spot,
     line_profiles,
+    on_bodies,
 )
 from pipeline.extraction.linking import NEIGHBOUR_REACH_PX, link_points
 from pipeline.extraction.normal_fit import matched_offsets
@@ -113,7 +112,7 @@ class Centres:
         rejected: the line-vs-edge test's (`pipeline.extraction.line_test`: the grey does
         not fall off on both sides, or the line is thinner than width_min allows), those of
         chains that are round spots (`line_test.is_spot`), of a whole frame's long chains
-        that are highlights on a lit body (`line_test.is_on_body`), of dim chains short or
+        that are highlights on a lit body (`line_test.on_bodies`), of dim chains short or
         apart from the stripe (`segmentation.CHAIN_FRACTION`), of chains wider than the
         width range (`segmentation.CHAIN_WIDTH_FACTOR`) and, outside a search region, of
         lines far shorter than the longest (`segmentation.longest_lines`). Empty for
@@ -395,7 +394,8 @@ def _finer(selected: _Selected, failed: np.ndarray, shape: tuple[int, int]) -> _
     first = np.concatenate(([True], pixel[1:] != pixel[:-1]))
     pixel, level = pixel[first], level[first]
     passed = selected.rows[~failed] * shape[1] + selected.cols[~failed]
-    free = ~np.isin(pixel, passed)
+    # Both sets hold each pixel once; a sort, not a table spanning the frame's pixels.
+    free = ~np.isin(pixel, passed, assume_unique=True, kind="sort")
     pixel, level = pixel[free], level[free]
     for i in np.unique(level):
         pick = pixel[level == i]
@@ -567,10 +567,10 @@ def _grown_near(
     """`kept` grown by the `long` chains with a centre within CONTINUITY_GAP_PX of a kept
     chain's, until none is added; `xy` (K, 2) are the centres [px]."""
     while any(kept):
-        near = cKDTree(xy[np.concatenate([c for c, k in zip(chains, kept, strict=True) if k])])
         open_chains = [i for i, (k, g) in enumerate(zip(kept, long, strict=True)) if g and not k]
         if not open_chains:
             break
+        near = cKDTree(xy[np.concatenate([c for c, k in zip(chains, kept, strict=True) if k])])
         # One query for the centres of every open chain, not one per chain.
         points = np.concatenate([chains[i] for i in open_chains])
         reached = near.query(xy[points], distance_upper_bound=CONTINUITY_GAP_PX)[0] < np.inf
@@ -648,7 +648,7 @@ def _no_spots(
 
 
 def _off_bodies(image, chains, height, x, y, nx, ny, width_at, continuing):
-    """The chains that are not highlights on a lit body (`line_test.is_on_body`) and the
+    """The chains that are not highlights on a lit body (`line_test.on_bodies`) and the
     points of those that are; `width_at` the measured widths [px] of every point (NaN:
     none).
 
@@ -661,11 +661,10 @@ def _off_bodies(image, chains, height, x, y, nx, ny, width_at, continuing):
     """
     if continuing or not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
-    judged = [c for c in chains if c.size >= CHAIN_MIN_POINTS]
-    found = np.concatenate(judged) if judged else np.zeros(0, np.int64)
-    shares = np.full(x.size, np.nan)
-    shares[found] = body_shares(image, x[found], y[found], nx[found], ny[found], width_at[found])
-    kept = [c.size < CHAIN_MIN_POINTS or not is_on_body(shares[c]) for c in chains]
+    judged = [i for i, c in enumerate(chains) if c.size >= CHAIN_MIN_POINTS]
+    on_body = np.zeros(len(chains), bool)
+    on_body[judged] = on_bodies(image, x, y, nx, ny, width_at, [chains[i] for i in judged])
+    kept = (~on_body).tolist()
     bodies = [c for c, k in zip(chains, kept, strict=True) if not k]
     lines = [c for c, k in zip(chains, kept, strict=True) if k]
     return lines, np.concatenate(bodies) if bodies else np.zeros(0, np.int64)
@@ -911,7 +910,7 @@ def extract_centres(
     then keeps the candidates that are lines, not edges (`line_test.is_line`). Points are
     linked into polylines and their widths measured between the gradient maxima; "adaptive"
     drops chains that are round spots or highlights on a lit body (`line_test.is_spot`,
-    `line_test.is_on_body`), chains far dimmer than the brightest that are short or lie
+    `line_test.on_bodies`), chains far dimmer than the brightest that are short or lie
     apart from the kept ones, chains wider than CHAIN_WIDTH_FACTOR·width_max and, outside
     a search region, lines (chains joined end to near, not beside: LINE_SIDE_PX) under
     LINE_KEEP_FRACTION of the longest's centres (`segmentation`). Which stage rejects

@@ -296,34 +296,42 @@ broken pieces, saturation) ≤ 5 %."""
 
 
 @kernel
-def _body_shares(image, x, y, nx, ny, width, out) -> None:
-    """Per centre: the lower over the two sides of (shoulder − surface)/(centre − surface),
-    the shoulder read at BODY_NEAR_WIDTHS·W and the surface the lowest of BODY_READS reads
-    from there to BODY_FAR_WIDTHS·W (`_profile_at`); NaN where W is NaN."""
+def _body_share(image, x, y, nx, ny, w) -> float:
+    """The lower over the two sides of (shoulder − surface)/(centre − surface) at one centre
+    of width W = w > 0, the shoulder read at BODY_NEAR_WIDTHS·W and the surface the lowest
+    of BODY_READS reads from there to BODY_FAR_WIDTHS·W (`_profile_at`)."""
     height, frame_width = image.shape
+    extent = BODY_FAR_WIDTHS * w + max(TANGENT_OFFSETS_PX) + 1.0
+    inside = extent <= x < frame_width - 1 - extent and extent <= y < height - 1 - extent
+    centre = _profile_at(image, x, y, nx, ny, 0.0, inside)
+    lower = np.inf
+    spacing = (BODY_FAR_WIDTHS - BODY_NEAR_WIDTHS) * w / (BODY_READS - 1)
+    for direction in (1.0, -1.0):
+        near = direction * BODY_NEAR_WIDTHS * w
+        shoulder = _profile_at(image, x, y, nx, ny, near, inside)
+        surface = shoulder
+        for i in range(1, BODY_READS):
+            t = near + direction * i * spacing
+            surface = min(surface, _profile_at(image, x, y, nx, ny, t, inside))
+        # The share is 0 where the line does not stand above the surface at all.
+        rise = centre - surface
+        share = (shoulder - surface) / rise if rise > 0 else 0.0
+        lower = min(lower, share)
+    return lower
+
+
+@kernel
+def _measured(w: float) -> bool:
+    """Whether a width W [px] was measured (finite and > 0)."""
+    return np.isfinite(w) and w > 0
+
+
+@kernel
+def _body_shares(image, x, y, nx, ny, width, out) -> None:
+    """Per centre `_body_share`; NaN where W was not measured."""
     for k in range(x.size):
         w = width[k]
-        if not np.isfinite(w) or w <= 0:
-            out[k] = np.nan
-            continue
-        xk, yk, nxk, nyk = x[k], y[k], nx[k], ny[k]
-        extent = BODY_FAR_WIDTHS * w + max(TANGENT_OFFSETS_PX) + 1.0
-        inside = extent <= xk < frame_width - 1 - extent and extent <= yk < height - 1 - extent
-        centre = _profile_at(image, xk, yk, nxk, nyk, 0.0, inside)
-        lower = np.inf
-        spacing = (BODY_FAR_WIDTHS - BODY_NEAR_WIDTHS) * w / (BODY_READS - 1)
-        for direction in (1.0, -1.0):
-            near = direction * BODY_NEAR_WIDTHS * w
-            shoulder = _profile_at(image, xk, yk, nxk, nyk, near, inside)
-            surface = shoulder
-            for i in range(1, BODY_READS):
-                t = near + direction * i * spacing
-                surface = min(surface, _profile_at(image, xk, yk, nxk, nyk, t, inside))
-            # The share is 0 where the line does not stand above the surface at all.
-            rise = centre - surface
-            share = (shoulder - surface) / rise if rise > 0 else 0.0
-            lower = min(lower, share)
-        out[k] = lower
+        out[k] = _body_share(image, x[k], y[k], nx[k], ny[k], w) if _measured(w) else np.nan
 
 
 def body_shares(
@@ -360,11 +368,61 @@ def body_shares(
     return out
 
 
-def is_on_body(shares: np.ndarray) -> bool:
-    """Whether a linked chain of centres is a highlight on a lit body, not the laser: more
-    than half of its centres with a measured width have `body_shares` ≥ BODY_SHARE."""
-    known = shares[np.isfinite(shares)]
-    return bool(known.size and (known >= BODY_SHARE).mean() > 0.5)
+@kernel
+def _on_bodies(image, x, y, nx, ny, width, bounds, out) -> None:
+    """Per chain points[bounds[c]:bounds[c + 1]]: whether more than half of its centres of
+    measured width have `_body_share` ≥ BODY_SHARE. Its centres are read in order until
+    the count decides either way."""
+    for c in range(bounds.size - 1):
+        lo, hi = bounds[c], bounds[c + 1]
+        known = 0
+        for k in range(lo, hi):
+            known += _measured(width[k])
+        high, left = 0, known
+        for k in range(lo, hi):
+            if 2 * high > known or 2 * (high + left) <= known:
+                break
+            if _measured(width[k]):
+                left -= 1
+                high += _body_share(image, x[k], y[k], nx[k], ny[k], width[k]) >= BODY_SHARE
+        out[c] = 2 * high > known
+
+
+def on_bodies(
+    image: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    nx: np.ndarray,
+    ny: np.ndarray,
+    width_px: np.ndarray,
+    chains: list[np.ndarray],
+) -> np.ndarray:
+    """Which linked chains of centres are highlights on a lit body, not the laser.
+
+    Parameters
+    ----------
+    image, x, y, nx, ny, width_px : ndarray
+        The frame, the centres (K,) with their normals and measured widths, as for
+        `body_shares`.
+    chains : list of ndarray of int
+        The chains, index arrays into the centres.
+
+    Returns
+    -------
+    ndarray of shape (len(chains),), bool
+        More than half of the chain's centres with a measured width have `body_shares`
+        ≥ BODY_SHARE (False for a chain with none). A chain's shares are read only until
+        its count is decided.
+    """
+    out = np.zeros(len(chains), bool)
+    if not chains:
+        return out
+    points = np.concatenate(chains)
+    bounds = np.cumsum([0] + [c.size for c in chains])
+    arrays = (x[points], y[points], nx[points], ny[points], width_px[points])
+    fx, fy, fnx, fny, fwidth = (np.ascontiguousarray(a, np.float64) for a in arrays)
+    _on_bodies(np.ascontiguousarray(image), fx, fy, fnx, fny, fwidth, bounds, out)
+    return out
 
 
 SPOT_RATIO = 0.6

@@ -49,41 +49,109 @@ CONVERGED_PX = 1e-5
 
 
 @kernel
-def _newton(profile, n, t, sk) -> float:
-    """The zero of the slope of `profile` (samples at (i − n)·PROFILE_STEP_PX) smoothed by a
-    Gaussian of sk, by Newton steps from t; NaN where it is no maximum within MAX_MOVE_PX.
+def _span(t, sk, n) -> tuple[int, int]:
+    """First and last sample i (at i·PROFILE_STEP_PX, |i| ≤ n) under the kernel of sk
+    centred at t [px], truncated at ±KERNEL_REACH_SIGMAS·sk."""
+    h = PROFILE_STEP_PX
+    reach = KERNEL_REACH_SIGMAS * sk
+    return max(int(math.ceil((t - reach) / h)), -n), min(int(math.floor((t + reach) / h)), n)
+
+
+@kernel
+def _first_weight(t, first, inv) -> tuple[float, float, float]:
+    """u = t − first·h, the kernel's weight g(u) = e^(−u²/2s²) there and g(u − h)/g(u)."""
+    h = PROFILE_STEP_PX
+    u = t - first * h
+    return u, math.exp(-0.5 * u * u * inv), math.exp((u - 0.5 * h) * h * inv)
+
+
+@kernel
+def _add_sample(value, u, g, ratio, inv, decay, slope, curvature):
+    """One sample's terms of the smoothed profile's slope and curvature at the kernel's
+    centre, and the recurrence on to the next sample: (u, g, ratio, slope, curvature)."""
+    p = value * g
+    slope -= p * u
+    curvature += p * (u * u * inv - 1.0)
+    return u - PROFILE_STEP_PX, g * ratio, ratio * decay, slope, curvature
+
+
+@kernel
+def _newton_step(t, slope, curvature) -> tuple[float, bool]:
+    """The next t (NaN where it is no maximum within MAX_MOVE_PX) and whether to stop."""
+    if not curvature < 0:
+        return np.nan, True
+    step = min(max(slope / curvature, -0.5), 0.5)
+    t -= step
+    if abs(t) > MAX_MOVE_PX:
+        return np.nan, True
+    return t, abs(step) < CONVERGED_PX
+
+
+@kernel
+def _newton(profile, n, sk_a, sk_b, both) -> tuple[float, float]:
+    """The zeros of the slope of `profile` (samples at (i − n)·PROFILE_STEP_PX) smoothed by
+    Gaussians of sk_a and (when `both`) sk_b, by Newton steps from 0; NaN where it is no
+    maximum within MAX_MOVE_PX (and for sk_b when not `both`).
 
     The kernel's weights at u = t − i·h come by recurrence (g(u − h) = g(u)·r, r·= e^(−h²/s²)
-    each step): no exp per sample.
+    each step): no exp per sample. Each sum is a chain of dependent multiply-adds, so the
+    two scales' steps run side by side over the samples both kernels cover (each sum still
+    in sample order): the processor overlaps the two chains.
     """
     h = PROFILE_STEP_PX
-    inv = 1.0 / (sk * sk)
-    reach = KERNEL_REACH_SIGMAS * sk
-    decay = math.exp(-h * h * inv)
+    inv_a, inv_b = 1.0 / (sk_a * sk_a), 1.0 / (sk_b * sk_b)
+    decay_a, decay_b = math.exp(-h * h * inv_a), math.exp(-h * h * inv_b)
+    t_a, t_b = 0.0, 0.0 if both else np.nan
+    run_a, run_b = True, both
     for _ in range(NEWTON_STEPS):
-        first = max(int(math.ceil((t - reach) / h)), -n)
-        last = min(int(math.floor((t + reach) / h)), n)
-        u = t - first * h
-        g = math.exp(-0.5 * u * u * inv)
-        ratio = math.exp((u - 0.5 * h) * h * inv)  # g(u − h)/g(u)
-        slope = 0.0
-        curvature = 0.0
-        for i in range(first, last + 1):
-            p = profile[i + n] * g
-            slope -= p * u
-            curvature += p * (u * u * inv - 1.0)
-            g *= ratio
-            ratio *= decay
-            u -= h
-        if not curvature < 0:
-            return np.nan
-        step = min(max(slope / curvature, -0.5), 0.5)
-        t -= step
-        if abs(t) > MAX_MOVE_PX:
-            return np.nan
-        if abs(step) < CONVERGED_PX:
+        first_a, last_a = _span(t_a, sk_a, n)
+        first_b, last_b = _span(t_b, sk_b, n) if run_b else (0, -1)
+        if not run_a:
+            first_a, last_a = first_b, first_b - 1  # no samples, placed where b's start
+        if not run_b:
+            first_b, last_b = first_a, first_a - 1
+        u_a = g_a = r_a = u_b = g_b = r_b = 0.0
+        if run_a:
+            u_a, g_a, r_a = _first_weight(t_a, first_a, inv_a)
+        if run_b:
+            u_b, g_b, r_b = _first_weight(t_b, first_b, inv_b)
+        slope_a = curvature_a = slope_b = curvature_b = 0.0
+        low, high = max(first_a, first_b), min(last_a, last_b)
+        if low > high:  # no samples in common: one scale after the other
+            low, high = last_a + 1, last_a
+        for i in range(first_a, min(low, last_a + 1)):
+            u_a, g_a, r_a, slope_a, curvature_a = _add_sample(
+                profile[i + n], u_a, g_a, r_a, inv_a, decay_a, slope_a, curvature_a
+            )
+        for i in range(first_b, min(low, last_b + 1)):
+            u_b, g_b, r_b, slope_b, curvature_b = _add_sample(
+                profile[i + n], u_b, g_b, r_b, inv_b, decay_b, slope_b, curvature_b
+            )
+        for i in range(low, high + 1):
+            value = profile[i + n]
+            u_a, g_a, r_a, slope_a, curvature_a = _add_sample(
+                value, u_a, g_a, r_a, inv_a, decay_a, slope_a, curvature_a
+            )
+            u_b, g_b, r_b, slope_b, curvature_b = _add_sample(
+                value, u_b, g_b, r_b, inv_b, decay_b, slope_b, curvature_b
+            )
+        for i in range(max(high + 1, first_a), last_a + 1):
+            u_a, g_a, r_a, slope_a, curvature_a = _add_sample(
+                profile[i + n], u_a, g_a, r_a, inv_a, decay_a, slope_a, curvature_a
+            )
+        for i in range(max(high + 1, first_b), last_b + 1):
+            u_b, g_b, r_b, slope_b, curvature_b = _add_sample(
+                profile[i + n], u_b, g_b, r_b, inv_b, decay_b, slope_b, curvature_b
+            )
+        if run_a:
+            t_a, stop = _newton_step(t_a, slope_a, curvature_a)
+            run_a = not stop
+        if run_b:
+            t_b, stop = _newton_step(t_b, slope_b, curvature_b)
+            run_b = not stop
+        if not (run_a or run_b):
             break
-    return t
+    return t_a, t_b
 
 
 @kernel
@@ -118,8 +186,13 @@ def _matched_offsets(image, x, y, nx, ny, s, factors, out) -> None:
     for k in range(x.size):
         n = int(math.ceil((KERNEL_REACH_SIGMAS * widest[k] + MAX_MOVE_PX) / PROFILE_STEP_PX))
         _read_profile(image, x[k], y[k], nx[k], ny[k], n, profile)
-        for f in range(factors.size):
-            out[f, k] = _newton(profile, n, 0.0, max(s[k], MIN_PROFILE_SIGMA_PX) * factors[f])
+        sk = max(s[k], MIN_PROFILE_SIGMA_PX)
+        for f in range(0, factors.size, 2):  # two scales at a time (`_newton`)
+            both = f + 1 < factors.size
+            t_a, t_b = _newton(profile, n, sk * factors[f], sk * factors[f + both], both)
+            out[f, k] = t_a
+            if both:
+                out[f + 1, k] = t_b
 
 
 def matched_offsets(

@@ -232,8 +232,8 @@ def joined_lines(xy: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
 def longest_lines(xy: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
     """Which chains (bool (len(chains),)) belong to a line (`joined_lines`) holding at least
     LINE_KEEP_FRACTION of the centres of the line holding the most."""
-    if not chains:
-        return np.zeros(0, bool)
+    if len(chains) < 2:  # one chain is its own longest line
+        return np.ones(len(chains), bool)
     line = joined_lines(xy, chains)
     count = np.bincount(line, weights=[c.size for c in chains])
     return count[line] >= LINE_KEEP_FRACTION * count.max()

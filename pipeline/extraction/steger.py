@@ -113,7 +113,11 @@ def _centre_pixels(rows, cols, offset, nx, ny, lambda1, strength, height, width)
     seam = np.zeros(count, np.bool_)
     target_r = np.empty(count, np.int64)
     target_c = np.empty(count, np.int64)
-    occupied = np.zeros((height, width), np.bool_)
+    if count == 0:
+        return accepted
+    # Occupancy of the candidates' bounding box only; a target lies within 2 px of its pixel.
+    r0, c0 = rows.min() - 2, cols.min() - 2
+    occupied = np.zeros((rows.max() - r0 + 3, cols.max() - c0 + 3), np.bool_)
     for k in range(count):
         dx, dy = offset[k] * nx[k], offset[k] * ny[k]
         bright = lambda1[k] < 0
@@ -123,18 +127,20 @@ def _centre_pixels(rows, cols, offset, nx, ny, lambda1, strength, height, width)
         seam[k] = bright and not accepted[k] and abs(dx) <= 1.5 and abs(dy) <= 1.5
         seam[k] &= 0 <= target_r[k] < height and 0 <= target_c[k] < width
         if accepted[k]:
-            occupied[rows[k], cols[k]] = True
+            occupied[rows[k] - r0, cols[k] - c0] = True
     candidates = np.flatnonzero(seam)
     free = np.zeros(candidates.size, np.bool_)
     for i in range(candidates.size):
         k = candidates[i]
-        free[i] = not occupied[target_r[k], target_c[k]]
+        free[i] = not occupied[target_r[k] - r0, target_c[k] - c0]
     candidates = candidates[free]
     order = np.argsort(-strength[candidates], kind="mergesort")  # stable
     for k in candidates[order]:
-        if occupied[target_r[k], target_c[k]] or occupied[rows[k], cols[k]]:
+        target = (target_r[k] - r0, target_c[k] - c0)
+        source = (rows[k] - r0, cols[k] - c0)
+        if occupied[target] or occupied[source]:
             continue
-        occupied[target_r[k], target_c[k]] = occupied[rows[k], cols[k]] = True
+        occupied[target] = occupied[source] = True
         accepted[k] = True
     return accepted
 

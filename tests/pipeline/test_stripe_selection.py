@@ -8,7 +8,13 @@ from scipy.special import erfc
 
 from pipeline import extract_centres
 from pipeline.extraction.centres import _bright_chains
-from pipeline.extraction.line_test import BODY_SHARE, body_shares, is_line, line_profiles
+from pipeline.extraction.line_test import (
+    BODY_SHARE,
+    body_shares,
+    is_line,
+    line_profiles,
+    on_bodies,
+)
 from pipeline.extraction.segmentation import (
     LINE_JOIN_PX,
     LINE_SIDE_PX,
@@ -313,6 +319,29 @@ def test_a_highlight_on_a_lit_body_has_raised_shoulders_and_a_laser_line_has_not
     one = np.ones(1)
     share = body_shares(image, 30 * one, 100.3 * one, 0 * one, one, width_px * one)[0]
     assert (share >= BODY_SHARE) == on_body, share
+
+
+def test_a_chain_is_on_a_body_when_more_than_half_of_its_measured_shares_are_high() -> None:
+    # on_bodies stops reading a chain's shares once its count is decided: the verdict is
+    # the majority of the shares of every centre with a measured width (none: not on one).
+    rng = np.random.default_rng(7)
+    image = rng.integers(0, 256, (120, 160)).astype(np.uint8)
+    sizes = [0, 1, 2, 3, 4, 5, 8, 9, 16, 33]
+    count = sum(sizes)
+    x, y = rng.uniform(-5, 165, count), rng.uniform(-5, 125, count)
+    angle = rng.uniform(0, 2 * np.pi, count)
+    width = rng.uniform(0.0, 30.0, count)
+    width[rng.random(count) < 0.3] = np.nan
+    chains = np.split(rng.permutation(count), np.cumsum(sizes)[:-1])
+    width[chains[-2]] = np.nan  # a chain without a measured width
+    shares = body_shares(image, x, y, np.cos(angle), np.sin(angle), width)
+    expected = []
+    for chain in chains:
+        known = shares[chain][np.isfinite(shares[chain])]
+        expected.append(bool(known.size) and 2 * (known >= BODY_SHARE).sum() > known.size)
+    found = on_bodies(image, x, y, np.cos(angle), np.sin(angle), width, chains)
+    assert found.tolist() == expected
+    assert 0 < sum(expected) < len(chains)
 
 
 def test_a_clipped_highlight_on_a_lit_body_is_not_kept_and_the_laser_is() -> None:
