@@ -80,14 +80,17 @@ INTERIOR_POINTS = 16
 def interior_normals(x, y, nx, ny, polylines, end_points=END_POINTS, interior=INTERIOR_POINTS):
     """Normals of the `end_points` centres at each polyline end replaced by those of the
     quadratic v = a + b·u + c·u² fitted to the next `interior` centres in the frame of the
-    first interior point, evaluated at each end point's u (trial fix)."""
+    first interior point, evaluated at each end point's u (trial fix). A polyline of fewer
+    than 2·end_points + interior centres gives (K − interior) // 2 at each end (none
+    under interior + 2)."""
     nx, ny = nx.copy(), ny.copy()
     for chain in polylines:
-        if chain.size < 2 * end_points + interior:
+        count = min(end_points, (chain.size - interior) // 2)
+        if count < 1:
             continue
         for ends, inner in (
-            (chain[:end_points], chain[end_points : end_points + interior]),
-            (chain[::-1][:end_points], chain[::-1][end_points : end_points + interior]),
+            (chain[:count], chain[count : count + interior]),
+            (chain[::-1][:count], chain[::-1][count : count + interior]),
         ):
             k = inner[0]
             tx, ty = -ny[k], nx[k]
