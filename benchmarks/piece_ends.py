@@ -3,13 +3,15 @@
 Run: python -m benchmarks.piece_ends [--png DIR]. Cases: tests/pipeline/piece_ends.py. For
 the adaptive method the centres are recorded after each stage of `_refine_on_normals`: the
 Hessian sub-pixel centres ("hessian"), after the curvature-bias removal ("unbiased"), after
-the matched fit along the normal ("matched"), and after the along-stripe fit ("final"); then
+the matched fit along the normal ("matched"; these three along the Hessian normals), and the
+result ("final", its end centres read along the interior's normal); then
 "adaptive-normal" (normal_fit=False: Hessian centres with the curvature correction) and
 "steger" (σ2, no correction). Figures: median |across| [px] at 0, 1, 2, 4, 8 and ≥ 16
 centres from the nearer end, the median normal tilt [deg] at 0–2 and ≥ 16 centres, the RMS
 of every centre [px], and the centres per frame whose foot lies past the truth's ends
-("past": texture or noise continuing the chain beyond the stripe). "fix:interior-n" is
-the trial of the end normals taken from the polyline's interior (`interior_normals`).
+("past": texture or noise continuing the chain beyond the stripe). "adaptive, Hessian n at
+ends" is the adaptive method with its end centres read along their own Hessian normals
+(`centres.END_POINTS` = 0), as before pipeline 0.11.7.
 """
 
 from __future__ import annotations
@@ -71,59 +73,6 @@ def _recording_refine(image, x, y, nx, ny, sigma, widths, polylines, asymmetry):
     return out
 
 
-END_POINTS = 8
-"""Centres from a polyline's end whose normal the trial fix takes from the interior."""
-INTERIOR_POINTS = 16
-"""Interior centres whose quadratic fit gives the end points' normals in the trial fix."""
-
-
-def interior_normals(x, y, nx, ny, polylines, end_points=END_POINTS, interior=INTERIOR_POINTS):
-    """Normals of the `end_points` centres at each polyline end replaced by those of the
-    quadratic v = a + b·u + c·u² fitted to the next `interior` centres in the frame of the
-    first interior point, evaluated at each end point's u (trial fix). A polyline of fewer
-    than 2·end_points + interior centres gives (K − interior) // 2 at each end (none
-    under interior + 2)."""
-    nx, ny = nx.copy(), ny.copy()
-    for chain in polylines:
-        count = min(end_points, (chain.size - interior) // 2)
-        if count < 1:
-            continue
-        for ends, inner in (
-            (chain[:count], chain[count : count + interior]),
-            (chain[::-1][:count], chain[::-1][count : count + interior]),
-        ):
-            k = inner[0]
-            tx, ty = -ny[k], nx[k]
-            u = (x[inner] - x[k]) * tx + (y[inner] - y[k]) * ty
-            v = (x[inner] - x[k]) * nx[k] + (y[inner] - y[k]) * ny[k]
-            c2, b, _ = np.polyfit(u, v, 2)
-            ue = (x[ends] - x[k]) * tx + (y[ends] - y[k]) * ty
-            slope = b + 2 * c2 * ue
-            # tangent (1, slope) in the (t, n) frame: normal (−slope, 1) normalised
-            norm = np.hypot(1.0, slope)
-            ex = (-slope * tx + nx[k]) / norm
-            ey = (-slope * ty + ny[k]) / norm
-            flip = np.sign(ex * nx[ends] + ey * ny[ends])
-            nx[ends], ny[ends] = ex * flip, ey * flip
-    return nx, ny
-
-
-def _fixed_refine(image, x, y, nx, ny, sigma, widths, polylines, asymmetry):
-    """Trial fix: `_refine_on_normals` along the interior normals at the ends, the Hessian
-    centres first moved onto the matched maximum along them (twice, so up to 2 px)."""
-    fx, fy = interior_normals(x, y, nx, ny, polylines)
-    s = centres_module._matched_sigma(sigma, widths)
-    x, y = x.copy(), y.copy()
-    moved = (fx != nx) | (fy != ny)
-    for _ in range(2):
-        t = centres_module.matched_offsets(image, x, y, fx, fy, s, (1.0,))[0]
-        t = np.where(moved & np.isfinite(t), t, 0.0)
-        x, y = x + t * fx, y + t * fy
-    out = _refine(image, x, y, fx, fy, sigma, widths, polylines, asymmetry)
-    _STAGES["fixed-normals"] = (fx, fy)
-    return out
-
-
 def run_case(case: PieceCase, seed: int, png: Path | None = None) -> dict:
     """Scores of every stage and method on one frame of `case`."""
     piece = make_piece(replace(case, seed=seed))
@@ -139,13 +88,15 @@ def run_case(case: PieceCase, seed: int, png: Path | None = None) -> dict:
     scores["adaptive-normal"] = score_piece(
         piece, plain.x, plain.y, plain.nx, plain.ny, plain.polylines
     )
-    centres_module._refine_on_normals = _fixed_refine
+    end_points = centres_module.END_POINTS
+    centres_module.END_POINTS = 0  # the ends read along their own Hessian normals
     try:
-        fixed = extract_centres(piece.image, "adaptive")
+        hessian_n = extract_centres(piece.image, "adaptive")
     finally:
-        centres_module._refine_on_normals = _refine
-    fnx, fny = _STAGES.pop("fixed-normals")
-    scores["fix:interior-n"] = score_piece(piece, fixed.x, fixed.y, fnx, fny, fixed.polylines)
+        centres_module.END_POINTS = end_points
+    scores["adaptive, Hessian n at ends"] = score_piece(
+        piece, hessian_n.x, hessian_n.y, hessian_n.nx, hessian_n.ny, hessian_n.polylines
+    )
     steger = extract_centres(piece.image, "steger")
     scores["steger"] = score_piece(
         piece, steger.x, steger.y, steger.nx, steger.ny, steger.polylines

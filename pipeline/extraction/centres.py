@@ -70,6 +70,20 @@ KERNEL_FACTORS = (1.0, 2.0)
 matched filter (additive noise), 2 ≈ the σ = w/√3 of the scale choice, which weights the
 flanks (noise proportional to the stripe: texture, speckle)."""
 
+END_POINTS = 8
+"""Centres at each end of a polyline whose normal is taken from the polyline's interior
+(`_end_normals`): over the last ~8 centres of a piece the Hessian's normal tilts by up to
+14° where the stripe fades or stops (docs/extraction.md, "Centres at a piece's end")."""
+
+END_FIT_POINTS = 16
+"""Interior centres whose quadratic fit gives the end centres' normals; at each end of a
+polyline of fewer than END_FIT_POINTS + 2·END_POINTS centres as many as it has beyond
+END_FIT_POINTS, halved (none under END_FIT_POINTS + 2)."""
+
+END_MOVES = 2
+"""Matched steps (each ≤ MAX_MOVE_PX) that bring an end centre onto the maximum along its
+new normal before the refinement: the Hessian centre lies up to ~1.3 px off the line."""
+
 
 @dataclass(frozen=True, slots=True, eq=False)
 class Centres:
@@ -292,6 +306,32 @@ def _matched_sigma(sigma: np.ndarray, widths: np.ndarray) -> np.ndarray:
     return np.where(known, widths / 4, math.sqrt(3) / 4 * sigma)
 
 
+def _end_normals(x, y, nx, ny, polylines) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Normals of the END_POINTS centres at each polyline end from the quadratic
+    v = a + b·u + c·u² fitted to the next END_FIT_POINTS centres, in the frame of the first
+    of them, at each end centre's u; and which centres got one (bool)."""
+    nx, ny = nx.copy(), ny.copy()
+    moved = np.zeros(x.size, bool)
+    for chain in polylines:
+        ends = min(END_POINTS, (chain.size - END_FIT_POINTS) // 2)
+        if ends < 1:
+            continue
+        for run in (chain, chain[::-1]):
+            end, inner = run[:ends], run[ends : ends + END_FIT_POINTS]
+            k = inner[0]
+            tx, ty = -ny[k], nx[k]
+            u = (x[inner] - x[k]) * tx + (y[inner] - y[k]) * ty
+            v = (x[inner] - x[k]) * nx[k] + (y[inner] - y[k]) * ny[k]
+            c, b, _ = np.polyfit(u, v, 2)
+            slope = b + 2 * c * ((x[end] - x[k]) * tx + (y[end] - y[k]) * ty)
+            norm = np.hypot(1.0, slope)
+            ex, ey = (nx[k] - slope * tx) / norm, (ny[k] - slope * ty) / norm
+            sign = np.where(ex * nx[end] + ey * ny[end] < 0, -1.0, 1.0)
+            nx[end], ny[end] = ex * sign, ey * sign
+            moved[end] = True
+    return nx, ny, moved
+
+
 def _refine_on_normals(image, x, y, nx, ny, sigma, widths, polylines, asymmetry):
     """Centres refined by the matched profile fit (`normal_fit`), then smoothed along their
     polylines over the scatter-chosen support (`curvature.smooth_along`).
@@ -303,9 +343,18 @@ def _refine_on_normals(image, x, y, nx, ny, sigma, widths, polylines, asymmetry)
     is largest at the peak, and a wider kernel weights the flanks). `asymmetry(scale)`
     gives the asymmetry bias along n [px] of a maximum at that kernel scale (None: none).
     The base support along the stripe is ALONG_SUPPORT × the scale matching the width, at
-    least σ.
+    least σ. The centres near each polyline end are first read along the normal of the
+    polyline's interior (`_end_normals`) and moved onto the matched maximum there.
+    Returns the centres and their normals.
     """
     s = _matched_sigma(sigma, widths)
+    nx, ny, ends = _end_normals(x, y, nx, ny, polylines)
+    x, y = x.astype(GEOMETRY_FLOAT, copy=True), y.astype(GEOMETRY_FLOAT, copy=True)
+    for _ in range(END_MOVES):
+        t = matched_offsets(image, x[ends], y[ends], nx[ends], ny[ends], s[ends], (1.0,))[0]
+        t = np.where(np.isfinite(t), t, 0.0)
+        x[ends] += t * nx[ends]
+        y[ends] += t * ny[ends]
     x, y = remove_curvature_bias(x, y, nx, ny, sigma, polylines)
     support = ALONG_SUPPORT * np.maximum(sigma, 4 * s / math.sqrt(3))
     best = np.zeros(x.size)
@@ -325,7 +374,8 @@ def _refine_on_normals(image, x, y, nx, ny, sigma, widths, polylines, asymmetry)
     chosen = None
     if polylines and np.isfinite(least[np.concatenate(polylines)]).all():
         chosen = LocalFits(offset=fitted, count=count, scatter=least)
-    return smooth_along(x + best * nx, y + best * ny, nx, ny, support, polylines, fits=chosen)
+    x, y = smooth_along(x + best * nx, y + best * ny, nx, ny, support, polylines, fits=chosen)
+    return x, y, nx, ny
 
 
 def _orient_normals(nx: np.ndarray, ny: np.ndarray, chains: list[np.ndarray]) -> None:
@@ -779,23 +829,22 @@ def _assemble(
     if second_levels:
         args = (x, y, nx[order], ny[order], sigma, widths, polylines, second_levels)
         asymmetry = functools.partial(_asymmetry, *args)
+    nx, ny = nx[order], ny[order]
     if normal_fit:
-        x, y = _refine_on_normals(
-            image, x, y, nx[order], ny[order], sigma, widths, polylines, asymmetry
-        )
+        x, y, nx, ny = _refine_on_normals(image, x, y, nx, ny, sigma, widths, polylines, asymmetry)
     else:
         if asymmetry is not None:
             bias = asymmetry(sigma)
-            x, y = x - bias * nx[order], y - bias * ny[order]
+            x, y = x - bias * nx, y - bias * ny
         if curvature_correction or scatter_support:
             x, y = remove_curvature_bias(
-                x, y, nx[order], ny[order], sigma, polylines, scatter_support=scatter_support
+                x, y, nx, ny, sigma, polylines, scatter_support=scatter_support
             )
     return Centres(
         x=x,
         y=y,
-        nx=nx[order],
-        ny=ny[order],
+        nx=nx,
+        ny=ny,
         sigma=sigma,
         strength=strength[order].astype(GEOMETRY_FLOAT),
         width_px=widths,

@@ -32,13 +32,7 @@ END_BAR_PX = 0.2
 INTERIOR_BAR_PX = 0.03
 """Median |across| of the centres ≥ 16 from an end [px] (measured 0.015)."""
 
-NOT_YET = {
-    ("straight-fade6", "end"): "0.814 px (0.015 px ≥ 16 centres in): the Hessian normal "
-    "tilts by a median 14° over the last centres where the stripe fades, and the matched "
-    "fit along it lands off the line by ≈ σ²·tanθ·A′/A",
-    ("straight-sharp", "end"): "0.575 px (0.015 px ≥ 16 centres in): as straight-fade6, "
-    "13° of tilt at a sharp end",
-}
+NOT_YET: dict[tuple[str, str], str] = {}
 
 
 @functools.cache

@@ -104,17 +104,9 @@ def test_intensity_gain_does_not_move_centres(grey, gain, method) -> None:
     assert_gain_keeps_centres(grey, gain, method)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="adaptive, gain exactly 0.5 (r 300 px, w 15 px, turn 45°, fallback path): 87.1 % "
-    "matched, centres moved up to 0.27 px (90th percentile 0.02 px); gain 0.51 and 0.7 move "
-    "them ≤ 5·10⁻⁵ px. Traced (pipeline 0.11.3): the polyline's matched-kernel choice "
-    "(centres._refine_on_normals, KERNEL_FACTORS by least σl) ties on quantisation, σl "
-    "3.2 vs 3.7·10⁻⁵ px (k 1 vs 2) at gain 1, 6.2 vs 5.8·10⁻⁵ at 0.5, and flips to k = 2; "
-    "the moves are at the arc's end by the frame's edge (the last 19 centres), where the two "
-    "kernels' offsets differ by up to 0.06 px, k = 1 fails at 4 centres and k = 2 at 2 (failed "
-    "fits keep the Steger centre), and the along-stripe fit carries it to 0.27 px",
-)
+# Gain exactly 0.5 on this arc once flipped the matched-kernel choice at its end by the
+# frame's edge (centres moved up to 0.27 px); the end centres read along the interior's
+# normal (pipeline 0.11.7, docs/extraction.md "Centres at a piece's end") hold it.
 def test_halving_the_gain_of_a_wide_arc_keeps_the_adaptive_centres() -> None:
     assert_gain_keeps_centres(arc_stripe(300, 15, 45), 0.5, "adaptive")
 
