@@ -67,7 +67,7 @@ def wheel_row(result: PassWheelResult) -> dict[str, object]:
         "side": wheel.side,
         "method": m.method,
         "status": m.status,
-        "reason": m.reason if parameters is None else parameters.qr_reason,
+        "reason": m.reason if parameters is None else parameters.reason,
     }
     for key in PARAMETER_KEYS:
         value = None if parameters is None else getattr(parameters, key)

@@ -62,9 +62,9 @@ def construction_points(
     """The points that define Sh, Sd (12 and 10 mm) and qR in the profile frame [mm].
 
     Sd and qR are horizontal distances from the back face (x = 0), so the flank points are
-    (Sd, 12), (Sd10, 10) and (Sd10 − qR, Sh − 2) (no "qr" entry when qR was not measured);
-    the flange top is the highest profile point, at height Sh above the tread reference
-    point (70, 0).
+    (Sd, 12), (Sd10, 10) and (Sd10 − qR, Sh − 2) (no "sd_en" entry when Sd 10 was not
+    measured, no "qr" entry when qR was not); the flange top is the highest profile point,
+    at height Sh above the tread reference point (70, 0).
     """
     top = int(np.argmax(profile.z_mm))
     sh = parameters.flange_height_mm
@@ -78,8 +78,10 @@ def construction_points(
             "back_face_x_mm": 0.0,
             "flank_point": [round(parameters.flange_thickness_mm, 3), 12.0],
         },
-        "sd_en": {"flank_point": [round(sd10, 3), 10.0]},
     }
+    if sd10 is None:
+        return points
+    points["sd_en"] = {"flank_point": [round(sd10, 3), 10.0]}
     if parameters.qr_mm is not None:
         points["qr"] = {
             "upper_point": [round(sd10 - parameters.qr_mm, 3), round(sh - 2.0, 3)],
@@ -129,13 +131,13 @@ def _profile_document(result: WheelMeasurement) -> dict[str, Any]:
 
 def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> Measurement:
     """A Measurement row (not yet attached to a pass wheel) from one method's result; its
-    reason says why the wheel, or only its qR, was not measured."""
+    reason says why the wheel, or only its Sd 10 and qR or its qR, was not measured."""
     parameters, profile, tread = result.parameters, result.profile, result.tread
     quality = result.quality_figures()
     row = Measurement(
         method=result.method,
         status="measured" if result.status == MEASURED else "not_measured",
-        reason=result.reason if parameters is None else parameters.qr_reason,
+        reason=result.reason if parameters is None else parameters.reason,
         flange_height_mm=None if parameters is None else parameters.flange_height_mm,
         flange_thickness_mm=None if parameters is None else parameters.flange_thickness_mm,
         flange_thickness_10_mm=None if parameters is None else parameters.flange_thickness_10_mm,

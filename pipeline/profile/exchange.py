@@ -350,8 +350,8 @@ def handheld_parameters(profile: HandheldProfile) -> HandheldParameters:
     except FlangeNotFoundError as exc:
         reason = str(exc)
     else:
-        if fitted.qr_reason is not None:
-            reason = fitted.qr_reason
+        if fitted.reason is not None:
+            reason = fitted.reason
         elif fitted.flank_gap_mm == 0.0:
             return HandheldParameters(fitted, "fit", None)
         else:

@@ -1,5 +1,6 @@
-"""Flange fits on profiles with gaps: a short flank gap is bridged and reported, a long one
-or a flange top seen from one side only leaves the wheel not measured, with the reason."""
+"""Flange fits on profiles with gaps: a short flank gap is bridged and reported; a long one
+at 12 mm or a flange top seen from one side only leaves the wheel not measured, one at
+10 mm only Sd 10 and qR, one at Sh − 2 only qR, with the reason."""
 
 from __future__ import annotations
 
@@ -92,10 +93,31 @@ def test_a_whole_flank_reports_no_gap(name) -> None:
 
 
 @pytest.mark.parametrize("low_mm, high_mm", [(9.0, 13.0), (11.0, 25.0), (2.0, 20.0)])
-def test_a_long_flank_gap_is_not_measured_and_says_so(low_mm, high_mm) -> None:
+def test_a_long_flank_gap_at_12_mm_is_not_measured_and_says_so(low_mm, high_mm) -> None:
     x, z = _without_flank(*_samples("LMA"), "LMA", low_mm, high_mm)
-    with pytest.raises(FlangeNotFoundError, match=r"flank near z = 1[02]\.00 mm .*a gap of"):
+    with pytest.raises(FlangeNotFoundError, match=r"flank near z = 12\.00 mm .*a gap of"):
         fit_flange_parameters(x, z)
+
+
+@pytest.mark.parametrize("name", ["LMA", "S1002"])
+@pytest.mark.parametrize("low_mm, high_mm", [(4.0, 11.5), (7.5, 10.8), (8.5, 11.2)])
+def test_a_flank_lost_at_10_mm_only_leaves_sd_10_and_qr_not_measured(name, low_mm, high_mm) -> None:
+    """The flank lost about z = 10 mm but not at 12 (pass 7 of the field benchmark,
+    V002/1/right: the outer stripe ends at z = 11.5 mm): Sh and Sd measured as on a whole
+    flank, Sd 10 and qR (which starts from the flank at 10 mm) not, the reason naming
+    both."""
+    truth = curve_flange_parameters(*_samples(name, 0.01))
+    x, z = _without_flank(*_samples(name), name, low_mm, high_mm)
+    noise = np.random.default_rng(11).normal(0.0, 0.01, x.size)
+    fitted = fit_flange_parameters(x + noise, z)
+    assert fitted.flange_height_mm == pytest.approx(truth.flange_height_mm, abs=0.02)
+    assert fitted.flange_thickness_mm == pytest.approx(truth.flange_thickness_mm, abs=0.03)
+    assert fitted.flange_thickness_10_mm is None and fitted.qr_mm is None
+    assert fitted.reason is not None
+    sd_10, qr = fitted.reason.split("; qR: ")
+    assert re.fullmatch(r"Sd 10: too few profile points on the flank near z = 10\.00 mm .*", sd_10)
+    assert qr == f"needs the flank at z = {SD_EN_HEIGHT_MM:.2f} mm"
+    assert fitted.flank_gap_mm == 0.0  # no bridge under a value that was measured
 
 
 def test_a_flange_top_seen_on_one_side_only_is_not_measured() -> None:
@@ -115,8 +137,10 @@ def test_a_flank_lost_below_the_top_leaves_only_qr_not_measured(name) -> None:
     x, z = _without_flank(*_samples(name), name, sh - 4.5, sh - 1.0)
     fitted = fit_flange_parameters(x, z)
     assert fitted.qr_mm is None
-    assert fitted.qr_reason is not None and fitted.qr_reason.startswith("qR: ")
-    assert re.search(r"flank near z = 2\d\.\d\d mm", fitted.qr_reason)
+    assert fitted.reason is not None and fitted.reason.startswith("qR: ")
+    assert "Sd 10" not in fitted.reason
+    assert re.search(r"flank near z = 2\d\.\d\d mm", fitted.reason)
     assert fitted.flange_height_mm == pytest.approx(sh, abs=0.02)
     assert fitted.flange_thickness_mm == pytest.approx(truth.flange_thickness_mm, abs=0.02)
+    assert fitted.flange_thickness_10_mm == pytest.approx(truth.flange_thickness_10_mm, abs=0.02)
     assert fitted.flank_gap_mm == 0.0

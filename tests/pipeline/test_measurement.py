@@ -157,5 +157,5 @@ def test_every_wheel_of_two_clean_one_axle_passes_of_seed_9_is_measured(
             m = result.measurement
             assert m.status == MEASURED, m.reason
             assert m.parameters is not None and m.parameters.qr_mm is not None, (
-                m.parameters and m.parameters.qr_reason
+                m.parameters and m.parameters.reason
             )
