@@ -360,7 +360,10 @@ class Sd10Alias(BaseModel):
 class MethodResult(Sd10Alias):
     method: str
     status: str
-    reason: str | None
+    reason: str | None = Field(
+        description="why the wheel was not measured; on a measured result, which flange values "
+        "are missing and why, each named ('Sd 10: …; qR: …', 'qR: …'), null when none are"
+    )
     flange_height_mm: float | None
     flange_thickness_mm: float | None
     flange_thickness_10_mm: float | None

@@ -276,7 +276,9 @@ def _status(result: MethodResult | None, wheel: PassWheelRead) -> str:
         return wheel.state.replace("_", " ") + (f": {wheel.reason}" if wheel.reason else "")
     if result.status != "measured":
         return f"not measured: {result.reason or wheel.reason or '–'}"
-    return f"{len(result.alarms)} alarm(s)" if result.alarms else "within limits"
+    status = f"{len(result.alarms)} alarm(s)" if result.alarms else "within limits"
+    # a measured result's reason names the values it lacks ("Sd 10: …; qR: …")
+    return status if result.reason is None else f"{status}; not measured: {result.reason}"
 
 
 def _colours(row: int, margins: list[Margin], first_column: int) -> list[Any]:

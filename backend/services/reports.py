@@ -48,7 +48,7 @@ REPORT_CACHE_FILES = 500
 """PDFs kept in the cache, newest first (a pass PDF is ~250 kB: about 125 MB at most)."""
 STALE_PART_S = 3600.0
 """A half-written cache file older than this was left by a killed process."""
-REPORT_LAYOUT = "10"
+REPORT_LAYOUT = "11"
 """Part of the cache key: bump when the PDF's layout changes, so old PDFs are not served."""
 CSV_COLUMNS = (
     "pass_id", "site", "started_at", "vehicle_id", "axle", "side", "wheel_id", "state",

@@ -203,6 +203,7 @@ export interface Me {
 export interface MethodResult {
   method: string;
   status: string;
+  /** why the wheel was not measured; on a measured result, which flange values are missing and why, each named ('Sd 10: …; qR: …', 'qR: …'), null when none are */
   reason: string | null;
   flange_height_mm: number | null;
   flange_thickness_mm: number | null;

@@ -20,6 +20,7 @@ import json
 import re
 import subprocess
 from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
 from pathlib import Path
@@ -28,9 +29,11 @@ from typing import Any
 import httpx
 import numpy as np
 import pytest
-from sqlalchemy import create_engine, update
+from sqlalchemy import create_engine, select, update
+from sqlalchemy.orm import Session
 
-from db.models import Pass
+from backend.services.results import apply_alarms
+from db.models import Measurement, Pass, PassWheel
 from tests.e2e.conftest import (
     ROOT,
     VIEWPORT_3D,
@@ -548,6 +551,80 @@ def test_defect_3_cards_show_the_sd_their_limit_set_checks_with_units(
     limit = table.locator("tr[data-parameter=flange_thickness_10_mm] td").nth(3).inner_text()
     assert limit != "–", "the EN limit on Sd at 10 mm is shown"
     assert table.locator("tr[data-parameter=flange_thickness_mm] td").nth(3).inner_text() == "–"
+
+
+@contextmanager
+def adaptive_result_without_sd_10(
+    service: Service, pass_id: int, wheel_id: int, reason: str
+) -> Iterator[None]:
+    """The wheel's stored adaptive result as the pipeline leaves a flank lost at 10 mm (Sd 10
+    and qR null, the reason naming them, no Sd 10 or qR construction), its margins and
+    alarms recomputed by the service's own code; restored afterwards."""
+    engine = create_engine(f"sqlite:///{service.data_dir / 'wheelscan.db'}")
+    query = (
+        select(Measurement)
+        .join(PassWheel)
+        .where(PassWheel.pass_id == pass_id, PassWheel.wheel_id == wheel_id)
+        .where(Measurement.method == "adaptive")
+    )
+
+    def store(sd_10: float | None, qr: float | None, why: str | None, profile: dict) -> None:
+        with Session(engine) as session:
+            row = session.scalars(query).one()
+            row.flange_thickness_10_mm, row.qr_mm, row.reason = sd_10, qr, why
+            row.profile = profile
+            apply_alarms(row, session.get(Pass, pass_id).fleet, session)
+            session.commit()
+
+    with Session(engine) as session:
+        row = session.scalars(query).one()
+        kept = (row.flange_thickness_10_mm, row.qr_mm, row.reason, row.profile)
+    construction = {k: v for k, v in kept[3]["construction"].items() if k in ("sh", "sd")}
+    store(None, None, reason, kept[3] | {"construction": construction})
+    try:
+        yield
+    finally:
+        store(*kept)
+        engine.dispose()
+
+
+def test_a_wheel_without_sd_10_shows_it_and_qr_as_not_measured_with_the_reason(
+    viewer: Any, service: Service, en_pass: int, screenshots: Path
+) -> None:
+    """An EN wheel whose flank at 10 mm was not measured: its card and its wheel page show
+    Sd EN and qR as "–" (not 0 or NaN) beside its Sh and Sd, and say why."""
+    page = viewer
+    wheel_id = next(w for w in wheels(service, en_pass) if w["state"] == "measured")["wheel_id"]
+    reason = (
+        "Sd 10: too few profile points on the flank near z = 10.00 mm (a gap of 4.5 mm about "
+        "it with 0 points below and 11 above within 1 mm of its edges; gaps ≤ 2.5 mm are "
+        "bridged); qR: needs the flank at z = 10.00 mm"
+    )
+    with adaptive_result_without_sd_10(service, en_pass, wheel_id, reason):
+        page.goto(f"{service.url}/#/passes/{en_pass}")
+        card = page.locator(f"a.wheel-card[data-wheel-id='{wheel_id}']")
+        card.wait_for()
+        for key, shown in (
+            ("flange_thickness_10_mm", False),
+            ("qr_mm", False),
+            ("flange_height_mm", True),
+        ):
+            value = card.locator(f"tr[data-parameter={key}] td.num").inner_text().strip()
+            assert (value != "–") is shown and "NaN" not in value and value != "0.00", key
+        assert f"not measured: {reason}" in str(card.get_attribute("title"))
+        open_wheel(page, service, en_pass, wheel_id)
+        table = page.locator(".param-table table").first
+        for key, shown in (
+            ("flange_thickness_10_mm", False),
+            ("qr_mm", False),
+            ("flange_thickness_mm", True),
+        ):
+            value = table.locator(f"tr[data-parameter={key}] td").first.inner_text().strip()
+            assert (value != "–") is shown and "NaN" not in value, key
+        note = page.locator(".missing-reason[data-method=adaptive]")
+        assert note.inner_text() == f"Adaptive, not measured: {reason}"
+        assert page.locator(".missing-reason[data-method=steger]").count() == 0
+        page.screenshot(path=str(screenshots / "39-wheel-sd-10-not-measured.png"))
 
 
 CANVAS_SUM_JS = """(canvas) => {

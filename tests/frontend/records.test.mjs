@@ -11,6 +11,7 @@ import {
   limitStem,
   limitsFor,
   marginOf,
+  missingValuesReason,
   passFilterQuery,
   passStatus,
   resultOf,
@@ -112,6 +113,15 @@ test('familyOf and marginOf read a wheel as the service files it', () => {
   const wheel = { margins: [{ parameter: 'qr_mm', level: 'near' }] };
   assert.equal(marginOf(wheel, 'qr_mm').level, 'near');
   assert.equal(marginOf(wheel, 'flange_height_mm'), null);
+});
+
+test('missingValuesReason gives a measured result its missing values, not a failed one', () => {
+  const why = 'Sd 10: too few profile points on the flank near z = 10.00 mm; qR: needs the flank at z = 10.00 mm';
+  const partial = { status: 'measured', reason: why, flange_thickness_10_mm: null, qr_mm: null };
+  assert.equal(missingValuesReason(partial), why);
+  assert.equal(missingValuesReason({ status: 'measured', reason: null }), null);
+  assert.equal(missingValuesReason({ status: 'not_measured', reason: 'no usable stripe' }), null);
+  assert.equal(missingValuesReason(null), null);
 });
 
 test('fmtDisposition says open without one and gives the reason of a false alarm', () => {

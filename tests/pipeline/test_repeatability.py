@@ -6,8 +6,14 @@ import math
 
 import pytest
 
+from benchmarks.field_repeatability import KEY_PARAMETERS
+from benchmarks.repeatability import counts
+from pipeline.archive.manifest import WheelEntry
+from pipeline.profile.flange import FlangeParameters
+from pipeline.profile.measurement import MEASURED, PassWheelResult, WheelMeasurement
 from pipeline.profile.repeatability import (
     Observation,
+    pass_observations,
     repeatability_markdown,
     summarise_repeatability,
 )
@@ -55,3 +61,30 @@ def test_methods_are_reported_side_by_side() -> None:
     assert [s.method for s in pooled] == ["adaptive", "steger"]
     text = repeatability_markdown(per_wheel, pooled)
     assert "| flange_height_mm | all | steger | 1.000 | 1.300 | 0.300 |" in text
+
+
+def test_a_wheel_without_sd_10_counts_only_sd_10_and_qr_as_not_measured() -> None:
+    """Each value is observed on its own: a wheel whose flank at 10 mm was lost (Sd 10 and
+    qR None) keeps its Sh and Sd in the statistics, and the benchmarks' counts of values
+    not measured (all, and Sh/Sd in the field benchmark's per-wheel check) hold only the
+    two missing ones."""
+    parameters = FlangeParameters(28.1, 31.9, None, None, 0.0, "Sd 10: …; qR: …")
+    measurement = WheelMeasurement(
+        "right", "adaptive", MEASURED, None, parameters, None, (), 900, 800
+    )
+    wheel = WheelEntry("V002", 1, "right", ("inner.png",), ("outer.png",))
+    truth = {"flange_height_mm": 28.0, "flange_thickness_mm": 32.0}
+    truth |= {"flange_thickness_10_mm": 32.6, "qr_mm": 9.5}
+    observations = pass_observations(
+        [PassWheelResult(wheel, measurement, None)],
+        [{"vehicle_id": "V002", "axle": 1, "side": "right", **truth}],
+    )
+    missing = {o.parameter for o in observations if o.value_mm is None}
+    assert missing == {"flange_thickness_10_mm", "qr_mm"}
+    assert counts(observations) == (1, 2)
+    per_wheel, _ = summarise_repeatability(observations)
+    key = {s.parameter: s for s in per_wheel if s.parameter in KEY_PARAMETERS}
+    assert {p: (s.passes, s.missing) for p, s in key.items()} == dict.fromkeys(
+        KEY_PARAMETERS, (1, 0)
+    )
+    assert key["flange_thickness_mm"].max_error_mm == pytest.approx(0.1)

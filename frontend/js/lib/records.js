@@ -48,6 +48,18 @@ export function hasAlarmOn(result, key, family) {
 }
 
 /**
+ * Why a measured result lacks some of its flange values, or null: the service sends it as a
+ * measured result's `reason`, each part naming its parameter ("Sd 10: …; qR: …" when the
+ * flank at 10 mm was not measured, "qR: …" when only qR was). A result that was not
+ * measured at all has its own reason instead (the whole wheel's), so it gives null here.
+ * @param {any} result a MethodResult or null
+ * @returns {string|null}
+ */
+export function missingValuesReason(result) {
+  return result?.status === 'measured' ? (result.reason ?? null) : null;
+}
+
+/**
  * The limit family (EN or LM) of a result, from its reference profile.
  * @param {any} result a MethodResult or null
  * @returns {'EN'|'LM'}

@@ -13,7 +13,7 @@ import {
   parameterOf,
   shownParameters,
 } from '../lib/format.js';
-import { familyOf, hasAlarmOn, marginOf, passStatus, resultOf } from '../lib/records.js';
+import { familyOf, hasAlarmOn, marginOf, missingValuesReason, passStatus, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { html, nothing, render } from '../../vendor/lit-html-3.3.3.js';
 import { alarmClass, definitions } from './dom.js';
@@ -216,6 +216,7 @@ function wheelCard(wheel, side, mode, passId) {
   const family = familyOf(adaptive ?? steger);
   const alarms = (shown?.alarms ?? []).map((/** @type {any} */ a) => a.message).join('; ');
   const reason = reasonShown(wheel, mode === 'difference' ? undefined : shown);
+  const missing = missingValuesReason(shown);
   const disagreement = (wheel.method_disagreement ?? [])
     .map((/** @type {any} */ d) => `${parameterOf(d.parameter).label} ${fmtSigned(d.difference_mm, 1)} mm`)
     .join(', ');
@@ -227,7 +228,7 @@ function wheelCard(wheel, side, mode, passId) {
   return html`<a
     class="wheel-card ${cls} state-${wheel.state}"
     href=${href}
-    title=${alarms || wheel.reason || ''}
+    title=${[alarms || wheel.reason, missing && `not measured: ${missing}`].filter(Boolean).join('; ')}
     data-wheel-id=${String(wheel.wheel_id)}
     data-side=${side}
     data-level=${cls}

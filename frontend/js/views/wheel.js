@@ -19,7 +19,7 @@ import {
   PARAMETERS,
   parameterOf,
 } from '../lib/format.js';
-import { framesRemovedNote, hasAlarmOn, limitStem, limitsFor, resultOf } from '../lib/records.js';
+import { framesRemovedNote, hasAlarmOn, limitStem, limitsFor, missingValuesReason, resultOf } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { html, nothing, render } from '../../vendor/lit-html-3.3.3.js';
 import { alarmClass, h } from './dom.js';
@@ -493,6 +493,15 @@ function parameterTables(record, limits, method) {
       </tbody>
     </table>
     <p class="note definition" id="parameter-definition" hidden></p>
+    ${[
+      ['Adaptive', a],
+      ['Steger', s],
+    ].map(([name, r]) => {
+      const why = missingValuesReason(r);
+      return why
+        ? html`<p class="note missing-reason" data-method=${name.toLowerCase()}>${name}, not measured: ${why}</p>`
+        : nothing;
+    })}
     ${
       a.tread_reason || s.tread_reason
         ? html`<p class="note tread-reason">Not measured: ${a.tread_reason ?? s.tread_reason}</p>`
