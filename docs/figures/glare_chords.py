@@ -19,7 +19,7 @@ import numpy as np
 from pipeline.profile.reference import load_reference_profile
 from pipeline.simulation.field import glare, shiny_bands
 from pipeline.simulation.frame_render import draw_stripe
-from pipeline.simulation.render import WheelPose, wheel_section
+from pipeline.simulation.render import centred_view
 from pipeline.simulation.station import build_station
 from pipeline.simulation.wheel import wheel_profile
 
@@ -31,15 +31,8 @@ SEED = 1
 def main() -> None:
     station = build_station()
     profile = wheel_profile(load_reference_profile("LMA"))
-    pose = WheelPose((0.0, 0.0, 410.0), (1.0, 0.0, 0.0), 1, 1353.0 / 2, 410.0)
+    _, samples = centred_view(station, "right_outer", profile)
     sensor = station.calibration.sensor("right_outer")
-    samples = wheel_section(
-        profile,
-        pose,
-        sensor,
-        station.laser_origin("right_outer"),
-        scatter_mm=np.full(profile.x_mm.size, 0.5),
-    )
     rng = np.random.default_rng(SEED)
     _, band = shiny_bands(profile, samples, rng)
     now, peak = glare(samples, band, rng)

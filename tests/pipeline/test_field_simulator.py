@@ -27,7 +27,13 @@ from pipeline.simulation.field import (
 )
 from pipeline.simulation.frame_render import REACH_SIGMAS, draw_stripe
 from pipeline.simulation.passes import build_train, wear_train, write_synthetic_passes
-from pipeline.simulation.render import StripeSamples, WheelPose, plate_section, wheel_section
+from pipeline.simulation.render import (
+    StripeSamples,
+    WheelPose,
+    centred_view,
+    plate_section,
+    wheel_section,
+)
 from pipeline.simulation.station import build_station
 from pipeline.simulation.wheel import wheel_profile
 
@@ -51,16 +57,8 @@ def _straight_samples(width_px: float, *, count: int = 200) -> StripeSamples:
 def wheel_view():
     station = build_station()
     profile = wheel_profile(load_reference_profile("LMA"))
-    pose = WheelPose((0.0, 0.0, 410.0), (1.0, 0.0, 0.0), 1, 1353.0 / 2, 410.0)
-    sensor = station.calibration.sensor("right_outer")
-    samples = wheel_section(
-        profile,
-        pose,
-        sensor,
-        station.laser_origin("right_outer"),
-        scatter_mm=np.full(profile.x_mm.size, 0.5),
-    )
-    return station, profile, pose, sensor, samples
+    pose, samples = centred_view(station, "right_outer", profile)
+    return station, profile, pose, station.calibration.sensor("right_outer"), samples
 
 
 def test_effects_switch_off_one_by_one_and_reject_unknown_names() -> None:
