@@ -58,6 +58,10 @@ GLARE_PEAK_DN = (260.0, 900.0)
 GLARE_WIDTH_FRACTION = (0.4, 0.8)
 """Width of the glare relative to the diffuse stripe's (the specular lobe images the thin
 sheet without the light's spread inside the rough surface)."""
+GLARE_RUN_STEP = 100_000
+"""Added to the run id once per glare stretch, so each stretch is a run of its own (run ids
+of a wheel's samples stay below 20 000: `render._runs` counts runs, `cut_at_flange` adds
+10 000)."""
 BAND_HALF_MM = 1.0
 """Half-thickness of the lit band taken for its own asymmetry [mm]: more than the sheet's
 (0.25 mm, `render.SHEET_THICKNESS_MM` / 2), so the band's α is an upper bound."""
@@ -179,7 +183,12 @@ def glare(samples: StripeSamples, band: np.ndarray, rng) -> tuple[StripeSamples,
     period, length = int(rng.integers(60, 160)), int(rng.integers(15, 60))
     keep = band & (np.cumsum(band) % period < length)
     peak = rng.uniform(*GLARE_PEAK_DN) * np.ones(int(keep.sum()))
-    return subset(shiny, keep), peak
+    # Each stretch is its own run: `draw_stripe` joins consecutive samples of a run, and
+    # stretches joined across their gaps drew the glare along straight chords off the
+    # curved line (docs/simulator.md, "The glare's chords").
+    stretch = np.cumsum(keep & ~np.concatenate([[False], keep[:-1]]))
+    pieces = subset(shiny, keep)
+    return replace(pieces, run_id=pieces.run_id + GLARE_RUN_STEP * stretch[keep]), peak
 
 
 def replace_pixels(samples: StripeSamples, pixels: np.ndarray, width_px) -> StripeSamples:

@@ -21,7 +21,7 @@ from pipeline.calibration.geometry import (
 )
 from pipeline.calibration.model import SensorCalibration
 from pipeline.imaging import GEOMETRY_FLOAT
-from pipeline.simulation.station import PIXEL_PITCH_MM
+from pipeline.simulation.station import NOMINAL_BACK_TO_BACK_MM, PIXEL_PITCH_MM, Station
 from pipeline.simulation.wheel import WheelProfile, outward_normals, radius_envelope
 
 SHEET_THICKNESS_MM = 0.5
@@ -222,6 +222,46 @@ def wheel_section(
         run_id=run_id[keep],
         points_track_mm=points[keep],
     )
+
+
+CENTRED_RADIUS_MM = 410.0
+"""Rolling radius of `centred_view`'s wheel [mm] (the simulated trains' 400–420)."""
+
+
+def centred_view(
+    station: Station, name: str, profile: WheelProfile, *, scatter_mm: float = 0.5
+) -> tuple[WheelPose, StripeSamples]:
+    """A wheel of an LM wheelset centred on the track (axle along X, no yaw, its lowest
+    section in the laser planes) as sensor `name` of `station` sees its stripe.
+
+    Parameters
+    ----------
+    station : Station
+    name : str
+        Sensor name, e.g. "right_outer" (its side places the wheel).
+    profile : WheelProfile
+    scatter_mm : float
+        Spread of the light in the surface at normal incidence, the same everywhere [mm].
+
+    Returns
+    -------
+    (WheelPose, StripeSamples)
+    """
+    pose = WheelPose(
+        centre_track_mm=(0.0, 0.0, CENTRED_RADIUS_MM),
+        axle_direction=(1.0, 0.0, 0.0),
+        side_sign=1 if name.startswith("right") else -1,
+        back_face_axial_mm=NOMINAL_BACK_TO_BACK_MM["LMA"] / 2,
+        radius_mm=CENTRED_RADIUS_MM,
+    )
+    samples = wheel_section(
+        profile,
+        pose,
+        station.calibration.sensor(name),
+        station.laser_origin(name),
+        scatter_mm=np.full(profile.x_mm.size, scatter_mm),
+    )
+    return pose, samples
 
 
 def band_edge_pixels(

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial import cKDTree
 
 from pipeline.archive.pass_archive import read_pass_archive
 from pipeline.profile.measurement import MEASURED, measure_pass
@@ -18,13 +19,21 @@ from pipeline.simulation.field import (
     band_skew,
     bloom,
     cut_at_flange,
+    glare,
     long_part,
     run_lengths_px,
+    shiny_bands,
     stripe_texture,
 )
-from pipeline.simulation.frame_render import draw_stripe
+from pipeline.simulation.frame_render import REACH_SIGMAS, draw_stripe
 from pipeline.simulation.passes import build_train, wear_train, write_synthetic_passes
-from pipeline.simulation.render import StripeSamples, WheelPose, plate_section, wheel_section
+from pipeline.simulation.render import (
+    StripeSamples,
+    WheelPose,
+    centred_view,
+    plate_section,
+    wheel_section,
+)
 from pipeline.simulation.station import build_station
 from pipeline.simulation.wheel import wheel_profile
 
@@ -48,16 +57,8 @@ def _straight_samples(width_px: float, *, count: int = 200) -> StripeSamples:
 def wheel_view():
     station = build_station()
     profile = wheel_profile(load_reference_profile("LMA"))
-    pose = WheelPose((0.0, 0.0, 410.0), (1.0, 0.0, 0.0), 1, 1353.0 / 2, 410.0)
-    sensor = station.calibration.sensor("right_outer")
-    samples = wheel_section(
-        profile,
-        pose,
-        sensor,
-        station.laser_origin("right_outer"),
-        scatter_mm=np.full(profile.x_mm.size, 0.5),
-    )
-    return station, profile, pose, sensor, samples
+    pose, samples = centred_view(station, "right_outer", profile)
+    return station, profile, pose, station.calibration.sensor("right_outer"), samples
 
 
 def test_effects_switch_off_one_by_one_and_reject_unknown_names() -> None:
@@ -142,6 +143,26 @@ def test_flange_cut_removes_a_stretch_of_the_flank_and_splits_the_run(wheel_view
     cut = cut_at_flange(profile, samples, np.random.default_rng(2))
     assert 0 < samples.pixels.shape[0] - cut.pixels.shape[0] < 0.2 * samples.pixels.shape[0]
     assert np.unique(cut.run_id).size == np.unique(samples.run_id).size + 1
+
+
+def test_glare_lies_on_the_lit_line_between_its_stretches(wheel_view) -> None:
+    """The polished bands' glare comes in stretches along the line; drawn, it lies on the
+    true line only (before pipeline 0.11.8 consecutive stretches were joined by straight
+    chords, up to 14 px off the curved line on the outer sensor's flank)."""
+    _, profile, _, _, samples = wheel_view
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        _, band = shiny_bands(profile, samples, rng)
+        shiny, peak = glare(samples, band, rng)
+        assert np.unique(shiny.run_id).size >= 3, seed  # several stretches
+        image = np.zeros((1200, 1600), np.float32)
+        draw_stripe(image, shiny, peak)
+        rows, cols = np.nonzero(image > 0.0)
+        lit = np.column_stack([cols, rows]).astype(float)
+        # distance of each lit pixel from the true line (the samples are 0.34 px apart)
+        nearest, _ = cKDTree(samples.pixels).query(lit)
+        reach = REACH_SIGMAS * shiny.width_px.max() / 4.0 + 1.5
+        assert nearest.max() <= reach, (seed, nearest.max(), reach)
 
 
 def test_blooming_spreads_only_charge_above_full_well() -> None:
