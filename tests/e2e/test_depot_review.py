@@ -624,6 +624,10 @@ def test_a_wheel_without_sd_10_shows_it_and_qr_as_not_measured_with_the_reason(
         note = page.locator(".missing-reason[data-method=adaptive]")
         assert note.inner_text() == f"Adaptive, not measured: {reason}"
         assert page.locator(".missing-reason[data-method=steger]").count() == 0
+        # EN limits check Sd at 10 mm and qR: the badge does not claim them within limits
+        badge = page.locator("h1 + span.badge")
+        assert badge.get_attribute("data-level") == "ok"
+        assert badge.inner_text() == "within limits · Sd EN, qR not checked"
         page.screenshot(path=str(screenshots / "39-wheel-sd-10-not-measured.png"))
 
 

@@ -2,7 +2,7 @@
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
 
-import { fmtDisposition } from '../../frontend/js/lib/format.js';
+import { PARAMETERS, fmtDisposition } from '../../frontend/js/lib/format.js';
 import {
   REVIEW_PAGE_ROWS,
   familyOf,
@@ -17,6 +17,7 @@ import {
   resultOf,
   reviewQuery,
   trendColumns,
+  uncheckedLimits,
 } from '../../frontend/js/lib/records.js';
 
 const LIMITS = [
@@ -122,6 +123,27 @@ test('missingValuesReason gives a measured result its missing values, not a fail
   assert.equal(missingValuesReason({ status: 'measured', reason: null }), null);
   assert.equal(missingValuesReason({ status: 'not_measured', reason: 'no usable stripe' }), null);
   assert.equal(missingValuesReason(null), null);
+});
+
+test('uncheckedLimits names the limited parameters a measured wheel has no value for', () => {
+  const en = {
+    wheel_profile: 'EN',
+    flange_height_min_mm: 27.5,
+    flange_height_max_mm: 36,
+    flange_thickness_min_mm: 22,
+    flange_thickness_max_mm: 33,
+    qr_min_mm: 6.5,
+  };
+  const measured = { status: 'measured', flange_height_mm: 29, flange_thickness_mm: 30.3, qr_mm: 9.8 };
+  const noSd10 = { ...measured, flange_thickness_10_mm: null, qr_mm: null };
+  // EN checks Sd at 10 mm: without it Sd EN and qR are not checked; Sd (12 mm) has no EN limit
+  assert.deepEqual(uncheckedLimits(noSd10, en, PARAMETERS), ['Sd EN', 'qR']);
+  assert.deepEqual(uncheckedLimits({ ...measured, flange_thickness_10_mm: 31.4 }, en, PARAMETERS), []);
+  // LM checks Sd at 12 mm, so a missing Sd 10 leaves nothing unchecked
+  const lm = { ...en, wheel_profile: 'LM' };
+  assert.deepEqual(uncheckedLimits({ ...measured, flange_thickness_10_mm: null }, lm, PARAMETERS), []);
+  assert.deepEqual(uncheckedLimits({ status: 'not_measured' }, en, PARAMETERS), []);
+  assert.deepEqual(uncheckedLimits(noSd10, null, PARAMETERS), []);
 });
 
 test('fmtDisposition says open without one and gives the reason of a false alarm', () => {

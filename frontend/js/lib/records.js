@@ -60,6 +60,26 @@ export function missingValuesReason(result) {
 }
 
 /**
+ * Labels of the parameters a measured result could not be checked on: the limit row bounds
+ * them but the result has no value (e.g. "Sd EN" when the flank at 10 mm was not measured).
+ * "within limits" holds only for the others.
+ * @param {any} result a MethodResult or null
+ * @param {any} limits the LimitsRead row of its family, or null
+ * @param {ReadonlyArray<{key: string, label: string, limitMax?: string}>} parameters the table's
+ * @returns {string[]}
+ */
+export function uncheckedLimits(result, limits, parameters) {
+  if (result?.status !== 'measured' || !limits) return [];
+  return parameters
+    .filter((p) => {
+      const stem = limitStem(p.key, limits.wheel_profile);
+      if (stem === null || result[p.key] != null) return false;
+      return limits[`${stem}_min_mm`] != null || limits[p.limitMax ?? `${stem}_max_mm`] != null;
+    })
+    .map((p) => p.label);
+}
+
+/**
  * The limit family (EN or LM) of a result, from its reference profile.
  * @param {any} result a MethodResult or null
  * @returns {'EN'|'LM'}

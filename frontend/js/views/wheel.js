@@ -19,7 +19,15 @@ import {
   PARAMETERS,
   parameterOf,
 } from '../lib/format.js';
-import { framesRemovedNote, hasAlarmOn, limitStem, limitsFor, missingValuesReason, resultOf } from '../lib/records.js';
+import {
+  framesRemovedNote,
+  hasAlarmOn,
+  limitStem,
+  limitsFor,
+  missingValuesReason,
+  resultOf,
+  uncheckedLimits,
+} from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { html, nothing, render } from '../../vendor/lit-html-3.3.3.js';
 import { alarmClass, h } from './dom.js';
@@ -284,9 +292,12 @@ export class WheelView {
             >${text}</a
           >`
         : html`<span class="button disabled">${text}</span>`;
+    const shown = resultOf(r, method);
+    const unchecked = uncheckedLimits(shown, limitsFor(state.limits, shown?.reference_profile), PARAMETERS);
     const badge = r?.reason
       ? 'not measured'
-      : { ok: 'within limits', near: 'NEAR LIMIT', alarm: 'ALARM', none: r?.state ?? '–' }[level];
+      : { ok: 'within limits', near: 'NEAR LIMIT', alarm: 'ALARM', none: r?.state ?? '–' }[level] +
+        ((level === 'ok' || level === 'near') && unchecked.length ? ` · ${unchecked.join(', ')} not checked` : '');
     const frameButton = (/** @type {any} */ f) =>
       html`<button
         class=${f.sensor === w.sensor && f.index === w.index ? 'on' : nothing}
