@@ -35,9 +35,9 @@ from pipeline.extraction.gaps import bridge_gaps
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
 from pipeline.extraction.line_test import (
     is_line,
-    is_spot,
     line_profiles,
     on_bodies,
+    spot_chains,
 )
 from pipeline.extraction.linking import NEIGHBOUR_REACH_PX, link_points
 from pipeline.extraction.normal_fit import matched_offsets
@@ -680,16 +680,14 @@ def _bright_chains(
 def _no_spots(
     chains: list[np.ndarray], height: np.ndarray, selected: _Selected, xy: np.ndarray
 ) -> tuple[list[np.ndarray], np.ndarray]:
-    """The chains that are not round spots (`line_test.is_spot`; every chain when the heights
-    are NaN, the baselines) and the points of those that are. A spot's chain that continues
+    """The chains that are not round spots (`line_test.spot_chains`; every chain when the
+    heights are NaN, the baselines) and the points of those that are. A spot's chain that continues
     another chain's line (`_continuing`) is the stripe's own, through a glint on it: where
     the stripe is faint or textured its chain breaks at the glint, and the piece holding the
     glint is short and highest there. `xy` (K, 2) are the centres [px]."""
     if not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
-    kept = [
-        not is_spot(xy[c], height[c], selected.lambda_ratio[c], selected.sigma[c]) for c in chains
-    ]
+    kept = (~spot_chains(xy, height, selected.lambda_ratio, selected.sigma, chains)).tolist()
     if not all(kept):
         kept = _continuing(kept, chains, xy[:, 0], xy[:, 1])
     spots = [c for c, k in zip(chains, kept, strict=True) if not k]
