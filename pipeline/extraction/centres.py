@@ -50,6 +50,7 @@ from pipeline.extraction.segmentation import (
     CONTINUITY_GAP_PX,
     STRONG_C_RATIO,
     chain_ends,
+    chain_maxima,
     longest_lines,
 )
 from pipeline.extraction.steger import centre_pixels, newton_step
@@ -624,10 +625,11 @@ def _grown_near(
         # One query for the centres of every open chain, not one per chain.
         points = np.concatenate([chains[i] for i in open_chains])
         reached = near.query(xy[points], distance_upper_bound=CONTINUITY_GAP_PX)[0] < np.inf
-        ends = np.cumsum([chains[i].size for i in open_chains])
+        sizes = np.array([chains[i].size for i in open_chains])
+        hits = np.logical_or.reduceat(reached, np.cumsum(sizes) - sizes).tolist()
         grown = list(kept)
-        for i, hits in zip(open_chains, np.split(reached, ends[:-1]), strict=True):
-            grown[i] = bool(hits.any())
+        for i, hit in zip(open_chains, hits, strict=True):
+            grown[i] = hit
         if grown == kept:
             break
         kept = grown
@@ -659,15 +661,16 @@ def _bright_chains(
     """
     if not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
-    least = CHAIN_FRACTION * max(height[c].max() for c in chains)
+    highest = chain_maxima(height, chains).tolist()
+    least = CHAIN_FRACTION * max(highest)
     long = [c.size >= CHAIN_MIN_POINTS for c in chains]
-    bright_enough = [height[c].max() >= least for c in chains]
+    bright_enough = [h >= least for h in highest]
     if continuing:
         kept = [b or g for b, g in zip(bright_enough, long, strict=True)]
         if not all(kept):
             kept = _continuing(kept, chains, xy[:, 0], xy[:, 1])
     else:
-        strong = [strength[c].max() >= STRONG_C_RATIO * c_grey for c in chains]
+        strong = (chain_maxima(strength, chains) >= STRONG_C_RATIO * c_grey).tolist()
         kept = [b or (g and t) for b, g, t in zip(bright_enough, long, strong, strict=True)]
         kept = _grown_near(kept, chains, long, xy)
         if not all(kept):
