@@ -31,10 +31,11 @@ class LevelResponse:
     """What one scale says about the frame: V, ridge-peak strength and centre hints.
 
     `response` (float32, level grid) is V, 0 where λ1 ≥ 0 or the structure is too weak to
-    matter; `peak_strength` (float32, level grid) is C = σ²|λ1| [grey levels] max-filtered
-    across the stripe, the value at the ridge (valid on the blocks holding the mask, where
-    it is read); `hints` (bool, frame grid) marks frame pixels that may hold a centre at
-    this scale.
+    matter; on the frame grid, read only against RIDGE_THRESHOLD, V to within 1.5·10⁻⁸ on
+    the same side of it (`ridges.ridge_estimate`); `peak_strength` (float32, level grid)
+    is C = σ²|λ1| [grey levels] max-filtered across the stripe, the value at the ridge
+    (valid on the blocks holding the mask, where it is read); `hints` (bool, frame grid)
+    marks frame pixels that may hold a centre at this scale.
     """
 
     level: ScaleLevel

@@ -37,7 +37,7 @@ from pipeline.extraction.blocks import (
     zero_blocks,
 )
 from pipeline.extraction.hessian import eigen2
-from pipeline.extraction.ridges import min_structure_squared, ridge_value
+from pipeline.extraction.ridges import min_structure_squared, ridge_estimate, ridge_value
 from pipeline.extraction.scalespace import (
     MAX_LEVEL,
     ScaleLevel,
@@ -52,8 +52,14 @@ from pipeline.jit import kernel
 
 @kernel
 def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_grey, hints):
-    """V and C on the band's pixels of one level; sets the frame pixels hinted at (3×3)."""
+    """V and C on the band's pixels of one level; sets the frame pixels hinted at (3×3).
+
+    On the frame grid (stride 1) V is only ever compared with RIDGE_THRESHOLD
+    (`band_segmentation._stripe_runs`), so there it is `ridge_estimate` (its side of the
+    threshold exact); a coarser grid's V is read bilinearly and is `ridge_value`.
+    """
     height, width = ix.shape
+    frame_grid = stride == 1
     frame_rows, frame_cols = hints.shape
     response = np.empty((height, width), np.float32)
     strength = np.empty((height, width), np.float32)
@@ -84,7 +90,10 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
                     continue
                 dxx, dxy, dyy = ixx[r, c], ixy[r, c], iyy[r, c]
                 lambda1, lambda2, nx, ny = eigen2(dxx * second, dxy * second, dyy * second)
-                response[r, c] = ridge_value(lambda1 * sigma2, lambda2 * sigma2, c_grey)
+                if frame_grid:
+                    response[r, c] = ridge_estimate(lambda1 * sigma2, lambda2 * sigma2, c_grey)
+                else:
+                    response[r, c] = ridge_value(lambda1 * sigma2, lambda2 * sigma2, c_grey)
                 strength[r, c] = -sigma2 * min(lambda1, 0.0)
                 if lambda1 == 0:
                     continue

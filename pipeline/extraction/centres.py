@@ -35,9 +35,9 @@ from pipeline.extraction.gaps import bridge_gaps
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
 from pipeline.extraction.line_test import (
     is_line,
-    is_spot,
     line_profiles,
     on_bodies,
+    spot_chains,
 )
 from pipeline.extraction.linking import NEIGHBOUR_REACH_PX, link_points
 from pipeline.extraction.normal_fit import matched_offsets
@@ -50,6 +50,7 @@ from pipeline.extraction.segmentation import (
     CONTINUITY_GAP_PX,
     STRONG_C_RATIO,
     chain_ends,
+    chain_maxima,
     longest_lines,
 )
 from pipeline.extraction.steger import centre_pixels, newton_step
@@ -556,18 +557,19 @@ def _continues(dim: np.ndarray, held: np.ndarray) -> np.ndarray:
     `chain_ends`): bool (D, H), within CONTINUITY_GAP_PX ahead of the held end (or touching
     it), within CONTINUING_OFFSET_PX of its line and heading back against it.
 
-    Only the pairs of ends within the gap (a k-d tree, its radius a hair wider) are tested:
-    a lit frame has hundreds of chains, and the (D, H) float temporaries of every pair cost
-    more than the rest of the chain selection."""
+    Only the pairs of ends within the gap (two k-d trees, their radius a hair wider) are
+    tested: a lit frame has hundreds of chains, and the (D, H) float temporaries of every
+    pair cost more than the rest of the chain selection. The pairs come as arrays
+    (`sparse_distance_matrix`), not a list per end (~2,500 pairs of ~700 ends)."""
     out = np.zeros((dim.shape[0], held.shape[0]), bool)
     if out.size == 0:
         return out
-    near = cKDTree(held[:, :2]).query_ball_point(dim[:, :2], CONTINUITY_GAP_PX + _GAP_SLACK_PX)
-    counts = np.fromiter((len(n) for n in near), np.int64, len(near))
-    if counts.sum() == 0:
+    near = cKDTree(dim[:, :2]).sparse_distance_matrix(
+        cKDTree(held[:, :2]), CONTINUITY_GAP_PX + _GAP_SLACK_PX, output_type="ndarray"
+    )
+    if near.size == 0:
         return out
-    d = np.repeat(np.arange(dim.shape[0]), counts)
-    h = np.concatenate([n for n in near if n]).astype(np.int64)
+    d, h = near["i"].astype(np.int64), near["j"].astype(np.int64)
     gap = dim[d, :2] - held[h, :2]
     direction = held[h, 2:]
     length = np.hypot(gap[:, 0], gap[:, 1])
@@ -624,10 +626,11 @@ def _grown_near(
         # One query for the centres of every open chain, not one per chain.
         points = np.concatenate([chains[i] for i in open_chains])
         reached = near.query(xy[points], distance_upper_bound=CONTINUITY_GAP_PX)[0] < np.inf
-        ends = np.cumsum([chains[i].size for i in open_chains])
+        sizes = np.array([chains[i].size for i in open_chains])
+        hits = np.logical_or.reduceat(reached, np.cumsum(sizes) - sizes).tolist()
         grown = list(kept)
-        for i, hits in zip(open_chains, np.split(reached, ends[:-1]), strict=True):
-            grown[i] = bool(hits.any())
+        for i, hit in zip(open_chains, hits, strict=True):
+            grown[i] = hit
         if grown == kept:
             break
         kept = grown
@@ -659,15 +662,16 @@ def _bright_chains(
     """
     if not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
-    least = CHAIN_FRACTION * max(height[c].max() for c in chains)
+    highest = chain_maxima(height, chains).tolist()
+    least = CHAIN_FRACTION * max(highest)
     long = [c.size >= CHAIN_MIN_POINTS for c in chains]
-    bright_enough = [height[c].max() >= least for c in chains]
+    bright_enough = [h >= least for h in highest]
     if continuing:
         kept = [b or g for b, g in zip(bright_enough, long, strict=True)]
         if not all(kept):
             kept = _continuing(kept, chains, xy[:, 0], xy[:, 1])
     else:
-        strong = [strength[c].max() >= STRONG_C_RATIO * c_grey for c in chains]
+        strong = (chain_maxima(strength, chains) >= STRONG_C_RATIO * c_grey).tolist()
         kept = [b or (g and t) for b, g, t in zip(bright_enough, long, strong, strict=True)]
         kept = _grown_near(kept, chains, long, xy)
         if not all(kept):
@@ -680,16 +684,14 @@ def _bright_chains(
 def _no_spots(
     chains: list[np.ndarray], height: np.ndarray, selected: _Selected, xy: np.ndarray
 ) -> tuple[list[np.ndarray], np.ndarray]:
-    """The chains that are not round spots (`line_test.is_spot`; every chain when the heights
-    are NaN, the baselines) and the points of those that are. A spot's chain that continues
+    """The chains that are not round spots (`line_test.spot_chains`; every chain when the
+    heights are NaN, the baselines) and the points of those that are. A spot's chain that continues
     another chain's line (`_continuing`) is the stripe's own, through a glint on it: where
     the stripe is faint or textured its chain breaks at the glint, and the piece holding the
     glint is short and highest there. `xy` (K, 2) are the centres [px]."""
     if not chains or np.isnan(height).all():
         return chains, np.zeros(0, np.int64)
-    kept = [
-        not is_spot(xy[c], height[c], selected.lambda_ratio[c], selected.sigma[c]) for c in chains
-    ]
+    kept = (~spot_chains(xy, height, selected.lambda_ratio, selected.sigma, chains)).tolist()
     if not all(kept):
         kept = _continuing(kept, chains, xy[:, 0], xy[:, 1])
     spots = [c for c, k in zip(chains, kept, strict=True) if not k]

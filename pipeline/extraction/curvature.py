@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from pipeline.extraction.fast_exp import fast_exp
 from pipeline.extraction.normal_equations import solve_symmetric3
 from pipeline.jit import kernel
 
@@ -38,31 +38,8 @@ BLOCK_POINTS = 128
 """Points fitted together: each window offset is one loop across them (it vectorises), and
 their sums stay in the L1 cache."""
 
-_EXP_TAYLOR = tuple(1.0 / math.factorial(n) for n in range(7, -1, -1))
-"""Taylor coefficients of e^r, highest degree first. Degree 7 on |r| ≤ ln(2)/2 leaves a
-relative error ≤ 7.3·10⁻⁹ (the next term, r⁸/8!·e^|r|): the fits' Gaussian weights need no
-more (their fitted offsets move by < 10⁻¹⁰ px against degree 13, which was within 1 ulp of
-libm's exp), and the 6 fewer multiply-adds per weight cut a fit's time by about a fifth."""
-
 _ROWS = tuple(np.uint64(k * BLOCK_POINTS) for k in range(9))
 """Offsets of the rows of `_fit_curvatures`' sums, unsigned (constant, so no alias checks)."""
-
-
-@kernel
-def _exp(q: float) -> float:
-    """e^q without a library call, so that loops around it vectorise (q ≤ 0 in use).
-
-    2^k·P(r) with r = q − k·ln 2, |r| ≤ ln(2)/2, and P the Taylor polynomial of
-    `_EXP_TAYLOR`. q is clamped at −708, about the least normal double.
-    """
-    q = max(q, -708.0)
-    k = np.floor(q * 1.4426950408889634 + 0.5)
-    # ln 2 in two parts; the high part has 32 bits, so k times it is exact.
-    r = (q - k * 0.6931471803691238) - k * 1.9082149292705877e-10
-    p = _EXP_TAYLOR[0]
-    for i in range(1, len(_EXP_TAYLOR)):
-        p = p * r + _EXP_TAYLOR[i]
-    return p * np.int64((int(k) + 1023) << 52).view(np.float64)
 
 
 @kernel
@@ -130,7 +107,7 @@ def _fit_curvatures(x, y, nx, ny, sigma, bounds, kappa, fit_offset, count) -> No
                     u = -ny[at] * dx + nx[at] * dy
                     v = nx[at] * dx + ny[at] * dy
                     inside = (abs(u) <= half[at]) & (abs(offset) <= reach[at])
-                    w = _exp(u * u * exponent[at])  # branch-free: weight 0 outside
+                    w = fast_exp(u * u * exponent[at])  # branch-free: weight 0 outside
                     w = w if inside else 0.0
                     wu = w * u
                     wuu = wu * u

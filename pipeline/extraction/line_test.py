@@ -23,6 +23,7 @@ import math
 import numpy as np
 
 from pipeline.extraction.scalespace import bilinear_at
+from pipeline.extraction.segmentation import chain_maxima
 from pipeline.jit import kernel
 
 SIDE_REACH_SIGMAS = 2.0 * math.sqrt(1.0 + 3.0 / 16.0)
@@ -464,3 +465,36 @@ def is_spot(xy: np.ndarray, height: np.ndarray, ratio: np.ndarray, sigma: np.nda
     top = int(np.argmax(height))
     length = float(np.hypot(*np.diff(xy, axis=0).T).sum())
     return bool(ratio[top] >= SPOT_RATIO and length <= SPOT_LENGTH_SIGMAS * sigma[top])
+
+
+def chain_tops(height: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
+    """The centre of each chain (an index into the centres) where `height` is highest, the
+    first of equal ones (as `np.argmax`: a chain holding NaN heights gets its first NaN),
+    for all chains at once: (len(chains),) int64. Chains must not be empty."""
+    points = np.concatenate(chains)
+    owner = np.repeat(np.arange(len(chains)), [c.size for c in chains])
+    values = height[points]
+    at = np.flatnonzero((values == chain_maxima(height, chains)[owner]) | np.isnan(values))
+    first = np.unique(owner[at], return_index=True)[1]
+    return points[at[first]]
+
+
+def spot_chains(
+    xy: np.ndarray,
+    height: np.ndarray,
+    ratio: np.ndarray,
+    sigma: np.ndarray,
+    chains: list[np.ndarray],
+) -> np.ndarray:
+    """`is_spot` of each linked chain (bool (len(chains),)); the arrays hold all centres
+    (as for `is_spot`) and `chains` index them. λ2/λ1 at each chain's highest centre is
+    looked up for all chains at once; only the chains where it reaches SPOT_RATIO are
+    measured along (a lit frame has hundreds of chains and a dozen such)."""
+    out = np.zeros(len(chains), bool)
+    if not chains:
+        return out
+    round_top = ratio[chain_tops(height, chains)] >= SPOT_RATIO
+    for i in np.flatnonzero(round_top):
+        c = chains[i]
+        out[i] = is_spot(xy[c], height[c], ratio[c], sigma[c])
+    return out

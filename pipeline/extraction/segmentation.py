@@ -210,6 +210,15 @@ def chain_ends(x: np.ndarray, y: np.ndarray, chains: list[np.ndarray]) -> np.nda
     return ends
 
 
+def chain_maxima(values: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
+    """The largest of `values` (one per centre) on each chain, for all chains at once (a lit
+    frame has hundreds): (len(chains),), NaN where a chain holds a NaN (as `ndarray.max`).
+    Chains must not be empty."""
+    points = np.concatenate(chains)
+    size = np.fromiter((c.size for c in chains), np.int64, len(chains))
+    return np.maximum.reduceat(values[points], np.cumsum(size) - size)
+
+
 def joined_lines(xy: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
     """Which line each chain belongs to (int (len(chains),)): chains are joined when an end of
     one lies within LINE_JOIN_PX of a centre of the other that lies within LINE_SIDE_PX of

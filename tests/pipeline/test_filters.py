@@ -10,8 +10,10 @@ from hypothesis import strategies as st
 from pipeline.extraction.band_analysis import analyse_fixed_scale
 from pipeline.extraction.band_filters import band_derivatives
 from pipeline.extraction.blocks import all_blocks
+from pipeline.extraction.fast_exp import EXP_RELATIVE_ERROR, fast_exp
 from pipeline.extraction.gaussian import MIN_SIGMA_PX, gaussian_kernels
 from pipeline.extraction.hessian import hessian_eigen
+from pipeline.extraction.ridges import RIDGE_THRESHOLD, ridge_estimate, ridge_value
 from pipeline.extraction.scalespace import interpolate_cubic, level_for, sample_derivatives
 
 
@@ -101,3 +103,35 @@ def test_pyramid_derivatives_match_full_resolution() -> None:
             full = getattr(reference, name)
             error = np.abs(getattr(fast, name) - full[r, c]).max()
             assert error < 0.01 * np.abs(full).max(), (sigma, name, error)
+
+
+def test_fast_exp_is_within_its_error_bound() -> None:
+    q = np.concatenate([np.linspace(-708.0, 0.0, 200_001), -np.geomspace(1e-12, 40.0, 20_001)])
+    fast = np.array([fast_exp(v) for v in q])
+    np.testing.assert_array_less(np.abs(fast / np.exp(q) - 1), EXP_RELATIVE_ERROR)
+
+
+def test_ridge_estimate_is_on_the_same_side_of_the_threshold_as_v() -> None:
+    """The frame grid's V (`ridge_estimate`) decides V > RIDGE_THRESHOLD as `ridge_value`
+    does, stored as float32, also for eigenvalues placed within 10⁻⁹ of the threshold."""
+    rng = np.random.default_rng(3)
+    c_grey = 2.55
+    lambda1 = -rng.uniform(0.5, 60.0, 4000)
+    # λ2/λ1 where V is the threshold or where float32 starts to round above it (0.5 + 2⁻²⁵),
+    # for each λ1 (when reachable), then nudged around it.
+    structure = 1 - np.exp(-(lambda1**2) / (2 * c_grey**2))
+    target = RIDGE_THRESHOLD + rng.choice([0.0, 2.0**-25], lambda1.size)
+    edge = np.sqrt(np.maximum(-0.5 * np.log(target / structure), 0.0))
+    nudge = rng.choice([-1e-6, -1e-8, -1e-9, 0.0, 1e-9, 1e-8, 1e-6], lambda1.size)
+    near = rng.random(lambda1.size) < 0.8
+    ratio = np.clip(np.where(near, edge + nudge, rng.uniform(-1, 1, lambda1.size)), -1, 1)
+    lambda2 = ratio * lambda1
+    exact = np.array([ridge_value(a, b, c_grey) for a, b in zip(lambda1, lambda2, strict=True)])
+    estimate = np.array(
+        [ridge_estimate(a, b, c_grey) for a, b in zip(lambda1, lambda2, strict=True)]
+    )
+    np.testing.assert_allclose(estimate, exact, rtol=0, atol=1.5e-8)
+    np.testing.assert_array_equal(
+        estimate.astype(np.float32) > RIDGE_THRESHOLD, exact.astype(np.float32) > RIDGE_THRESHOLD
+    )
+    assert np.abs(exact - RIDGE_THRESHOLD - 2.0**-25).min() < 1e-9  # reaches the rounding

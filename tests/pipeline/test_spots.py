@@ -149,3 +149,23 @@ def test_a_spot_chain_that_continues_the_stripes_line_is_kept_one_beside_it_is_n
     kept, spots = _no_spots(chains, height.astype(float), selected, xy)
     assert [c[0] for c in kept] == [0, 100]
     assert np.array_equal(spots, np.arange(109, 118))
+
+
+@settings(max_examples=200, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), points=st.integers(1, 80))
+def test_spot_chains_judges_every_chain_as_is_spot_does(seed: int, points: int) -> None:
+    """The all-chains-at-once judgement (`line_test.spot_chains`: each chain's highest centre
+    by `chain_tops`, then `is_spot` where λ2/λ1 there reaches SPOT_RATIO) is `is_spot` of
+    each chain, ties and NaN heights included."""
+    rng = np.random.default_rng(seed)
+    height = rng.integers(0, 4, points).astype(float)  # few values: ties
+    height[rng.random(points) < 0.05] = np.nan
+    ratio = rng.choice([0.0, 0.59, 0.6, 0.9, 1.0], points)
+    sigma = rng.choice([2.9, 7.5], points)
+    xy = np.cumsum(rng.normal(0, 3, (points, 2)), axis=0)
+    cuts = np.sort(rng.choice(np.arange(1, points), rng.integers(0, points), replace=False))
+    chains = np.split(rng.permutation(points), cuts)
+    expected = [line_test.is_spot(xy[c], height[c], ratio[c], sigma[c]) for c in chains]
+    tops = [c[np.argmax(height[c])] for c in chains]
+    np.testing.assert_array_equal(line_test.chain_tops(height, chains), tops)
+    np.testing.assert_array_equal(line_test.spot_chains(xy, height, ratio, sigma, chains), expected)
