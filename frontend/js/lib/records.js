@@ -72,11 +72,24 @@ export function uncheckedLimits(result, limits, parameters) {
   if (result?.status !== 'measured' || !limits) return [];
   return parameters
     .filter((p) => {
-      const stem = limitStem(p.key, limits.wheel_profile);
-      if (stem === null || result[p.key] != null) return false;
-      return limits[`${stem}_min_mm`] != null || limits[p.limitMax ?? `${stem}_max_mm`] != null;
+      const bounds = limitBounds(limits, p.key, p.limitMax);
+      return bounds !== null && (bounds.min != null || bounds.max != null) && result[p.key] == null;
     })
     .map((p) => p.label);
+}
+
+/**
+ * The bounds a limit row sets on one displayed parameter, or null when its family does not
+ * check it; either bound is null/undefined where the row has none.
+ * @param {any} limits a LimitsRead row, or null
+ * @param {string} key parameter key such as "flange_height_mm"
+ * @param {string} [maxKey] the limit field bounding it from above, when not `<stem>_max_mm`
+ * @returns {{min: number|null|undefined, max: number|null|undefined}|null}
+ */
+export function limitBounds(limits, key, maxKey) {
+  const stem = limitStem(key, limits?.wheel_profile);
+  if (stem === null) return null;
+  return { min: limits?.[`${stem}_min_mm`], max: limits?.[maxKey ?? `${stem}_max_mm`] };
 }
 
 /**

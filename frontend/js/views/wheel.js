@@ -22,7 +22,7 @@ import {
 import {
   framesRemovedNote,
   hasAlarmOn,
-  limitStem,
+  limitBounds,
   limitsFor,
   missingValuesReason,
   resultOf,
@@ -645,10 +645,9 @@ function layerNote(show, w) {
  * @returns {string}
  */
 function limitText(limits, key, maxKey) {
-  const stem = limitStem(key, limits?.wheel_profile);
-  if (stem === null) return '–';
-  const min = limits?.[`${stem}_min_mm`];
-  const max = limits?.[maxKey ?? `${stem}_max_mm`];
+  const bounds = limitBounds(limits, key, maxKey);
+  if (bounds === null) return '–';
+  const { min, max } = bounds;
   if (min != null && max != null) return `${fmtNumber(min, 1)} – ${fmtNumber(max, 1)}`;
   if (min != null) return `≥ ${fmtNumber(min, 1)}`;
   if (max != null) return `≤ ${fmtNumber(max, 1)}`;
