@@ -60,6 +60,18 @@ With the dim chains kept by continuation (`pipeline.extraction.centres._continui
 points measured 2 fewer wheels and no flank gap more, and let glints above the top in
 (Sh MAE 0.118 → 0.849 mm, largest error 4.8 mm)."""
 
+CONTINUATION_GAP_MM = 4.0
+CONTINUATION_COS = 0.9
+DIRECTION_RADIUS_MM = 2.5
+"""A piece of fewer than 40 points is kept where it continues a piece of ≥ 40, directly or
+through other short pieces: a gap of ≤ 4 mm between their nearest points that runs along
+both pieces there (|cos| ≥ 0.9 with the major axis of each piece's points within 2.5 mm of
+its end of the gap). A polished flank under harsh light comes as its glare stretches alone,
+pieces of 16–35 points (2–4 mm) 1–3.5 mm apart along the flank, each of them on the line
+(docs/simulator.md, "Short flank pieces kept where they continue the profile"); glints and
+texture blobs have no axis that points at the profile, and a ghost stripe beside the flank
+runs beside it, not on from it. The axis spans most of a short piece, so the 0.3–0.5 mm hook
+at a glare stretch's end does not turn it."""
 
 DOUBLED_DX_MM = 0.2
 DOUBLED_DZ_MM = 0.5
@@ -301,6 +313,46 @@ def _pieces(xz: np.ndarray) -> np.ndarray:
     return connected_components(graph, directed=False)[1]
 
 
+def _axis(points: np.ndarray, at: np.ndarray) -> np.ndarray | None:
+    """Unit major axis of the points within DIRECTION_RADIUS_MM of `at` (None: < 3 of them)."""
+    near = points[np.hypot(*(points - at).T) <= DIRECTION_RADIUS_MM]
+    if len(near) < 3:
+        return None
+    return np.linalg.svd(near - near.mean(axis=0), full_matrices=False)[2][0]
+
+
+def _continuing(xz: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """True for points of pieces (`labels`, from `_pieces`) of ≥ MIN_COMPONENT_POINTS and of
+    shorter pieces linked to one by gaps that run along both pieces (`CONTINUATION_GAP_MM`,
+    `CONTINUATION_COS`), piece by piece."""
+    sizes = np.bincount(labels)
+    edges = [(label, label) for label in range(sizes.size)]
+    tree = cKDTree(xz)
+    for label in np.flatnonzero(sizes < MIN_COMPONENT_POINTS):
+        members = np.flatnonzero(labels == label)
+        near = cKDTree(xz[members]).sparse_distance_matrix(
+            tree, CONTINUATION_GAP_MM, output_type="ndarray"
+        )
+        apart = labels[near["j"]] != label
+        a, b, gap = members[near["i"][apart]], near["j"][apart], near["v"][apart]
+        for other in np.unique(labels[b]):
+            at = np.flatnonzero(labels[b] == other)
+            k = at[np.argmin(gap[at])]
+            step = xz[b[k]] - xz[a[k]]
+            ends = _axis(xz[members], xz[a[k]]), _axis(xz[labels == other], xz[b[k]])
+            if gap[k] > 0 and all(
+                axis is not None and abs(step @ axis) >= CONTINUATION_COS * gap[k] for axis in ends
+            ):
+                edges.append((label, int(other)))
+    pairs = np.array(edges)
+    graph = coo_matrix(
+        (np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(sizes.size,) * 2
+    )
+    groups = connected_components(graph, directed=False)[1]
+    anchored = np.bincount(groups, weights=sizes >= MIN_COMPONENT_POINTS) > 0
+    return anchored[groups[labels]]
+
+
 def _doubled(xz: np.ndarray, accepted: np.ndarray, x_stop_mm: float) -> np.ndarray:
     """True for points with accepted points within ±DOUBLED_DX_MM in x, all of them more
     than DOUBLED_DZ_MM below (inside SINGLE_VALUED_X_MM < x < x_stop_mm; elsewhere False)."""
@@ -333,8 +385,8 @@ def _single_valued(xz: np.ndarray, labels: np.ndarray) -> np.ndarray:
 
 
 def clean_profile_points(xz: np.ndarray, sensor: np.ndarray) -> np.ndarray:
-    """Mask of the profile points kept: cross-sensor consensus, no small stray pieces, no
-    piece beside a larger one.
+    """Mask of the profile points kept: cross-sensor consensus, no small stray pieces (short
+    pieces continuing the profile are kept), no piece beside a larger one.
 
     Parameters
     ----------
@@ -351,8 +403,9 @@ def clean_profile_points(xz: np.ndarray, sensor: np.ndarray) -> np.ndarray:
         return keep
     kept = np.flatnonzero(keep)
     labels = _pieces(xz[kept])
-    # no small stray pieces (removing whole pieces leaves the others' links as they were)
-    main = np.bincount(labels)[labels] >= MIN_COMPONENT_POINTS
+    # no small stray pieces (removing whole pieces leaves the others' links as they were),
+    # unless they continue the profile
+    main = _continuing(xz[kept], labels)
     keep[kept] = main
     if np.count_nonzero(main) >= 2:
         keep[kept[main]] = _single_valued(xz[kept[main]], labels[main])

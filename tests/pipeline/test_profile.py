@@ -200,3 +200,37 @@ def test_a_spur_rising_beside_the_flange_top_does_not_set_its_height() -> None:
         np.concatenate([x, spur_x])[order], np.concatenate([z, spur_z])[order]
     ).flange_height_mm
     assert spurred == pytest.approx(clean, abs=0.005)
+
+
+def test_short_flank_pieces_continuing_the_profile_are_kept_and_pieces_beside_it_are_not() -> None:
+    """Under glare a polished flank comes as its glare stretches alone: 3 mm pieces (23
+    points) 2 mm apart from z = 3 to 22 mm, each under the 40 points of a piece, are kept
+    as they continue the profile, and Sd is read from them; a 3 mm piece 2 mm inside the
+    flank beside one of them (a ghost), a 2 mm streak across the flank in a gap and a
+    compact blob 1 mm outside another are not."""
+    x, z = PROFILE.x_mm, PROFILE.z_mm
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(z)))])
+    along = np.arange(0.0, arc[-1], 0.13)
+    x, z = np.interp(along, arc, x), np.interp(along, arc, z)
+    flank = (x > x[np.argmax(z)]) & (z > 3.0) & (z < 22.0)
+    start = along[flank][0]
+    stripe = ~flank | (np.mod(along - start, 5.0) < 3.0)
+    first = flank & (along - start < 3.0)
+    ghost = np.column_stack([x[first] - 2.0, z[first]])
+    gap = flank & (np.abs(along - start - 4.0) < 0.07)
+    normal = np.array([np.sin(np.radians(70.0)), np.cos(np.radians(70.0))])
+    streak = np.column_stack([x[gap], z[gap]]) + np.outer(np.linspace(0.8, 2.8, 16), normal)
+    blob_at = np.column_stack([x, z])[flank & (np.abs(along - start - 9.0) < 0.07)][0] + normal
+    blob = blob_at + np.random.default_rng(5).normal(0.0, 0.15, (30, 2))
+    xz = np.concatenate([np.column_stack([x, z])[stripe], ghost, streak, blob])
+    sensor = np.ones(len(xz), np.int8)
+    profile = np.zeros(len(xz), bool)
+    profile[: np.count_nonzero(stripe)] = True
+    pieces = np.diff(np.flatnonzero(stripe & flank)) > 1
+    assert np.count_nonzero(pieces) >= 3 and np.count_nonzero(stripe & flank) < 40 * 5
+
+    keep = clean_profile_points(xz, sensor)
+
+    assert keep[profile].all() and not keep[~profile].any()
+    p = fit_flange_parameters(xz[keep, 0], xz[keep, 1])
+    assert p.flange_thickness_mm == pytest.approx(PROFILE.truth.flange_thickness_mm, abs=0.01)
