@@ -234,3 +234,30 @@ def test_short_flank_pieces_continuing_the_profile_are_kept_and_pieces_beside_it
     assert keep[profile].all() and not keep[~profile].any()
     p = fit_flange_parameters(xz[keep, 0], xz[keep, 1])
     assert p.flange_thickness_mm == pytest.approx(PROFILE.truth.flange_thickness_mm, abs=0.01)
+
+
+def test_a_streak_one_sensor_draws_above_the_others_tread_is_dropped_point_by_point() -> None:
+    """A straight streak of the inner sensor's (another part's edge, 45 points) crossing the
+    outer sensor's tread at x = 57 mm and rising to 2 mm above it by x = 60.5 mm is linked to
+    the profile where it crosses, so no piece rule can drop it: its points more than 0.5 mm
+    above the outer sensor's (within ±0.2 mm in x) are dropped, the rest and every point of
+    the wheel are kept, and the overlap of the two sensors on the flange top loses none."""
+    inner, outer = _track_points("right", 700.0)
+    x, z = PROFILE.x_mm, PROFILE.z_mm
+    sx = np.linspace(56.0, 60.5, 45)
+    sz = np.interp(sx, x[x > 40], z[x > 40]) + np.linspace(-0.4, 2.0, 45)
+    inner_xz = np.column_stack([inner[:, 0] - 700.0, -inner[:, 2]])
+    outer_xz = np.column_stack([outer[:, 0] - 700.0, -outer[:, 2]])
+    xz = np.concatenate([inner_xz, np.column_stack([sx, sz]), outer_xz])
+    sensor = np.concatenate(
+        [np.zeros(len(inner_xz) + len(sx), np.int8), np.ones(len(outer_xz), np.int8)]
+    )
+    streak = np.zeros(len(xz), bool)
+    streak[len(inner_xz) : len(inner_xz) + len(sx)] = True
+    above = np.zeros(len(xz), bool)
+    above[streak] = sz - np.interp(sx, x[x > 40], z[x > 40]) > 0.6
+
+    keep = clean_profile_points(xz, sensor)
+
+    assert keep[~streak].all()
+    assert not keep[above].any() and np.count_nonzero(above) >= 20
