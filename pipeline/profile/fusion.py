@@ -352,7 +352,7 @@ def _continuing(xz: np.ndarray, labels: np.ndarray) -> np.ndarray:
             if gap[k] > 0 and all(
                 axis is not None and abs(step @ axis) >= CONTINUATION_COS * gap[k] for axis in ends
             ):
-                edges.append((label, int(other)))
+                edges.append((int(label), int(other)))
     pairs = np.array(edges)
     graph = coo_matrix(
         (np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(sizes.size,) * 2
