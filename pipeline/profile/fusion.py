@@ -97,7 +97,13 @@ crosses it, so the piece rule keeps it whole; on the field benchmark's pass-004 
 an inner-sensor streak from x = 56.5 to 60.5 mm rising 2 mm above the outer sensor's tread
 lifted the running surface at x = 60 mm by 0.9 mm and read the tread hollow 0.83 mm high
 (0.05 mm without it). On the steep flank ±0.2 mm in x spans ±0.8 mm of height, so the
-other sensor's own flank points there keep a point from being "above" them."""
+other sensor's own flank points there keep a point from being "above" them; still, the
+point test runs on the tread side of the flange top below z = 5 mm only (`POINT_RULE_Z_MM`,
+tread and flange root), where the profile is shallow: on the flank a spur of the other
+sensor's below the true flank would drop it (Steger, field pass-007 V002/2/right: a loop
+1–5 mm outside the flank whose lower end lies under the outer sensor's flank points; with
+the test everywhere Sd read 3.78 mm off instead of 1.81)."""
+POINT_RULE_Z_MM = 5.0
 
 
 class DatumError(PipelineError):
@@ -419,8 +425,11 @@ def clean_profile_points(xz: np.ndarray, sensor: np.ndarray) -> np.ndarray:
     keep[kept] = main
     if np.count_nonzero(main) >= 2:
         keep[kept[main]] = _single_valued(xz[kept[main]], labels[main])
+    if not np.any(keep):
+        return keep
+    tread = (xz[:, 1] < POINT_RULE_Z_MM) & (xz[:, 0] > xz[keep][np.argmax(xz[keep, 1]), 0])
     for own, other in ((inner, outer), (outer, inner)):
-        mine, theirs = np.flatnonzero(keep & own), np.flatnonzero(keep & other)
+        mine, theirs = np.flatnonzero(keep & own & tread), np.flatnonzero(keep & other)
         if mine.size and theirs.size >= CONSENSUS_MIN_POINTS:
             accepted = xz[theirs]
             keep[mine[_doubled(xz[mine], accepted, accepted[:, 0].max() - 3.0)]] = False
