@@ -50,6 +50,18 @@ export function createActions(api, store) {
       if (err instanceof ApiError && err.status === 401) store.set({ me: null });
     }
   };
+  /**
+   * A numbered ticket per list: a response is applied only while its request is the latest,
+   * so a slow answer to an earlier filter cannot overwrite a later one (a cleared filter
+   * coming back when its older request answers last).
+   * @type {Record<string, number>}
+   */
+  const latest = {};
+  const ticket = (/** @type {string} */ list) => {
+    const n = (latest[list] ?? 0) + 1;
+    latest[list] = n;
+    return () => latest[list] === n;
+  };
   return {
     guard,
     signIn: async (/** @type {string} */ token) => {
@@ -61,8 +73,10 @@ export function createActions(api, store) {
     },
     loadPasses: (/** @type {Record<string, string>} */ filter) =>
       guard('could not load the passes', async () => {
+        const current = ticket('passes');
         store.set({ passes: { ...store.get().passes, filter, loading: true } });
         const page = await api.listPasses(passFilterQuery(filter));
+        if (!current()) return;
         store.set({ passes: { filter, items: page.items, total: page.total, loading: false } });
       }),
     loadPass: (/** @type {string} */ passId) =>
@@ -101,8 +115,10 @@ export function createActions(api, store) {
       }),
     loadReview: (/** @type {Record<string, string>} */ filter) =>
       guard('could not load the worst wheels', async () => {
+        const current = ticket('review');
         store.set({ review: { ...(store.get().review ?? {}), filter, loading: true } });
         const page = await api.worstWheels(reviewQuery(filter));
+        if (!current()) return;
         store.set({ review: { filter, page, loading: false } });
       }),
     loadVehicle: (/** @type {string} */ vehicleId) =>
