@@ -104,6 +104,8 @@ sensor's below the true flank would drop it (Steger, field pass-007 V002/2/right
 1–5 mm outside the flank whose lower end lies under the outer sensor's flank points; with
 the test everywhere Sd read 3.78 mm off instead of 1.81)."""
 POINT_RULE_Z_MM = 5.0
+RIM_FACE_MARGIN_MM = 3.0
+"""Both tests stop 3 mm before the accepted points' largest x (the rim face)."""
 
 
 class DatumError(PipelineError):
@@ -368,9 +370,11 @@ def _continuing(xz: np.ndarray, labels: np.ndarray) -> np.ndarray:
     return anchored[groups[labels]]
 
 
-def _doubled(xz: np.ndarray, accepted: np.ndarray, x_stop_mm: float) -> np.ndarray:
+def _doubled(xz: np.ndarray, accepted: np.ndarray) -> np.ndarray:
     """True for points with accepted points within ±DOUBLED_DX_MM in x, all of them more
-    than DOUBLED_DZ_MM below (inside SINGLE_VALUED_X_MM < x < x_stop_mm; elsewhere False)."""
+    than DOUBLED_DZ_MM below (inside SINGLE_VALUED_X_MM < x < the accepted points' largest x
+    less RIM_FACE_MARGIN_MM; elsewhere False)."""
+    x_stop_mm = accepted[:, 0].max() - RIM_FACE_MARGIN_MM
     order = np.argsort(accepted[:, 0], kind="stable")
     ax, az = accepted[order, 0], accepted[order, 1]
     lo = np.searchsorted(ax, xz[:, 0] - DOUBLED_DX_MM, side="left")
@@ -391,7 +395,7 @@ def _single_valued(xz: np.ndarray, labels: np.ndarray) -> np.ndarray:
         members = labels == label
         if np.any(keep):
             accepted = xz[keep]
-            doubled = _doubled(xz[members], accepted, accepted[:, 0].max() - 3.0)
+            doubled = _doubled(xz[members], accepted)
             count = int(np.count_nonzero(doubled))
             if count >= DOUBLED_MIN_POINTS and count >= DOUBLED_FRACTION * members.sum():
                 continue
@@ -431,8 +435,7 @@ def clean_profile_points(xz: np.ndarray, sensor: np.ndarray) -> np.ndarray:
     for own, other in ((inner, outer), (outer, inner)):
         mine, theirs = np.flatnonzero(keep & own & tread), np.flatnonzero(keep & other)
         if mine.size and theirs.size >= CONSENSUS_MIN_POINTS:
-            accepted = xz[theirs]
-            keep[mine[_doubled(xz[mine], accepted, accepted[:, 0].max() - 3.0)]] = False
+            keep[mine[_doubled(xz[mine], xz[theirs])]] = False
     return keep
 
 
