@@ -24,7 +24,8 @@ the wheel, whatever the effects do to the stripe's appearance.
   of the wheel's stripe (its shortest of ≥ 50 px), so "keep the longest lines" keeps it.
 - flange_cut: the flange shades the flange root from the outer sensor's laser, cutting the
   stripe there with abrupt ends.
-- blooming: charge above full well spills into the neighbouring pixels and rows at glints.
+- blooming: charge above full well spills into the neighbouring pixels at glints (a halo;
+  no column streak: the cameras are CMOS).
 """
 
 from __future__ import annotations
@@ -88,9 +89,11 @@ where the flank comes down to z = 3–6 mm [mm]."""
 FULL_WELL_DN = 255.0
 BLOOM_SIGMA_PX = 2.5
 BLOOM_FRACTION = 0.5
-BLOOM_COLUMN_PX = 12.0
-"""Charge above full well: half spreads as a 2.5 px halo, the rest along the column
-(exponential, 12 px)."""
+"""Charge above full well: half spreads as a 2.5 px halo (crosstalk into the neighbouring
+pixels), the rest is drained by the pixels' anti-blooming gates. The station's cameras
+are global-shutter CMOS (1600 × 1200 px of 4.5 µm at 60 frames/s, `station`): no charge
+moves along a column, so a glint draws no column streak (docs/simulator.md, "A glare's
+bloom column drawn as a line")."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -327,11 +330,8 @@ def long_part(part: StripeSamples, wheel: StripeSamples, rng) -> StripeSamples:
 
 
 def bloom(image: np.ndarray) -> None:
-    """Spill the charge above full well into a halo and along the column, in place."""
+    """Spill `BLOOM_FRACTION` of the charge above full well into a halo, in place."""
     excess = np.clip(image - FULL_WELL_DN, 0.0, None).astype(IMAGE_FLOAT)
     if not excess.any():
         return
-    halo = cv2.GaussianBlur(excess, (0, 0), BLOOM_SIGMA_PX)
-    taps = np.exp(-np.abs(np.arange(-48, 49)) / BLOOM_COLUMN_PX).astype(IMAGE_FLOAT)
-    column = cv2.filter2D(excess, -1, (taps / taps.sum())[:, None], borderType=cv2.BORDER_CONSTANT)
-    image += BLOOM_FRACTION * halo + (1.0 - BLOOM_FRACTION) * column
+    image += BLOOM_FRACTION * cv2.GaussianBlur(excess, (0, 0), BLOOM_SIGMA_PX)
