@@ -22,9 +22,8 @@ from pipeline.extraction.scalespace import blend, column_taps, linear_tap
 from pipeline.extraction.segmentation import (
     CONTINUITY_GAP_PX,
     candidates,
-    needs_continuity,
+    continuity_labels,
     stripe_components,
-    strong_candidates,
 )
 from pipeline.jit import kernel
 
@@ -223,14 +222,15 @@ def segment_band(
     runs = _stripe_runs(responses, strides, blocks, shape)
     pixel_strength = _pixel_strengths(runs, strengths, strides, shape[1])
     label, shapes, strength = _components(runs, _run_peaks(runs, pixel_strength))
-    strong = strong_candidates(shapes, strength, c_grey)
+    consider = continuity_labels(shapes, strength, c_grey, every_strong)
     near = None
-    if needs_continuity(strong, shapes, every_strong):
-        near = labels_within(runs, label, strong, CONTINUITY_GAP_PX)
+    if consider is not None:
+        near = labels_within(runs, label, consider, CONTINUITY_GAP_PX)
     keep = stripe_components(shapes, strength, near, c_grey, every_strong=every_strong)
-    # A component the band may have cut: one shaped like a stripe piece (kept ones are). A
-    # round spot (a specular reflection beside the stripe) is not, whole or cut, so it may.
-    piece = candidates(shapes)
+    # A component the band may have cut: one shaped like a stripe piece, or kept (a compact
+    # one continuing a piece). A round spot (a specular reflection beside the stripe) left
+    # out is not, whole or cut, so it may.
+    piece = candidates(shapes) | keep
     touching = np.zeros(keep.size, bool)
     touching[label[runs_near_band_edge(runs, blocks, EDGE_REACH_PX)]] = True
     inside = not (touching & piece).any()

@@ -126,35 +126,40 @@ def stripe_components(
     strength : ndarray of shape (K,)
         Largest ridge strength C = σ²|λ1| on each component [grey levels].
     near : ndarray of shape (P, 2), int64, or None
-        The pairs of strong candidates within CONTINUITY_GAP_PX of each other
-        (`components.labels_within`, each pair once); None when `needs_continuity` is
-        False (no strong candidate is left that continuity could add).
+        The pairs of `continuity_labels` within CONTINUITY_GAP_PX of each other
+        (`components.labels_within`, each pair once); None when those are None (no
+        component is left that continuity could add).
     c_grey : float
         The ridge response's structure constant c [grey levels].
     every_strong : bool
         Keep every strong candidate: inside the search region the calibration bounds
         (`pipeline.calibration.search_region`), where other parts' stripes, longer than a
         piece of the wheel's, are mostly left out and measurement rejects the rest by their
-        place in the track frame.
+        place in the track frame; and the compact strong components that continue them
+        (`compact_strong`).
 
     Notes
     -----
     Candidates have area ≥ MIN_COMPONENT_AREA_PX and elongation ≥ MIN_ELONGATION; strong ones
     a strength ≥ STRONG_FRACTION of the strongest candidate's or ≥ STRONG_C_RATIO·c. Strong
-    ones at least KEEP_FRACTION of the longest strong one's length are kept, then every
-    strong one within CONTINUITY_GAP_PX of a kept one, until none is added.
+    ones at least KEEP_FRACTION of the longest strong one's length are kept (every strong
+    one with `every_strong`), then every strong one (with `every_strong`: every compact
+    strong one) within CONTINUITY_GAP_PX of a kept one, until none is added.
     """
     strong = strong_candidates(shapes, strength, c_grey)
-    if every_strong or not strong.any():
+    if not strong.any():
         return strong
-    keep = _long_enough(shapes, strong)
+    if every_strong:
+        keep, joining = strong, compact_strong(shapes, strength, c_grey)
+    else:
+        keep, joining = _long_enough(shapes, strong), strong
     if near is None:
         return keep
     while True:
         reached = np.zeros(keep.size, bool)
         reached[near[keep[near[:, 0]], 1]] = True
         reached[near[keep[near[:, 1]], 0]] = True
-        grown = keep | (strong & reached)
+        grown = keep | (joining & reached)
         if (grown == keep).all():
             return keep
         keep = grown
@@ -165,13 +170,22 @@ def _long_enough(shapes: ComponentShapes, strong: np.ndarray) -> np.ndarray:
     return strong & (shapes.length_px >= KEEP_FRACTION * shapes.length_px[strong].max())
 
 
-def needs_continuity(strong: np.ndarray, shapes: ComponentShapes, every_strong: bool) -> bool:
-    """Whether `stripe_components` may keep a strong candidate by continuity: some strong
-    one too short to be kept by its length. Else the pairs of `near` are never read (on a
-    frame with one stripe, finding them cost about as much as labelling the mask)."""
-    if every_strong or not strong.any():
-        return False
-    return bool((strong & ~_long_enough(shapes, strong)).any())
+def continuity_labels(
+    shapes: ComponentShapes, strength: np.ndarray, c_grey: float, every_strong: bool
+) -> np.ndarray | None:
+    """The components whose pairs within CONTINUITY_GAP_PX `stripe_components` reads (bool
+    (K,)): the strong candidates, and with `every_strong` the compact strong components too;
+    None when continuity can add none (no strong candidate too short to be kept by its
+    length; with `every_strong`, no compact strong component). Then the pairs are never
+    found (on a frame with one stripe, finding them cost about as much as labelling the
+    mask)."""
+    strong = strong_candidates(shapes, strength, c_grey)
+    if not strong.any():
+        return None
+    if every_strong:
+        compact = compact_strong(shapes, strength, c_grey)
+        return strong | compact if compact.any() else None
+    return strong if (strong & ~_long_enough(shapes, strong)).any() else None
 
 
 def candidates(shapes: ComponentShapes) -> np.ndarray:
@@ -181,14 +195,30 @@ def candidates(shapes: ComponentShapes) -> np.ndarray:
     return shaped
 
 
+def _least_strength(shapes: ComponentShapes, strength: np.ndarray, c_grey: float) -> float:
+    """The strength a strong candidate needs [grey levels]: STRONG_FRACTION of the strongest
+    candidate's, at most STRONG_C_RATIO·c_grey (inf when there is no candidate)."""
+    shaped = candidates(shapes)
+    if not shaped.any():
+        return float("inf")
+    return min(STRONG_FRACTION * float(strength[shaped].max()), STRONG_C_RATIO * c_grey)
+
+
 def strong_candidates(shapes: ComponentShapes, strength: np.ndarray, c_grey: float) -> np.ndarray:
     """Candidates whose strength is ≥ STRONG_FRACTION of the strongest candidate's or
     ≥ STRONG_C_RATIO·c_grey [grey levels]."""
-    shaped = candidates(shapes)
-    if not shaped.any():
-        return shaped
-    least = min(STRONG_FRACTION * strength[shaped].max(), STRONG_C_RATIO * c_grey)
-    return shaped & (strength >= least)
+    return candidates(shapes) & (strength >= _least_strength(shapes, strength, c_grey))
+
+
+def compact_strong(shapes: ComponentShapes, strength: np.ndarray, c_grey: float) -> np.ndarray:
+    """Components of area ≥ MIN_COMPONENT_AREA_PX, elongation < MIN_ELONGATION and the strength
+    of a strong candidate (bool (K,), index 0 False): a search region keeps those within
+    CONTINUITY_GAP_PX of a kept piece (`stripe_components`), the stretches of glare on a
+    polished flank, fused by their bloom and the dim stripe between into one blob of
+    elongation 1.1–1.8 (docs/simulator.md, "Compact glare blobs on the flank", pipeline 0.11.12)."""
+    compact = (shapes.area_px >= MIN_COMPONENT_AREA_PX) & (shapes.elongation < MIN_ELONGATION)
+    compact[0] = False
+    return compact & (strength >= _least_strength(shapes, strength, c_grey))
 
 
 def chain_ends(x: np.ndarray, y: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:

@@ -8,6 +8,7 @@ from scipy.special import erfc
 
 from pipeline import extract_centres
 from pipeline.extraction.centres import _bright_chains
+from pipeline.extraction.components import ComponentShapes
 from pipeline.extraction.line_test import (
     BODY_SHARE,
     body_shares,
@@ -18,8 +19,10 @@ from pipeline.extraction.line_test import (
 from pipeline.extraction.segmentation import (
     LINE_JOIN_PX,
     LINE_SIDE_PX,
+    continuity_labels,
     joined_lines,
     longest_lines,
+    stripe_components,
 )
 from pipeline.imaging import PixelRegion
 
@@ -361,3 +364,26 @@ def test_a_clipped_highlight_on_a_lit_body_is_not_kept_and_the_laser_is() -> Non
     # raises its own pieces' shoulders; measurement rejects what lies off the wheel).
     inside = extract_centres(frame, width_min=5, width_max=21, region=PixelRegion(0, 300, 0, 640))
     assert ((np.abs(inside.y - 200.0) < 0.5) & (inside.x > 60) & (inside.x < 580)).sum() > 400
+
+
+def test_inside_a_search_region_a_compact_glare_blob_continuing_a_piece_is_kept() -> None:
+    # Components 1..5: the flank's stripe piece (strong, elongated); a compact blob of glare
+    # and bloom within CONTINUITY_GAP_PX of it (area 700 px², elongation 1.4, as strong);
+    # a second compact blob reached only through the first; a compact blob as strong but
+    # near nothing kept; a compact blob near the piece but too weak for a strong candidate.
+    shapes = ComponentShapes(
+        area_px=np.array([0, 900, 700, 500, 800, 600], float),
+        length_px=np.array([0, 120, 31, 25, 33, 28], float),
+        elongation=np.array([0, 16.0, 1.4, 1.3, 1.4, 1.3]),
+    )
+    strength = np.array([0, 80.0, 85.0, 70.0, 90.0, 5.0])
+    near = np.array([[1, 2], [2, 3], [1, 5]])
+    c_grey = 2.55
+    considered = continuity_labels(shapes, strength, c_grey, every_strong=True)
+    assert considered is not None and considered.tolist() == [False, True, True, True, True, False]
+    kept = stripe_components(shapes, strength, near, c_grey, every_strong=True)
+    assert kept.tolist() == [False, True, True, True, False, False]
+    # On the whole frame (no search region) a compact blob is never a stripe piece.
+    assert continuity_labels(shapes, strength, c_grey, every_strong=False) is None
+    whole = stripe_components(shapes, strength, near, c_grey)
+    assert whole.tolist() == [False, True, False, False, False, False]
