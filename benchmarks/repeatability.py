@@ -60,8 +60,9 @@ def verdicts(pooled: tuple[ParameterStats, ...]) -> list[str]:
             )
         if s.parameter == "conicity_3mm":
             ok = s.max_error_mm <= CONICITY_BAR and s.missing == 0
+            error = "none measured" if math.isnan(s.max_error_mm) else f"{s.max_error_mm:.4f}"
             lines.append(
-                f"- equivalent conicity (3 mm) max error {s.max_error_mm:.4f} ≤ {CONICITY_BAR} "
+                f"- equivalent conicity (3 mm) max error {error} ≤ {CONICITY_BAR} "
                 f"on every axle, {s.missing} not measured {'✓' if ok else '✗'}"
             )
         if s.parameter in TREAD_STD_BARS:
