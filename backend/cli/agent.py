@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from types import FrameType
 
 from tqdm import tqdm
 
@@ -45,6 +49,44 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run_agent_verb(args: argparse.Namespace) -> int:
     """Run the agent until its wheel-sensor stream ends and everything is sent."""
+    with interrupt_requests() as interrupted:
+        return _run_agent(args, interrupted)
+
+
+@contextmanager
+def interrupt_requests() -> Iterator[Callable[[], bool]]:
+    """Make Ctrl-C (SIGINT) a request that the run's ticks turn into KeyboardInterrupt.
+
+    Yields a callable telling whether Ctrl-C was pressed. Python raises KeyboardInterrupt
+    wherever the main thread happens to be, and C code that clears errors loses it: pypylon's
+    module start-up does (a Ctrl-C while `open_cameras` imports it was dropped and the agent,
+    its server away, ran on for ever). The handler only records the request, so nothing can
+    drop it; `on_tick` (every TICK_S = 0.25 s, from the capture loop on) raises
+    KeyboardInterrupt where run_agent ends capture and its threads in order. A second Ctrl-C
+    raises KeyboardInterrupt at once, as usual. The previous handler is restored on exit;
+    nothing is installed outside the main thread or where SIGINT is ignored or handled
+    already.
+    """
+    requests: list[int] = []
+
+    def on_sigint(signum: int, _frame: FrameType | None) -> None:
+        requests.append(signum)  # no lock, no exception: safe at any point of the main thread
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    install = (
+        threading.current_thread() is threading.main_thread()
+        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    )
+    if install:
+        signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield lambda: bool(requests)
+    finally:
+        if install:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+def _run_agent(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
     from backend.agent.runner import run_agent
 
     station = load_station(args.station)
@@ -58,6 +100,8 @@ def run_agent_verb(args: argparse.Namespace) -> int:
     bar = tqdm(unit="frame", desc="frames sent", file=sys.stderr, dynamic_ncols=True)
 
     def on_tick(progress: object) -> None:
+        if interrupted():
+            raise KeyboardInterrupt
         bar.n = progress.frames_sent  # type: ignore[attr-defined]
         bar.set_postfix_str(progress.status(), refresh=True)  # type: ignore[attr-defined]
 

@@ -28,7 +28,7 @@ from backend.agent.replay import write_replay_station
 from backend.agent.spool import PassOpen
 from pipeline.calibration.model import calibration_to_document
 from pipeline.simulation.station import build_station
-from tests.backend.agent.live_server import LiveServer
+from tests.backend.agent.live_server import LiveServer, free_port
 
 FRAMES_PER_SENSOR = 2
 DEADLINE_S = 240.0
@@ -314,6 +314,43 @@ def test_frames_buffered_while_the_server_is_down_are_sent_by_the_next_run(
     assert len(frames) == len(set(frames)) == 16
     assert set(frames) == expected_frames(station_dir)
     assert only_pass(server)["state"] == "closed"
+
+
+SIGINT_IN_PYLON_START = """
+import os, signal, sys
+
+class SigintOnImport:
+    def find_spec(self, name, path=None, target=None):
+        if name.startswith("swig_runtime_data"):  # tried by pypylon's C start-up, error cleared
+            sys.meta_path.remove(self)
+            sys.stderr.write("SIGINT inside pypylon's start-up\\n")
+            os.kill(os.getpid(), signal.SIGINT)
+        return None
+
+sys.meta_path.insert(0, SigintOnImport())
+from backend.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_ctrl_c_while_pypylon_starts_ends_the_agent_whose_server_is_away(
+    tmp_path: Path, sim_pass: Path
+) -> None:
+    """Ctrl-C while the agent imports pypylon: the start-up of its C module tries to import
+    SWIG's `swig_runtime_data4`, which does not exist, and clears the error, so a
+    KeyboardInterrupt raised there was dropped and the agent, buffering for an absent server,
+    ran on for ever. An import hook sends the signal at exactly that import."""
+    station = write_replay_station(sim_pass, tmp_path / "station")
+    command = [sys.executable, "-c", SIGINT_IN_PYLON_START, "agent", "--token", "t"]
+    command += ["--server", f"http://127.0.0.1:{free_port()}", "--station", str(station)]
+    agent = AgentProcess(command, agent_env())
+    agent.wait_for_line("SIGINT inside pypylon's start-up")
+    try:
+        assert agent.process.wait(timeout=DEADLINE_S) == 130
+    finally:
+        agent.process.kill()
+    agent.wait_for_line("wheelscan: interrupted")
+    assert not any("Traceback" in line for line in agent.seen), agent.seen
 
 
 def test_an_open_whose_answer_was_lost_finds_its_pass_instead_of_opening_another(
