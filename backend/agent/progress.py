@@ -2,7 +2,8 @@
 
 Counters are updated from the camera and upload threads; `status()` renders one line and
 `warn()` hands a line to the sink (the CLI's tqdm.write, on stderr). The buffer warning is
-given once when the spool passes `WARN_FRACTION` of its limit and again when it is full.
+given once when the spool passes `WARN_FRACTION` of its limit and again when it is full, and
+again only after the spool has fallen below `WARN_FRACTION`.
 """
 
 from __future__ import annotations
@@ -132,8 +133,8 @@ class Progress:
         level = 2 if full else 1 if fill >= WARN_FRACTION else 0
         with self._lock:
             rising = level > self._buffer_level
-            if level == 2 or not full:
-                self._buffer_level = level
+            if rising or level == 0:  # lowered only below WARN_FRACTION: a frame that still
+                self._buffer_level = level  # fits after a refusal does not re-arm "full"
         if rising:
             state = "full: new frames are declared missing" if level == 2 else "nearly full"
             self.warn(

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from backend.agent.spool import CloseItem, FrameItem, MissingItem, PassOpen, Spool
+from backend.agent.progress import Progress
+from backend.agent.spool import CloseItem, FrameItem, MissingItem, PassOpen, Spool, SpoolItem
 
 REQUEST = PassOpen("s", "2026-11-23T22:00:00+00:00", "up", 20.0, 1, None)
 
@@ -78,3 +79,35 @@ def test_frames_the_server_already_has_are_acknowledged_without_sending(tmp_path
     stored = {("left_inner", 0, first.sha256), ("left_inner", 1, "other-sha")}
     assert spool.ack_where(key, stored) == 1
     assert [f.seq for f in spool.waiting_frames(key)] == [1]
+
+
+def test_the_full_buffer_warning_is_given_once_until_the_buffer_drains(tmp_path: Path) -> None:
+    """A frame that still fits after a refusal (frames differ in size; or a camera thread's
+    check running after another's refusal) does not re-arm the warning: the parallel test
+    run once saw 'local buffer full' twice."""
+    spool = Spool(tmp_path / "spool", limit_bytes=100)
+    warnings: list[str] = []
+    progress = Progress(("left_inner",), 1, spool, warnings.append)
+    key = spool.begin_pass(PassOpen("s", "2026-11-23T22:00:00+00:00", None, None, 1, None))
+    assert spool.add_frame(key, "left_inner", 0, "v", 1, bytes(90))
+    progress.frame_captured("left_inner")  # 90 %: nearly full
+    progress.frame_refused("left_inner")  # full
+    progress.frame_captured("left_inner")  # a smaller frame fitted: still 90 %
+    progress.frame_refused("left_inner")
+    assert [w.split(" (")[0] for w in warnings] == [
+        "warning: local buffer nearly full",
+        "warning: local buffer full: new frames are declared missing",
+    ]
+    for item in drain_all(spool):
+        spool.ack(item)
+    progress.frame_captured("left_inner")  # drained: 0 %
+    assert spool.add_frame(key, "left_inner", 1, "v", 1, bytes(95))
+    progress.frame_refused("left_inner")
+    assert len(warnings) == 3 and "full: new frames" in warnings[-1]
+
+
+def drain_all(spool: Spool) -> list[SpoolItem]:
+    items: list[SpoolItem] = []
+    while (item := spool.take(timeout_s=0.0)) is not None and not isinstance(item, CloseItem):
+        items.append(item)
+    return items
