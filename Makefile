@@ -65,8 +65,10 @@ format: $(STAMP) $(NODE_STAMP)
 	$(VENV)/bin/ruff format .
 	node_modules/.bin/prettier --write frontend tests/frontend
 
+# Test files run on one worker process per core (at most 4), each file's tests on one worker
+# in order (their module fixtures, e.g. a browser test's service, are made once).
 test: $(STAMP) $(KERNEL_STAMP) system-deps lint
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n auto --maxprocesses 4 --dist loadfile
 
 bench: $(STAMP) $(KERNEL_STAMP)
 	$(PY) -m benchmarks.run
