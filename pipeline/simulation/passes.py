@@ -213,8 +213,9 @@ def _render_frame(
     sensor = station.calibration.sensor(name)
     laser = station.laser_origin(name)
     # Each field effect draws from its own stream, so switching one off leaves the others'
-    # draws (and the clean frame's) as they were in this frame; `rng` itself (lighting,
-    # spots, noise: its Poisson draws depend on the grey) and so the later frames change.
+    # draws (and the clean frame's) as they were in this frame. `rng` itself does not stay:
+    # its Poisson noise takes as many draws as the grey asks for, so a frame whose pixels
+    # change re-draws the pass's later frames and axles (docs/simulator.md).
     streams = dict(zip(FieldEffects.names(), rng.spawn(len(FieldEffects.names())), strict=True))
     on = dict.fromkeys(FieldEffects.names(), False) if field is None else asdict(field)
     appearance = pass_appearance(wheel.appearance, rng)
