@@ -196,9 +196,19 @@ def expose(image_dn8: np.ndarray, bit_depth: int, rng: np.random.Generator) -> n
     bit_depth : int
         8 → uint8; 16 → uint16 (8-bit scale × 257).
     rng : numpy.random.Generator
+        Draws one standard normal per pixel whatever the image, so a frame's noise stays
+        the same when its pixels change (paired renderings, docs/simulator.md).
+
+    Notes
+    -----
+    Shot noise in its Gaussian form: λ electrons give λ + √λ·z. The dark level alone holds
+    λ ≥ DARK_LEVEL_DN × ELECTRONS_PER_DN = 240 e⁻, where Poisson and Gaussian differ by far
+    less than a quantisation step. Shot and read noise add as one normal per pixel of
+    variance λ / ELECTRONS_PER_DN² + READ_NOISE_DN² [DN²].
     """
-    electrons = rng.poisson(np.clip(image_dn8 + DARK_LEVEL_DN, 0, None) * ELECTRONS_PER_DN)
-    signal = electrons / ELECTRONS_PER_DN + rng.normal(0.0, READ_NOISE_DN, image_dn8.shape)
+    z = rng.standard_normal(image_dn8.shape, dtype=np.float32)
+    mean_dn = np.clip(image_dn8 + DARK_LEVEL_DN, 0, None)
+    signal = mean_dn + np.sqrt(mean_dn / ELECTRONS_PER_DN + READ_NOISE_DN**2) * z
     if bit_depth == 8:
         return np.clip(np.round(signal), 0, 255).astype(np.uint8)
     return np.clip(np.round(signal * 257.0), 0, 65535).astype(np.uint16)

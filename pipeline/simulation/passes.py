@@ -212,11 +212,11 @@ def _render_frame(
 ) -> np.ndarray:
     sensor = station.calibration.sensor(name)
     laser = station.laser_origin(name)
-    # Each field effect draws from its own stream, so switching one off leaves the others'
-    # draws (and the clean frame's) as they were in this frame. `rng` itself does not stay:
-    # its Poisson noise takes as many draws as the grey asks for, so a frame whose pixels
-    # change re-draws the pass's later frames and axles (docs/simulator.md).
-    streams = dict(zip(FieldEffects.names(), rng.spawn(len(FieldEffects.names())), strict=True))
+    # The frame draws only from children of the pass's generator (spawning takes no draw
+    # from it), each field effect and the sensor noise from its own: switching an effect
+    # off changes that effect's pixels alone, in this frame and in every later one.
+    rng, noise, *children = rng.spawn(2 + len(FieldEffects.names()))
+    streams = dict(zip(FieldEffects.names(), children, strict=True))
     on = dict.fromkeys(FieldEffects.names(), False) if field is None else asdict(field)
     appearance = pass_appearance(wheel.appearance, rng)
     samples = wheel_section(wheel.profile, pose, sensor, laser, scatter_mm=appearance.scatter_mm)
@@ -262,7 +262,7 @@ def _render_frame(
     add_stray_light(image, rng)
     if on["blooming"]:
         bloom(image)
-    return expose(image, sensor.bit_depth, rng)
+    return expose(image, sensor.bit_depth, noise)
 
 
 def _add_scene(image, surfaces, wheel: SimWheel, pose: WheelPose, sensor, rng) -> None:

@@ -26,7 +26,13 @@ from pipeline.simulation.field import (
     stripe_texture,
 )
 from pipeline.simulation.frame_render import REACH_SIGMAS, draw_stripe
-from pipeline.simulation.passes import build_train, wear_train, write_synthetic_passes
+from pipeline.simulation.passes import (
+    build_train,
+    pass_start_time,
+    simulate_pass,
+    wear_train,
+    write_synthetic_passes,
+)
 from pipeline.simulation.render import (
     StripeSamples,
     WheelPose,
@@ -221,3 +227,27 @@ def test_a_worn_train_keeps_its_wheels_with_flanges_thinner_by_the_wear() -> Non
         assert after.appearance.reflectivity.shape == after.profile.x_mm.shape
     with pytest.raises(ValueError, match="flange_thinning_mm must be ≥ 0"):
         wear_train(train, -0.1)
+
+
+def test_switching_an_effect_off_changes_only_its_own_pixels_in_every_frame() -> None:
+    """Paired renderings: each frame draws from its own children of the pass's generator and
+    the noise does not depend on the grey, so the flange ghost (outer frames only) changes
+    no inner frame, nor any pixel of a later axle's outer frame away from the ghost."""
+    station = build_station()
+    train = build_train(1, np.random.default_rng(5), axles_per_vehicle=2)
+
+    def frames(field: FieldEffects) -> dict[str, np.ndarray]:
+        rng = np.random.default_rng(11)
+        return simulate_pass(train, station, rng, started_at=pass_start_time(0), field=field).frames
+
+    with_ghost, without = (
+        frames(FIELD_MODES["harsh"]),
+        frames(FIELD_MODES["harsh"].without("ghost")),
+    )
+    assert with_ghost.keys() == without.keys()
+    for path, image in with_ghost.items():
+        changed = np.mean(image != without[path])
+        if "inner" in path:
+            assert changed == 0, path
+        else:
+            assert 0 < changed < 0.005, (path, changed)
