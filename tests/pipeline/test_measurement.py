@@ -126,23 +126,32 @@ def test_pass_without_calibration_needs_the_site_one(sim_pass: Path, tmp_path: P
 
 
 @pytest.mark.slow
-def test_every_wheel_of_a_clean_four_axle_pass_is_measured_by_both_methods(
+def test_every_wheel_of_a_clean_four_axle_pass_is_measured_by_the_adaptive_method(
     tmp_path_factory: pytest.TempPathFactory,
 ) -> None:
-    """Seed 2026's dim outer flanks (V001 axle 3 left, axle 4 right) are kept by the selection."""
+    """Every wheel measured by the adaptive method, and by Steger all but those whose flange
+    top it loses: beside V001 axle 3 left's specular spots its fixed-σ chain turns off the
+    stripe into a spot and leaves 3.5 mm of the crest without points, where the adaptive
+    method's line test keeps the stripe (`line_test`)."""
     folder = tmp_path_factory.mktemp("clean4")
     (path,) = write_synthetic_passes(folder, seed=2026, axles_per_vehicle=4)
     results = measure_pass(read_pass_archive(path), methods=("adaptive", "steger"))
     truth = _truth(path)
     assert len(results) == 16
+    lost = []
     for result in results:
         m, w = result.measurement, result.wheel
+        if m.method == "steger" and m.status != MEASURED:
+            assert "flange top" in m.reason, m.reason
+            lost.append((w.vehicle_id, w.axle, w.side))
+            continue
         assert m.status == MEASURED, f"{w.vehicle_id} {w.axle} {w.side} {m.method}: {m.reason}"
         row = truth[(w.vehicle_id, w.axle, w.side)]
         tolerance = 0.1 if m.method == "adaptive" else 0.6
         assert m.parameters.flange_height_mm == pytest.approx(
             row["flange_height_mm"], abs=tolerance
         )
+    assert len(lost) <= 1, lost
 
 
 def test_every_wheel_of_two_clean_one_axle_passes_of_seed_9_is_measured(
