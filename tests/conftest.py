@@ -11,7 +11,7 @@ import pytest
 
 from pipeline.simulation.passes import write_synthetic_passes
 
-SIMULATED_SEED = 7
+SIMULATED_SEED = 8
 
 
 @pytest.fixture(scope="session")
