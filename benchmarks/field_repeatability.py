@@ -5,7 +5,8 @@ pass the simulated station 9 times with every field effect on (the daylit scene,
 polished bands, asymmetric cross-sections, the flange ghost, glints, the long part stripe,
 the flange-root cut, blooming). Each pass is measured with the adaptive method and with
 fixed-σ Steger, each with and without its corrections, in the same run. The breakdown then
-renders 3 passes with one effect alone and reports what it costs each method.
+renders the first passes again with one effect alone, and with every effect but one, and
+reports what each costs each method (renderings are paired: docs/simulator.md).
 """
 
 from __future__ import annotations
@@ -110,13 +111,17 @@ def _ratio_lines(pooled: dict[tuple[str, str], ParameterStats]) -> list[str]:
 
 
 def _breakdown() -> list[str]:
-    """One effect at a time: pooled MAE of Sh and Sd per method, and wheels not measured."""
+    """One effect alone and every effect but one: pooled MAE of Sh and Sd per method, and
+    values not measured. Renderings are paired (docs/simulator.md): a row differs from
+    "none" or "all" only in its effect's pixels."""
     off = FieldEffects(**dict.fromkeys(FieldEffects.names(), False))
+    harsh = FIELD_MODES["harsh"]
     cases: list[tuple[str, FieldEffects | None]] = [("none (clean)", None)]
     cases += [(n, replace(off, **{n: True})) for n in off.names()]
-    cases.append(("all (harsh)", FIELD_MODES["harsh"]))
+    cases.append(("all (harsh)", harsh))
+    cases += [(f"all but {n}", harsh.without(n)) for n in off.names()]
     methods = ("adaptive", "adaptive+asymmetry", "steger", "steger+curvature+asymmetry")
-    header = "| effect alone | " + " | ".join(f"{m} Sh / Sd MAE" for m in methods)
+    header = "| effects | " + " | ".join(f"{m} Sh / Sd MAE" for m in methods)
     lines = [
         header + " | not measured |",
         "|---|" + "---|" * (len(methods) + 1),
@@ -167,7 +172,9 @@ def run() -> str:
         "Steger beside adaptive:",
         *_ratio_lines({(s.method, s.parameter): s for s in pooled}),
         "",
-        f"### Per-effect breakdown ({BREAKDOWN_REPEATS} passes each, one effect alone)",
+        f"### Per-effect breakdown ({BREAKDOWN_REPEATS} passes each: one effect alone, and every "
+        "effect but one; paired renderings, so a row differs from 'none' or 'all' only in "
+        "its effect's pixels)",
         "",
         *breakdown,
         "",
