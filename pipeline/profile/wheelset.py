@@ -374,18 +374,26 @@ def axle_conicity(
     Raises
     ------
     ContactError
-        If a wheel's running surface has a gap of more than `MAX_SURFACE_GAP_MM`, or a
-        wheel does not reach over its rail.
+        If a wheel's running surface has a gap of more than `MAX_SURFACE_GAP_MM` (the
+        message names every such gap of both wheels: x from the back face and distance
+        beyond the flange top), or a wheel does not reach over its rail.
     """
+    unseen = []
     for side, curve in (("left", left), ("right", right)):
-        steps = np.diff(curve.x_mm)
-        k = int(np.argmax(steps))
-        if steps[k] > MAX_SURFACE_GAP_MM:
-            raise ContactError(
-                f"the {side} wheel's running surface shows no points from x = "
-                f"{curve.x_mm[k]:.1f} to {curve.x_mm[k + 1]:.1f} mm (a straight bridge over "
-                f"more than {MAX_SURFACE_GAP_MM:.0f} mm can carry a false contact)"
+        gaps = np.flatnonzero(np.diff(curve.x_mm) > MAX_SURFACE_GAP_MM)
+        if gaps.size:
+            stretches = ", ".join(
+                f"x = {curve.x_mm[k]:.1f} to {curve.x_mm[k + 1]:.1f} mm "
+                f"({curve.x_mm[k] - curve.x_mm[0]:.1f}–{curve.x_mm[k + 1] - curve.x_mm[0]:.1f} "
+                "mm beyond the flange top)"
+                for k in gaps
             )
+            unseen.append(f"the {side} wheel's running surface shows no points from {stretches}")
+    if unseen:
+        raise ContactError(
+            f"{'; '.join(unseen)}: a straight bridge over more than "
+            f"{MAX_SURFACE_GAP_MM:.0f} mm can carry a false contact"
+        )
     delta_r = rolling_radius_difference(left, right, back_to_back_mm, rails, radius_mm=radius_mm)
     amplitudes = np.array((NOMINAL_AMPLITUDE_MM, *CURVE_AMPLITUDES_MM))
     values = [None if np.isnan(v) else float(v) for v in equivalent_conicity(delta_r, amplitudes)]

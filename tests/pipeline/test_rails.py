@@ -130,8 +130,17 @@ def test_a_long_gap_in_the_flange_root_is_no_conicity_but_a_reason():
     assert abs(float(equivalent_conicity(bridged, 3.0)[0]) - whole) > 0.02  # the false contact
     from pipeline.profile.wheelset import ContactError
 
-    with pytest.raises(ContactError, match="left wheel's running surface shows no points"):
+    with pytest.raises(ContactError) as refused:
         axle_conicity(gapped, new, 1360.0, rails)
+    # The reason names each unseen stretch, from the back face and beyond the flange top.
+    a, b = gapped.x_mm[gapped.x_mm < root[0]][-1], gapped.x_mm[gapped.x_mm > root[1]][0]
+    assert str(refused.value) == (
+        f"the left wheel's running surface shows no points from x = {a:.1f} to {b:.1f} mm "
+        f"({a - new.x_mm[0]:.1f}–{b - new.x_mm[0]:.1f} mm beyond the flange top): a straight "
+        "bridge over more than 8 mm can carry a false contact"
+    )
+    with pytest.raises(ContactError, match="left wheel's .*; the right wheel's running surface"):
+        axle_conicity(gapped, gapped, 1360.0, rails)
     short = (new.x_mm < root[0]) | (new.x_mm > root[0] + 4.0)
     near = axle_conicity(WheelCurve(new.x_mm[short], new.z_mm[short]), new, 1360.0, rails)
     assert near.conicity_3mm == pytest.approx(whole, abs=0.01)
