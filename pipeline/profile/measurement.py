@@ -394,7 +394,8 @@ def axle_conicity_of(
     """The axle's Δr(y) and equivalent conicity from its two measured wheels, or None and
     why not: which wheel is not measured or has no running surface (with its own reason),
     no back-to-back, a long unseen stretch of running surface, no tread where the rails
-    touch."""
+    touch. With an axle the reason is `AxleConicity.reason` (why its Δr(y) covers fewer
+    shifts, so that some amplitudes have no λₑ), usually None."""
     wheels = (left, right)
     missing = [
         f"the {w.side} wheel is not measured ({w.reason})" for w in wheels if w.profile is None
@@ -411,9 +412,10 @@ def axle_conicity_of(
     if bare or left.surface is None or right.surface is None:
         return None, "; ".join(bare)
     try:
-        return axle_conicity(left.surface, right.surface, back_to_back_mm, rails), None
+        axle = axle_conicity(left.surface, right.surface, back_to_back_mm, rails)
     except PipelineError as exc:
         return None, str(exc)
+    return axle, axle.reason
 
 
 def axle_back_to_back(left: WheelMeasurement, right: WheelMeasurement) -> float | None:
