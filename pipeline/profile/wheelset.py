@@ -65,9 +65,10 @@ whose contact falls on it are dropped, and with them the amplitudes whose swing 
 them. Near the root the contact slides along a slope of ~0.1, so small heights move it by
 millimetres: that 6 mm bridge on both wheels of a new S1002 pair reads λₑ(3 mm) 0.205 for
 0.177, one 8.0 mm long on a root (the flange cut alone, seed 2027, pass 3 V002/1) 0.313 for
-0.220. 0.02 mm is the clean passes' own local height error; on the clean benchmark's 9
-passes it drops three accurate curve values (pass 7 V001/4 at 6–7 mm, errors ≤ 0.008, a
-bridge of 0.03–0.05 mm sag) and no λₑ(3 mm)."""
+0.220. 0.02 mm is twice the clean passes' largest tread height error (RMS 0.011 mm at
+38–80 mm beyond the top, seed 2026); on the clean benchmark's 9 passes it drops three
+accurate curve values (pass 7 V001/4 at 6–7 mm, errors ≤ 0.008, a bridge of 0.03–0.05 mm
+sag) and no λₑ(3 mm)."""
 EDGE_SLOPE_NODES = 3
 """Each edge slope of a bridge: over the 3 nodes (0.3 mm) of running surface beside it."""
 CURVE_REACH_MM = 110.0
