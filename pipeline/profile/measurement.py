@@ -392,15 +392,30 @@ def axle_conicity_of(
     left: WheelMeasurement, right: WheelMeasurement, back_to_back_mm: float | None, rails
 ) -> tuple[AxleConicity | None, str | None]:
     """The axle's Δr(y) and equivalent conicity from its two measured wheels, or None and
-    why not (a wheel not measured, no back-to-back, no tread where the rails touch)."""
-    if left.profile is None or right.profile is None or back_to_back_mm is None:
-        return None, "both wheels of the axle and their back-to-back distance are needed"
-    if left.surface is None or right.surface is None:
-        return None, "a wheel's profile has no running surface (see its tread reason)"
+    why not: which wheel is not measured or has no running surface (with its own reason),
+    no back-to-back, a long unseen stretch of running surface, no tread where the rails
+    touch. With an axle the reason is `AxleConicity.reason` (why its Δr(y) covers fewer
+    shifts, so that some amplitudes have no λₑ), usually None."""
+    wheels = (left, right)
+    missing = [
+        f"the {w.side} wheel is not measured ({w.reason})" for w in wheels if w.profile is None
+    ]
+    if missing:
+        return None, "; ".join(missing)
+    if back_to_back_mm is None:
+        return None, "the axle's back-to-back distance is not measured"
+    bare = [
+        f"the {w.side} wheel's profile has no running surface ({w.tread_reason})"
+        for w in wheels
+        if w.surface is None
+    ]
+    if bare or left.surface is None or right.surface is None:
+        return None, "; ".join(bare)
     try:
-        return axle_conicity(left.surface, right.surface, back_to_back_mm, rails), None
+        axle = axle_conicity(left.surface, right.surface, back_to_back_mm, rails)
     except PipelineError as exc:
         return None, str(exc)
+    return axle, axle.reason
 
 
 def axle_back_to_back(left: WheelMeasurement, right: WheelMeasurement) -> float | None:

@@ -19,6 +19,7 @@ from pipeline.imaging import freeze_geometry
 from pipeline.profile.conicity import (
     CURVE_AMPLITUDES_MM,
     NOMINAL_AMPLITUDE_MM,
+    ConicityError,
     RollingRadiusDifference,
     equivalent_conicity,
 )
@@ -56,6 +57,20 @@ straight bridge across a concave flange root lies above the wheel, so a rail tou
 bridge: the demo pass's field frames (seed 2026, harsh) left 14–19 mm of root unseen on
 three wheels and λₑ(3 mm) read 0.227 for a true 0.127 and 0.328 (Steger) for 0.156. On the
 benchmark's clean passes the longest gap is 6.0 mm, its axle 0.007 from the truth."""
+BRIDGE_SAG_MM = 0.02
+"""A contact on a shorter bridge is refused when the bridge's estimated sag, L·|Δs|/8 for a
+stretch of length L whose edge slopes differ by Δs (a parabola's chord; 0.037 for the true
+0.035 mm across 36–42 mm beyond an S1002's flange top), exceeds 0.02 mm: the Δr(y) nodes
+whose contact falls on it are dropped, and with them the amplitudes whose swing reaches
+them. Near the root the contact slides along a slope of ~0.1, so small heights move it by
+millimetres: that 6 mm bridge on both wheels of a new S1002 pair reads λₑ(3 mm) 0.205 for
+0.177, one 8.0 mm long on a root (the flange cut alone, seed 2027, pass 3 V002/1) 0.313 for
+0.220. 0.02 mm is twice the clean passes' largest tread height error (RMS 0.011 mm at
+38–80 mm beyond the top, seed 2026); on the clean benchmark's 9 passes it drops three
+accurate curve values (pass 7 V001/4 at 6–7 mm, errors ≤ 0.008, a bridge of 0.03–0.05 mm
+sag) and no λₑ(3 mm)."""
+EDGE_SLOPE_NODES = 3
+"""Each edge slope of a bridge: over the 3 nodes (0.3 mm) of running surface beside it."""
 CURVE_REACH_MM = 110.0
 """The running surface from the flange top to 110 mm beyond it (x ≈ 126 mm): the rails can
 touch up to x ≈ 123 mm at a 10 mm shift."""
@@ -108,6 +123,9 @@ class AxleConicity:
     rail : str
     inclination : str
     gauge_mm : float
+    reason : str or None
+        Why `delta_r` covers fewer shifts than searched (a rail touching a sagging bridge
+        beyond them), None when it covers them all.
     """
 
     delta_r: RollingRadiusDifference
@@ -117,6 +135,7 @@ class AxleConicity:
     rail: str
     inclination: str
     gauge_mm: float
+    reason: str | None = None
 
 
 def local_quadratics(
@@ -264,6 +283,26 @@ def _gaps(wheel_x, wheel_z, rail_x, rail_z, shifts, phi, axis_z):
     return smallest, at, slope * height + at
 
 
+@dataclass(frozen=True, slots=True, eq=False)
+class WheelsetContacts:
+    """Δr(y) of an axle and where each wheel touches its rail at every shift.
+
+    Attributes
+    ----------
+    delta_r : RollingRadiusDifference
+    left_x_mm, right_x_mm : ndarray of shape (S,), float64
+        The contact point on each wheel at each shift of `delta_r`, in that wheel's profile
+        frame (x from its back face) [mm].
+    """
+
+    delta_r: RollingRadiusDifference
+    left_x_mm: np.ndarray
+    right_x_mm: np.ndarray
+
+    def __post_init__(self) -> None:
+        freeze_geometry(self, "left_x_mm", "right_x_mm")
+
+
 def rolling_radius_difference(
     left: WheelCurve,
     right: WheelCurve,
@@ -274,7 +313,30 @@ def rolling_radius_difference(
     shift_range_mm: float = SHIFT_RANGE_MM,
     shift_step_mm: float = SHIFT_STEP_MM,
 ) -> RollingRadiusDifference:
-    """Δr(y) = r_right − r_left of an axle at lateral shifts y by rigid contact search.
+    """Δr(y) = r_right − r_left of an axle at lateral shifts y (`wheelset_contacts`)."""
+    return wheelset_contacts(
+        left,
+        right,
+        back_to_back_mm,
+        rails,
+        radius_mm=radius_mm,
+        shift_range_mm=shift_range_mm,
+        shift_step_mm=shift_step_mm,
+    ).delta_r
+
+
+def wheelset_contacts(
+    left: WheelCurve,
+    right: WheelCurve,
+    back_to_back_mm: float,
+    rails: TrackRails,
+    *,
+    radius_mm: float = NOMINAL_WHEEL_RADIUS_MM,
+    shift_range_mm: float = SHIFT_RANGE_MM,
+    shift_step_mm: float = SHIFT_STEP_MM,
+) -> WheelsetContacts:
+    """Δr(y) = r_right − r_left of an axle at lateral shifts y by rigid contact search,
+    with each wheel's contact point.
 
     Parameters
     ----------
@@ -291,7 +353,7 @@ def rolling_radius_difference(
 
     Returns
     -------
-    RollingRadiusDifference
+    WheelsetContacts
 
     Raises
     ------
@@ -344,10 +406,11 @@ def rolling_radius_difference(
             break
     else:
         raise ContactError("the wheelset's roll did not settle (no two-point support)")
-    z_left = np.interp(-x_l - half, left.x_mm, left.z_mm)
-    z_right = np.interp(x_r - half, right.x_mm, right.z_mm)
+    left_x, right_x = -x_l - half, x_r - half
+    z_left = np.interp(left_x, left.x_mm, left.z_mm)
+    z_right = np.interp(right_x, right.x_mm, right.z_mm)
     delta = z_right - z_left  # r = radius + z at the contact; the radius cancels
-    return RollingRadiusDifference(shifts, delta)
+    return WheelsetContacts(RollingRadiusDifference(shifts, delta), left_x, right_x)
 
 
 def axle_conicity(
@@ -374,21 +437,81 @@ def axle_conicity(
     Raises
     ------
     ContactError
-        If a wheel's running surface has a gap of more than `MAX_SURFACE_GAP_MM`, or a
-        wheel does not reach over its rail.
+        If a wheel's running surface has a gap of more than `MAX_SURFACE_GAP_MM` (the
+        message names every such gap of both wheels: x from the back face and distance
+        beyond the flange top), or a wheel does not reach over its rail, or the rails
+        touch a sagging bridge (`BRIDGE_SAG_MM`) at y = 0 or leave no oscillation.
+
+    Notes
+    -----
+    A bridge whose estimated sag exceeds `BRIDGE_SAG_MM` decides nothing: the shifts at
+    which a rail touches the running surface on it are dropped, Δr(y) is kept over the run
+    of shifts about y = 0 clear of them, and an amplitude whose swing leaves that run gets
+    None (`AxleConicity.reason` says which bridge, where and at which shifts).
     """
+    unseen = []
     for side, curve in (("left", left), ("right", right)):
-        steps = np.diff(curve.x_mm)
-        k = int(np.argmax(steps))
-        if steps[k] > MAX_SURFACE_GAP_MM:
-            raise ContactError(
-                f"the {side} wheel's running surface shows no points from x = "
-                f"{curve.x_mm[k]:.1f} to {curve.x_mm[k + 1]:.1f} mm (a straight bridge over "
-                f"more than {MAX_SURFACE_GAP_MM:.0f} mm can carry a false contact)"
+        gaps = np.flatnonzero(np.diff(curve.x_mm) > MAX_SURFACE_GAP_MM)
+        if gaps.size:
+            stretches = ", ".join(
+                f"x = {curve.x_mm[k]:.1f} to {curve.x_mm[k + 1]:.1f} mm "
+                f"({curve.x_mm[k] - curve.x_mm[0]:.1f}–{curve.x_mm[k + 1] - curve.x_mm[0]:.1f} "
+                "mm beyond the flange top)"
+                for k in gaps
             )
-    delta_r = rolling_radius_difference(left, right, back_to_back_mm, rails, radius_mm=radius_mm)
+            unseen.append(f"the {side} wheel's running surface shows no points from {stretches}")
+    if unseen:
+        raise ContactError(
+            f"{'; '.join(unseen)}: a straight bridge over more than "
+            f"{MAX_SURFACE_GAP_MM:.0f} mm can carry a false contact"
+        )
+    contacts = wheelset_contacts(left, right, back_to_back_mm, rails, radius_mm=radius_mm)
+    delta_r, reason = contacts.delta_r, None
+    y = delta_r.y_mm
+    on_bridge = {}
+    for side, curve, at in (
+        ("left", left, contacts.left_x_mm),
+        ("right", right, contacts.right_x_mm),
+    ):
+        for k in _sagging_bridges(curve):
+            hit = (at > curve.x_mm[k]) & (at < curve.x_mm[k + 1])
+            if hit.any():
+                on_bridge[(side, k)] = (curve, hit)
+    if on_bridge:
+        bad = np.logical_or.reduce([hit for _, hit in on_bridge.values()])
+        bridges = "; ".join(
+            f"the {side} wheel's over x = {curve.x_mm[k]:.1f} to {curve.x_mm[k + 1]:.1f} mm "
+            f"({curve.x_mm[k] - curve.x_mm[0]:.1f}–{curve.x_mm[k + 1] - curve.x_mm[0]:.1f} mm "
+            f"beyond the flange top) at y = {y[hit].min():+.2f} to {y[hit].max():+.2f} mm"
+            for (side, k), (curve, hit) in on_bridge.items()
+        )
+        centre = int(np.argmin(np.abs(y)))
+        if bad[centre]:
+            raise ContactError(
+                f"the rails touch a straight bridge of running surface sagging more than "
+                f"{BRIDGE_SAG_MM} mm at y = 0: {bridges}"
+            )
+        low, high = centre, centre
+        while low > 0 and not bad[low - 1]:
+            low -= 1
+        while high < y.size - 1 and not bad[high + 1]:
+            high += 1
+        if high == low:
+            raise ContactError(f"no shift about y = 0 clear of a sagging bridge: {bridges}")
+        delta_r = RollingRadiusDifference(y[low : high + 1], delta_r.delta_r_mm[low : high + 1])
+        reason = (
+            f"Δr(y) kept over y = {y[low]:+.2f} to {y[high]:+.2f} mm, amplitudes swinging "
+            f"beyond it not evaluated: the rails touch a straight bridge of running surface "
+            f"sagging more than {BRIDGE_SAG_MM} mm ({bridges})"
+        )
     amplitudes = np.array((NOMINAL_AMPLITUDE_MM, *CURVE_AMPLITUDES_MM))
-    values = [None if np.isnan(v) else float(v) for v in equivalent_conicity(delta_r, amplitudes)]
+    try:
+        lambdas = equivalent_conicity(delta_r, amplitudes)
+    except ConicityError as exc:
+        if reason is None:
+            raise
+        raise ContactError(f"{reason}; {exc}") from exc
+    values = [None if np.isnan(v) else float(v) for v in lambdas]
     return AxleConicity(
         delta_r=delta_r,
         conicity_3mm=values[0],
@@ -397,7 +520,23 @@ def axle_conicity(
         rail=rails.rail,
         inclination=rails.inclination,
         gauge_mm=rails.gauge_mm,
+        reason=reason,
     )
+
+
+def _sagging_bridges(curve: WheelCurve) -> np.ndarray:
+    """Indices k of the stretches x_k…x_k+1 without nodes (over 1.5 node steps) whose
+    straight bridge is estimated to sag more than `BRIDGE_SAG_MM`: L·|s₁ − s₀|/8 with s₀, s₁
+    the running surface's slopes over `EDGE_SLOPE_NODES` nodes beside each end."""
+    x, z = curve.x_mm, curve.z_mm
+    found = []
+    for k in np.flatnonzero(np.diff(x) > 1.5 * CURVE_STEP_MM).tolist():
+        a, b = max(k - EDGE_SLOPE_NODES, 0), min(k + 1 + EDGE_SLOPE_NODES, x.size - 1)
+        before = (z[k] - z[a]) / (x[k] - x[a]) if k > a else 0.0
+        after = (z[b] - z[k + 1]) / (x[b] - x[k + 1]) if b > k + 1 else 0.0
+        if (x[k + 1] - x[k]) * abs(after - before) / 8.0 > BRIDGE_SAG_MM:
+            found.append(k)
+    return np.array(found, dtype=int)
 
 
 def measured_axle_conicity(

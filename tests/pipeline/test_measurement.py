@@ -13,9 +13,11 @@ from pipeline.profile.measurement import (
     MEASURED,
     NOT_MEASURED,
     axle_back_to_back,
+    axle_conicity_of,
     measure_pass,
     measure_wheel,
 )
+from pipeline.profile.rails import track_rails
 from pipeline.simulation.passes import write_synthetic_passes
 
 
@@ -82,6 +84,10 @@ def test_wheel_without_stripe_is_not_measured_and_the_other_is(sim_pass: Path) -
     good = measure_wheel(frames[:1], frames[1:], archive.calibration, side="right")
     assert good.status == MEASURED
     assert axle_back_to_back(blank, good) is None
+    # The axle's reason names the wheel that is missing and why.
+    conicity, reason = axle_conicity_of(blank, good, None, track_rails())
+    assert conicity is None
+    assert reason == f"the left wheel is not measured ({blank.reason})"
 
 
 def test_frame_of_wrong_size_is_refused(sim_pass: Path) -> None:

@@ -130,11 +130,63 @@ def test_a_long_gap_in_the_flange_root_is_no_conicity_but_a_reason():
     assert abs(float(equivalent_conicity(bridged, 3.0)[0]) - whole) > 0.02  # the false contact
     from pipeline.profile.wheelset import ContactError
 
-    with pytest.raises(ContactError, match="left wheel's running surface shows no points"):
+    with pytest.raises(ContactError) as refused:
         axle_conicity(gapped, new, 1360.0, rails)
+    # The reason names each unseen stretch, from the back face and beyond the flange top.
+    a, b = gapped.x_mm[gapped.x_mm < root[0]][-1], gapped.x_mm[gapped.x_mm > root[1]][0]
+    assert str(refused.value) == (
+        f"the left wheel's running surface shows no points from x = {a:.1f} to {b:.1f} mm "
+        f"({a - new.x_mm[0]:.1f}–{b - new.x_mm[0]:.1f} mm beyond the flange top): a straight "
+        "bridge over more than 8 mm can carry a false contact"
+    )
+    with pytest.raises(ContactError, match="left wheel's .*; the right wheel's running surface"):
+        axle_conicity(gapped, gapped, 1360.0, rails)
     short = (new.x_mm < root[0]) | (new.x_mm > root[0] + 4.0)
     near = axle_conicity(WheelCurve(new.x_mm[short], new.z_mm[short]), new, 1360.0, rails)
     assert near.conicity_3mm == pytest.approx(whole, abs=0.01)
+
+
+def test_contacts_on_a_sagging_bridge_refuse_only_the_amplitudes_that_reach_them():
+    """A stretch without points under 8 mm is bridged, but no contact may fall on a bridge
+    sagging over 0.02 mm: where none does (the flank, 2–8 mm beyond the top) every value
+    stands; 24–30 mm beyond the top the rails touch it at |y| > 4.2 mm, so λₑ stands up to
+    4 mm and the larger amplitudes are refused; 36–42 mm beyond the top the contacts of the
+    3 mm swing fall on it (the straight bridge read 0.205 for 0.177), so λₑ(3 mm) is refused
+    and the 1–2 mm amplitudes, clear of it, stand."""
+    rails = track_rails()
+    thin = wheel_profile(load_reference_profile("S1002"))
+    top = int(np.argmax(thin.z_mm))
+    end = top + int(np.flatnonzero(np.diff(thin.x_mm[top:]) <= 0)[0]) + 1
+    new = WheelCurve(thin.x_mm[top:end], thin.z_mm[top:end])
+    whole = axle_conicity(new, new, 1360.0, rails)
+    assert whole.reason is None
+
+    def gapped(lo: float, hi: float) -> WheelCurve:
+        keep = (new.x_mm < new.x_mm[0] + lo) | (new.x_mm > new.x_mm[0] + hi)
+        return WheelCurve(new.x_mm[keep], new.z_mm[keep])
+
+    flank = axle_conicity(gapped(2, 8), gapped(2, 8), 1360.0, rails)
+    assert flank.reason is None and flank.curve_conicity == whole.curve_conicity
+    root = axle_conicity(gapped(24, 30), gapped(24, 30), 1360.0, rails)
+    assert root.conicity_3mm == pytest.approx(whole.conicity_3mm, abs=1e-12)
+    reached = np.array(root.curve_amplitudes_mm) > 4.0
+    assert all(v is None for v, r in zip(root.curve_conicity, reached, strict=True) if r)
+    assert all(
+        v == pytest.approx(w, abs=1e-12)
+        for v, w, r in zip(root.curve_conicity, whole.curve_conicity, reached, strict=True)
+        if not r
+    )
+    assert root.reason.startswith("Δr(y) kept over y = -4.20 to +4.20 mm")
+    assert "left wheel's over x = 39.0 to 45.0 mm (24.0–30.0 mm beyond the flange top)" in (
+        root.reason
+    )
+    bridged = rolling_radius_difference(gapped(36, 42), gapped(36, 42), 1360.0, rails)
+    assert float(equivalent_conicity(bridged, 3.0)[0]) - whole.conicity_3mm > 0.02
+    tread = axle_conicity(gapped(36, 42), gapped(36, 42), 1360.0, rails)
+    assert tread.conicity_3mm is None
+    assert tread.curve_conicity[:3] == pytest.approx(whole.curve_conicity[:3], abs=1e-12)
+    assert all(v is None for v in tread.curve_conicity[3:])
+    assert tread.delta_r.y_mm[[0, -1]] == pytest.approx([-2.4, 2.4])
 
 
 def test_a_minimum_at_the_wheel_curves_end_gives_no_invalid_values():
