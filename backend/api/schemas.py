@@ -458,7 +458,8 @@ class ProfileRead(BaseModel):
     conicity: dict[str, Any] | None = Field(
         default=None,
         description="the axle's Δr(y) (y_mm, delta_r_mm), conicity curve (amplitudes_mm, "
-        "conicity), rails, or the reason it was not computed",
+        "conicity), rails and reason: with no y_mm why it was not computed, with y_mm why Δr "
+        "covers fewer shifts than searched (amplitudes beyond them have no conicity)",
     )
 
 

@@ -208,7 +208,8 @@ def conicity_document(axle: AxleConicity) -> dict[str, Any]:
         "conicity": curve,
         "y_mm": np.round(axle.delta_r.y_mm, STORED_DECIMALS).tolist(),
         "delta_r_mm": np.round(axle.delta_r.delta_r_mm, STORED_DECIMALS).tolist(),
-        "reason": None,
+        # computed, but over fewer shifts than searched: which amplitudes it lacks and why
+        "reason": axle.reason,
     }
 
 

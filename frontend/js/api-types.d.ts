@@ -328,7 +328,7 @@ export interface ProfileRead {
   reference_z_mm: number[];
   construction: Record<string, unknown>;
   parameters: Record<string, number | null>;
-  /** the axle's Δr(y) (y_mm, delta_r_mm), conicity curve (amplitudes_mm, conicity), rails, or the reason it was not computed */
+  /** the axle's Δr(y) (y_mm, delta_r_mm), conicity curve (amplitudes_mm, conicity), rails and reason: with no y_mm why it was not computed, with y_mm why Δr covers fewer shifts than searched (amplitudes beyond them have no conicity) */
   conicity?: Record<string, unknown> | null;
 }
 

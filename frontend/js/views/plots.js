@@ -87,8 +87,10 @@ export function renderDeltaR(root, profiles, methods, previous) {
   const notes = methods.map((m) => {
     const c = profiles[m]?.conicity;
     if (!c) return `${m}: not computed yet (both wheels of the axle are needed)`;
-    if (c.reason) return `${m}: not computed: ${c.reason}`;
-    return `${m}: λe(3 mm) ${fmtNumber(c.conicity_3mm, 3)}`;
+    if (!Array.isArray(c.y_mm)) return `${m}: not computed: ${c.reason ?? 'no Δr'}`;
+    const at3 = c.conicity_3mm == null ? 'not given' : fmtNumber(c.conicity_3mm, 3);
+    // computed over fewer shifts than searched: the reason says which amplitudes it lacks
+    return `${m}: λe(3 mm) ${at3}${c.reason ? ` (${c.reason})` : ''}`;
   });
   if (usable.length === 0) {
     root.append(h('p', { class: 'empty' }, notes.join(' · ')));
