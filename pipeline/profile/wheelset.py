@@ -304,25 +304,11 @@ class WheelsetContacts:
 
 
 def rolling_radius_difference(
-    left: WheelCurve,
-    right: WheelCurve,
-    back_to_back_mm: float,
-    rails: TrackRails,
-    *,
-    radius_mm: float = NOMINAL_WHEEL_RADIUS_MM,
-    shift_range_mm: float = SHIFT_RANGE_MM,
-    shift_step_mm: float = SHIFT_STEP_MM,
+    left: WheelCurve, right: WheelCurve, back_to_back_mm: float, rails: TrackRails, **options
 ) -> RollingRadiusDifference:
-    """Δr(y) = r_right − r_left of an axle at lateral shifts y (`wheelset_contacts`)."""
-    return wheelset_contacts(
-        left,
-        right,
-        back_to_back_mm,
-        rails,
-        radius_mm=radius_mm,
-        shift_range_mm=shift_range_mm,
-        shift_step_mm=shift_step_mm,
-    ).delta_r
+    """Δr(y) = r_right − r_left of an axle at lateral shifts y: `wheelset_contacts`'s Δr,
+    with its keyword options (radius_mm, shift_range_mm, shift_step_mm)."""
+    return wheelset_contacts(left, right, back_to_back_mm, rails, **options).delta_r
 
 
 def wheelset_contacts(
