@@ -86,3 +86,25 @@ def test_a_dim_chain_touching_a_kept_end_but_not_heading_on_is_not_kept() -> Non
     kept, weak = _select(chains, height, x, y, continuing=True)
     assert [c[0] for c in kept] == [0]
     assert weak.size == 40
+
+
+def test_a_short_chain_forking_off_where_the_stripe_splits_is_dropped() -> None:
+    """A glint touching the stripe splits its chain, and a chain through the glint's side
+    runs off the line from there: a laser line does not fork, so it is dropped, with or
+    without a region. A piece continuing the line there, or a long chain, is kept."""
+    first = _line(0.0, 0.0, 0.0, 1.0, 41)  # down to (0, 40)
+    second = _line(0.0, 43.0, 0.0, 1.0, 60)  # on from (0, 43): continues the first
+    fork = _line(-16.1, 55.2, 0.8, -0.6, 18)[::-1]  # ends at (-2.5, 45.0), 53° off the line
+    long_fork = _line(-34.5, 69.0, 0.8, -0.6, 41)[::-1]  # the same, 41 centres
+    height = np.full(41 + 60 + 18, 200.0)
+    for continuing in (True, False):
+        chains, x, y = _chains(first, second, fork)
+        kept, weak = _select(chains, height, x, y, continuing)
+        assert [c[0] for c in kept] == [0, 41] and weak.size == 18
+    chains, x, y = _chains(first, second, long_fork)
+    kept, _ = _select(chains, np.full(41 + 60 + 41, 200.0), x, y, continuing=True)
+    assert len(kept) == 3
+    ahead = _line(0.0, 104.0, 0.0, 1.0, 18)  # beyond the second's end, on the line
+    chains, x, y = _chains(first, second, ahead)
+    kept, _ = _select(chains, height, x, y, continuing=True)
+    assert len(kept) == 3
