@@ -625,7 +625,8 @@ def _forks(kept: list[bool], chains: list[np.ndarray], xy: np.ndarray) -> list[b
     continue each other (`_continues`), and it continues neither. A laser line does not
     fork; a specular spot touching the stripe splits its chain there and adds a chain
     through the spot's side that runs off the line (a clean flank near the flange top: 18
-    centres 1-2.6 mm outside the outline, docs/simulator.md)."""
+    centres 1-2.6 mm outside the outline, docs/simulator.md). Only ends within the reach of
+    each other are compared (a k-d tree): a real frame keeps up to ~200 chains."""
     held = np.flatnonzero(np.repeat(np.asarray(kept, bool), 2))
     if held.size < 3:
         return kept
@@ -633,15 +634,20 @@ def _forks(kept: list[bool], chains: list[np.ndarray], xy: np.ndarray) -> list[b
     owner = held // 2
     joins = _continues(ends, ends) & (owner[:, None] != owner[None, :])
     joins |= joins.T
+    a, b = np.nonzero(np.triu(joins))
+    if a.size == 0:
+        return kept
+    tree = cKDTree(ends[:, :2])
+    near = tree.sparse_distance_matrix(tree, FORK_REACH_PX, output_type="ndarray")
+    close = np.zeros(joins.shape, bool)
+    close[near["i"], near["j"]] = True
     short = np.array([chains[i].size < CHAIN_MIN_POINTS for i in owner])
-    distance = np.hypot(*(ends[:, None, :2] - ends[None, :, :2]).transpose(2, 0, 1))
+    # (ends, junctions): an end near both of a junction's ends, continuing neither
+    fork = close[:, a] & close[:, b] & ~joins[:, a] & ~joins[:, b]
+    fork &= (owner[:, None] != owner[a]) & (owner[:, None] != owner[b]) & short[:, None]
     result = list(kept)
-    for a, b in zip(*np.nonzero(np.triu(joins)), strict=True):
-        near = (distance[:, a] <= FORK_REACH_PX) & (distance[:, b] <= FORK_REACH_PX)
-        fork = near & short & ~joins[:, a] & ~joins[:, b]
-        fork &= (owner != owner[a]) & (owner != owner[b])
-        for i in owner[fork]:
-            result[i] = False
+    for i in owner[fork.any(axis=1)]:
+        result[i] = False
     return result
 
 
