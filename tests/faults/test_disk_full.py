@@ -86,8 +86,9 @@ def reads_of(pass_id: int, wheel_id: int) -> list[str]:
 
 @pytest.fixture(scope="module")
 def other_axle_archive(tmp_path_factory: pytest.TempPathFactory) -> bytes:
-    """Another simulated axle: frames of its own (the store holds none of them yet)."""
-    return synthetic_pass_zip(tmp_path_factory.mktemp("other-axle"), 1, 1, seed=8)
+    """Another simulated axle: frames of its own (the store holds none of them yet), so
+    its seed is not the shared simulated pass's (tests/conftest.py, SIMULATED_SEED = 8)."""
+    return synthetic_pass_zip(tmp_path_factory.mktemp("other-axle"), 1, 1, seed=9)
 
 
 @pytest.mark.parametrize(
