@@ -627,9 +627,9 @@ def _forks(kept: list[bool], chains: list[np.ndarray], xy: np.ndarray) -> list[b
     through the spot's side that runs off the line (a clean flank near the flange top: 18
     centres 1-2.6 mm outside the outline, docs/simulator.md). Only ends within the reach of
     each other are compared (a k-d tree): a real frame keeps up to ~200 chains."""
-    held = np.flatnonzero(np.repeat(np.asarray(kept, bool), 2))
-    if held.size < 3:
+    if sum(kept) < 3:  # a fork needs two chains continuing each other and a third
         return kept
+    held = np.flatnonzero(np.repeat(np.asarray(kept, bool), 2))
     ends = chain_ends(xy[:, 0], xy[:, 1], chains)[held]
     owner = held // 2
     joins = _continues(ends, ends) & (owner[:, None] != owner[None, :])
@@ -714,8 +714,7 @@ def _bright_chains(
         kept = _grown_near(kept, chains, long, xy)
         if not all(kept):
             kept = _bridging(kept, strong, chains, xy)
-    if sum(kept) >= 3:
-        kept = _forks(kept, chains, xy)
+    kept = _forks(kept, chains, xy)
     dim = [c for c, k in zip(chains, kept, strict=True) if not k]
     bright = [c for c, k in zip(chains, kept, strict=True) if k]
     return bright, np.concatenate(dim) if dim else np.zeros(0, np.int64)

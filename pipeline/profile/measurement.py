@@ -404,13 +404,12 @@ def axle_conicity_of(
         return None, "; ".join(missing)
     if back_to_back_mm is None:
         return None, "the axle's back-to-back distance is not measured"
-    bare = [
-        f"the {w.side} wheel's profile has no running surface ({w.tread_reason})"
-        for w in wheels
-        if w.surface is None
-    ]
-    if bare or left.surface is None or right.surface is None:
-        return None, "; ".join(bare)
+    if left.surface is None or right.surface is None:
+        return None, "; ".join(
+            f"the {w.side} wheel's profile has no running surface ({w.tread_reason})"
+            for w in wheels
+            if w.surface is None
+        )
     try:
         axle = axle_conicity(left.surface, right.surface, back_to_back_mm, rails)
     except PipelineError as exc:

@@ -439,12 +439,7 @@ def axle_conicity(
     for side, curve in (("left", left), ("right", right)):
         gaps = np.flatnonzero(np.diff(curve.x_mm) > MAX_SURFACE_GAP_MM)
         if gaps.size:
-            stretches = ", ".join(
-                f"x = {curve.x_mm[k]:.1f} to {curve.x_mm[k + 1]:.1f} mm "
-                f"({curve.x_mm[k] - curve.x_mm[0]:.1f}–{curve.x_mm[k + 1] - curve.x_mm[0]:.1f} "
-                "mm beyond the flange top)"
-                for k in gaps
-            )
+            stretches = ", ".join(_stretch(curve, k) for k in gaps.tolist())
             unseen.append(f"the {side} wheel's running surface shows no points from {stretches}")
     if unseen:
         raise ContactError(
@@ -466,9 +461,8 @@ def axle_conicity(
     if on_bridge:
         bad = np.logical_or.reduce([hit for _, hit in on_bridge.values()])
         bridges = "; ".join(
-            f"the {side} wheel's over x = {curve.x_mm[k]:.1f} to {curve.x_mm[k + 1]:.1f} mm "
-            f"({curve.x_mm[k] - curve.x_mm[0]:.1f}–{curve.x_mm[k + 1] - curve.x_mm[0]:.1f} mm "
-            f"beyond the flange top) at y = {y[hit].min():+.2f} to {y[hit].max():+.2f} mm"
+            f"the {side} wheel's over {_stretch(curve, k)} "
+            f"at y = {y[hit].min():+.2f} to {y[hit].max():+.2f} mm"
             for (side, k), (curve, hit) in on_bridge.items()
         )
         centre = int(np.argmin(np.abs(y)))
@@ -508,6 +502,14 @@ def axle_conicity(
         gauge_mm=rails.gauge_mm,
         reason=reason,
     )
+
+
+def _stretch(curve: WheelCurve, k: int) -> str:
+    """The stretch between nodes k and k + 1 of a running surface, as the reasons name it:
+    x from the back face and distance beyond the flange top (the curve's first node) [mm]."""
+    x0, x1 = curve.x_mm[k], curve.x_mm[k + 1]
+    top = curve.x_mm[0]
+    return f"x = {x0:.1f} to {x1:.1f} mm ({x0 - top:.1f}–{x1 - top:.1f} mm beyond the flange top)"
 
 
 def _sagging_bridges(curve: WheelCurve) -> np.ndarray:
