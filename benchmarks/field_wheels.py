@@ -2,7 +2,8 @@
 
 `python -m benchmarks.field_wheels FOLDER [METHOD]` measures every wheel of the pass folders
 under FOLDER (rendering the field benchmark's passes there first when it holds none:
-`field_repeatability`'s train, seed and repeats, every field effect on) and prints one row
+`field_repeatability`'s train, seed and repeats, every field effect on; `--seed=N` draws
+another train and passes, held out from the benchmark's) and prints one row
 per wheel: measured or why not, the Sh and Sd errors, the mean offset of each sensor's
 points from the true flank at z = 11–13 mm (x less the true flank's x at the point's
 height) and the median signed distance of each sensor's points from the true outline
@@ -157,7 +158,9 @@ def main(argv: list[str]) -> int:
     """Print the per-wheel table of the passes under argv[0] with method argv[1]
     (and the viewing-angle table with `--view`)."""
     view = "--view" in argv
-    argv = [a for a in argv if a != "--view"]
+    seeds = [int(a.split("=", 1)[1]) for a in argv if a.startswith("--seed=")]
+    seed = seeds[-1] if seeds else SEED
+    argv = [a for a in argv if a != "--view" and not a.startswith("--seed=")]
     if not argv:
         sys.stderr.write(__doc__.split("\n\n")[1] + "\n")
         return 2
@@ -169,11 +172,11 @@ def main(argv: list[str]) -> int:
             folder,
             vehicles=VEHICLES,
             axles_per_vehicle=AXLES,
-            seed=SEED,
+            seed=seed,
             repeat=REPEATS,
             field=FIELD_MODES["harsh"],
         )
-    train = synthetic_train(VEHICLES, SEED, axles_per_vehicle=AXLES)
+    train = synthetic_train(VEHICLES, seed, axles_per_vehicle=AXLES)
     outlines = {(w.vehicle_id, w.axle, w.side): w.profile for w in train.wheels}
     for path in passes:
         archive = read_pass_archive(path)

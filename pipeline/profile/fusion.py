@@ -63,12 +63,16 @@ points measured 2 fewer wheels and no flank gap more, and let glints above the t
 CONTINUATION_GAP_MM = 4.0
 CONTINUATION_COS = 0.9
 DIRECTION_RADIUS_MM = 2.5
-"""A piece of fewer than 40 points is kept where it continues a piece of ≥ 40, directly or
-through other short pieces: a gap of ≤ 4 mm between their nearest points that runs along
-both pieces there (|cos| ≥ 0.9 with the major axis of each piece's points within 2.5 mm of
-its end of the gap). A polished flank under harsh light comes as its glare stretches alone,
-pieces of 16–35 points (2–4 mm) 1–3.5 mm apart along the flank, each of them on the line
-(docs/simulator.md, "Short flank pieces kept where they continue the profile"); glints and
+"""A piece of fewer than 40 points is kept where the pieces it continues, directly or
+through other short pieces, hold ≥ 40 points together (one of ≥ 40 among them, or short
+ones alone): a gap of ≤ 4 mm between their nearest points that runs along both pieces there
+(|cos| ≥ 0.9 with the major axis of each piece's points within 2.5 mm of its end of the
+gap). A polished flank under harsh light comes as its glare stretches alone, pieces of
+16–35 points (2–4 mm) 1–3.5 mm apart along the flank, each of them on the line
+(docs/simulator.md, "Short flank pieces kept where they continue the profile"); where the
+stretches are short, the flank's pieces continue each other from z ≈ 17 to 5 mm but lie
+6–8 mm from the top's and the tread's pieces, and asking for a piece of ≥ 40 among them
+dropped them all (docs/simulator.md, "Flank pieces anchored by their group"). Glints and
 texture blobs have no axis that points at the profile, and a ghost stripe beside the flank
 runs beside it, not on from it. The axis spans most of a short piece, so the 0.3–0.5 mm hook
 at a glare stretch's end does not turn it."""
@@ -339,9 +343,10 @@ def _axis(points: np.ndarray, at: np.ndarray) -> np.ndarray | None:
 
 
 def _continuing(xz: np.ndarray, labels: np.ndarray) -> np.ndarray:
-    """True for points of pieces (`labels`, from `_pieces`) of ≥ MIN_COMPONENT_POINTS and of
-    shorter pieces linked to one by gaps that run along both pieces (`CONTINUATION_GAP_MM`,
-    `CONTINUATION_COS`), piece by piece."""
+    """True for points of pieces (`labels`, from `_pieces`) whose group holds ≥
+    MIN_COMPONENT_POINTS points: pieces linked by gaps that run along both of them
+    (`CONTINUATION_GAP_MM`, `CONTINUATION_COS`), piece by piece, a piece of ≥
+    MIN_COMPONENT_POINTS a group of its own at least."""
     sizes = np.bincount(labels)
     edges = [(label, label) for label in range(sizes.size)]
     tree = cKDTree(xz)
@@ -366,7 +371,7 @@ def _continuing(xz: np.ndarray, labels: np.ndarray) -> np.ndarray:
         (np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(sizes.size,) * 2
     )
     groups = connected_components(graph, directed=False)[1]
-    anchored = np.bincount(groups, weights=sizes >= MIN_COMPONENT_POINTS) > 0
+    anchored = np.bincount(groups, weights=sizes) >= MIN_COMPONENT_POINTS
     return anchored[groups[labels]]
 
 

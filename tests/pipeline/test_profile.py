@@ -236,6 +236,44 @@ def test_short_flank_pieces_continuing_the_profile_are_kept_and_pieces_beside_it
     assert p.flange_thickness_mm == pytest.approx(PROFILE.truth.flange_thickness_mm, abs=0.01)
 
 
+def test_flank_pieces_continuing_each_other_far_from_the_top_and_tread_are_kept() -> None:
+    """Short glare stretches: the flank from z = 5 to 17 mm comes as 1.5 mm pieces (under 40
+    points each) 1 mm apart, 6 mm of stripe missing from the top's piece and from the
+    tread's. No piece of 40 points is within reach, but together they hold more: they are
+    kept and Sd is read from them. Two short pieces continuing each other alone (16 points)
+    6 mm outside the flank are not."""
+    x, z = PROFILE.x_mm, PROFILE.z_mm
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(z)))])
+    along = np.arange(0.0, arc[-1], 0.13)
+    x, z = np.interp(along, arc, x), np.interp(along, arc, z)
+    on_flank = x > x[np.argmax(z)]
+    flank = on_flank & (z > 5.0) & (z < 17.0)
+    start, stop = along[flank][0], along[flank][-1]
+    missing = (
+        on_flank
+        & (((along > start - 6.0) & (along < start)) | (along > stop))
+        & (along < stop + 6.0)
+    )
+    stretches = ~flank | (np.mod(along - start, 2.5) < 1.5)
+    stripe = stretches & ~missing
+    pieces = np.diff(np.flatnonzero(stripe & flank)) > 1
+    assert np.count_nonzero(pieces) >= 5 and np.count_nonzero(stripe & flank) > 40
+    first = flank & (along - start < 1.5)
+    second = flank & (along - start >= 2.5) & (along - start < 4.0)
+    pair = np.column_stack([x[first | second] + 6.0, z[first | second]])
+    assert len(pair) < 40
+    xz = np.concatenate([np.column_stack([x, z])[stripe], pair])
+    sensor = np.ones(len(xz), np.int8)
+    profile = np.zeros(len(xz), bool)
+    profile[: np.count_nonzero(stripe)] = True
+
+    keep = clean_profile_points(xz, sensor)
+
+    assert keep[profile].all() and not keep[~profile].any()
+    p = fit_flange_parameters(xz[keep, 0], xz[keep, 1])
+    assert p.flange_thickness_mm == pytest.approx(PROFILE.truth.flange_thickness_mm, abs=0.01)
+
+
 def test_a_streak_one_sensor_draws_above_the_others_tread_is_dropped_point_by_point() -> None:
     """A straight streak of the inner sensor's (another part's edge, 45 points) crossing the
     outer sensor's tread at x = 57 mm and rising to 2 mm above it by x = 60.5 mm is linked to
