@@ -40,18 +40,24 @@ def _references() -> dict[str, _Reference]:
     return {name: load_reference_profile(name) for name in REFERENCE_PROFILES}
 
 
-def closest_reference(x_mm: np.ndarray) -> str | None:
+def closest_reference(x_mm: np.ndarray, rim_width_mm: float | None = None) -> str | None:
     """The reference profile (LMA or S1002) a measured profile is drawn and judged against.
 
     Manifests do not say which profile a wheel was turned to, and the two profiles' heights
-    differ by less than wear does, so the service matches the rim width: the measured
-    profile's extent from the back face against each reference table's (LMA 135 mm, S1002
-    130 mm). This picks the limit set (LM or EN) and the curve drawn behind the profile; it
-    changes no measured parameter. A vehicle register would replace it.
+    differ by less than wear does, so the service matches the rim width against each
+    reference table's (LMA 135 mm, S1002 130 mm): the measured rim width (the field-side
+    face, `pipeline.profile.tread.rim_width`) where there is one, else the profile's extent
+    from the back face. The extent reads a stray point beyond the face: on the field demo
+    pass (seed 2026) 10 of the 11 results measured on its S1002 wheels (both methods)
+    reached past 132.5 mm and were judged as LM wheels, whose back-to-back limit (1356 mm)
+    then alarmed on 1360.8–1361.3 mm, inside the EN band; their rim widths read 129.9–130.1
+    mm. This picks the limit set
+    (LM or EN) and the curve drawn behind the profile; it changes no measured parameter. A
+    vehicle register would replace it.
     """
     if x_mm.size == 0:
         return None
-    width_mm = float(np.max(x_mm))
+    width_mm = float(np.max(x_mm)) if rim_width_mm is None else rim_width_mm
     gaps = {name: abs(width_mm - float(ref.x_mm[-1])) for name, ref in _references().items()}
     return min(gaps, key=gaps.__getitem__)
 
@@ -147,7 +153,9 @@ def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> M
         flange_angle_deg=None if tread is None else tread.flange_angle_deg,
         rim_width_mm=None if tread is None else tread.rim_width_mm,
         tread_reason=result.tread_reason if tread is None else tread.reason,
-        reference_profile=None if profile is None else closest_reference(profile.x_mm),
+        reference_profile=None
+        if profile is None
+        else closest_reference(profile.x_mm, None if tread is None else tread.rim_width_mm),
         point_count=result.points_inner + result.points_outer,
         quality=quality,
         profile=_profile_document(result),
