@@ -5,6 +5,7 @@ import { test } from 'node:test';
 import { PARAMETERS, fmtDisposition } from '../../frontend/js/lib/format.js';
 import {
   REVIEW_PAGE_ROWS,
+  checkedFamily,
   familyOf,
   framesRemovedNote,
   hasAlarmOn,
@@ -114,6 +115,14 @@ test('familyOf and marginOf read a wheel as the service files it', () => {
   const wheel = { margins: [{ parameter: 'qr_mm', level: 'near' }] };
   assert.equal(marginOf(wheel, 'qr_mm').level, 'near');
   assert.equal(marginOf(wheel, 'flange_height_mm'), null);
+});
+
+test('checkedFamily names the limit set of the first result measured, none when neither was', () => {
+  const failed = { method: 'adaptive', status: 'not_measured', reference_profile: null };
+  assert.equal(checkedFamily([failed, { reference_profile: 'LMA' }]), 'LM');
+  assert.equal(checkedFamily([{ reference_profile: 'S1002' }, { reference_profile: 'LMA' }]), 'EN');
+  assert.equal(checkedFamily([failed, undefined]), null);
+  assert.equal(checkedFamily([]), null);
 });
 
 test('missingValuesReason gives a measured result its missing values, not a failed one', () => {

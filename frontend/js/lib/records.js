@@ -104,6 +104,17 @@ export function familyOf(result) {
 }
 
 /**
+ * The limit set a wheel was checked against: that of its first result with a reference
+ * profile (a result without a measured profile has none), or null when none has one.
+ * @param {any[]} results a wheel's results, in the order to prefer them
+ * @returns {'EN'|'LM'|null}
+ */
+export function checkedFamily(results) {
+  const judged = results.find((r) => r?.reference_profile);
+  return judged ? familyOf(judged) : null;
+}
+
+/**
  * The margin of one parameter of a wheel (adaptive), or null.
  * @param {any} wheel a PassWheelRead
  * @param {string} key parameter key

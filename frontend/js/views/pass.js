@@ -13,7 +13,15 @@ import {
   parameterOf,
   shownParameters,
 } from '../lib/format.js';
-import { familyOf, hasAlarmOn, marginOf, missingValuesReason, passStatus, resultOf } from '../lib/records.js';
+import {
+  checkedFamily,
+  familyOf,
+  hasAlarmOn,
+  marginOf,
+  missingValuesReason,
+  passStatus,
+  resultOf,
+} from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { html, nothing, render } from '../../vendor/lit-html-3.3.3.js';
 import { alarmClass, definitions } from './dom.js';
@@ -213,7 +221,9 @@ function wheelCard(wheel, side, mode, passId) {
   const steger = resultOf(wheel, 'steger');
   const shown = mode === 'steger' ? steger : adaptive;
   const cls = mode === 'steger' ? alarmClass(shown) : cardLevel(wheel, adaptive);
-  const family = familyOf(adaptive ?? steger);
+  // A wheel neither method measured was checked against no limits: no badge.
+  const checked = checkedFamily([adaptive, steger]);
+  const family = checked ?? familyOf(adaptive ?? steger);
   const alarms = (shown?.alarms ?? []).map((/** @type {any} */ a) => a.message).join('; ');
   const reason = reasonShown(wheel, mode === 'difference' ? undefined : shown);
   const missing = missingValuesReason(shown);
@@ -235,7 +245,7 @@ function wheelCard(wheel, side, mode, passId) {
   >
     <div class="card-head">
       <span>${side}</span>
-      <span class="limit-set" title="checked against the ${family} limits">${family} limits</span>
+      ${checked ? html`<span class="limit-set" title="checked against the ${family} limits">${family} limits</span>` : html`<span></span>`}
       <span class="state">${wheel.state.replace('_', ' ')}</span>
     </div>
     ${
