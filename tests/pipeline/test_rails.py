@@ -10,7 +10,12 @@ import pytest
 from pipeline.profile.conicity import equivalent_conicity
 from pipeline.profile.rails import GAUGE_DEPTH_MM, load_rail_profile, track_rails
 from pipeline.profile.reference import load_reference_profile
-from pipeline.profile.wheelset import WheelCurve, axle_conicity, rolling_radius_difference
+from pipeline.profile.wheelset import (
+    ContactError,
+    WheelCurve,
+    axle_conicity,
+    rolling_radius_difference,
+)
 from pipeline.simulation.wheel import wheel_profile
 
 
@@ -199,3 +204,27 @@ def test_a_minimum_at_the_wheel_curves_end_gives_no_invalid_values():
         warnings.simplefilter("error")
         result = rolling_radius_difference(short, short, 1360.0, track_rails())
     assert np.all(np.isfinite(result.delta_r_mm))
+
+
+def test_a_bump_on_the_tread_is_no_contact():
+    """A glint's hook on the running surface (0.4 mm over about 1.5 mm, 36 mm beyond the
+    flange top) stands above the tread around it, so a rail touches it first and Δr(y)
+    sticks there: no λₑ comes from shifts whose contact falls on it, and the reason names
+    it. The same hook 0.05 mm high is under the bump's 0.08 mm and changes nothing named."""
+    rails = track_rails()
+    thin = wheel_profile(load_reference_profile("S1002"))
+    top = int(np.argmax(thin.z_mm))
+    end = top + int(np.flatnonzero(np.diff(thin.x_mm[top:]) <= 0)[0]) + 1
+    x, z = thin.x_mm[top:end], thin.z_mm[top:end]
+    whole = axle_conicity(WheelCurve(x, z), WheelCurve(x, z), 1360.0, rails)
+    at = x[0] + 36.0
+    for height, named in ((0.4, True), (0.05, False)):
+        hooked = WheelCurve(x, z + height * np.exp(-0.5 * ((x - at) / 0.5) ** 2))
+        try:
+            axle = axle_conicity(hooked, hooked, 1360.0, rails)
+        except ContactError as exc:
+            assert named and "bump" in str(exc) and f"x = {at:.1f}" in str(exc)
+            continue
+        assert ("bump" in (axle.reason or "")) == named
+        if named:
+            assert axle.conicity_3mm is None or axle.delta_r.y_mm.size < whole.delta_r.y_mm.size
