@@ -20,7 +20,7 @@ import numpy as np
 
 from pipeline.archive.manifest import POSITIONS, WheelEntry
 from pipeline.archive.pass_archive import PassArchive
-from pipeline.calibration.geometry import pixels_to_track_points
+from pipeline.calibration.geometry import camera_centre_track, pixels_to_track_points
 from pipeline.calibration.model import SensorCalibration, StationCalibration
 from pipeline.calibration.search_region import stripe_search_region
 from pipeline.errors import PipelineError
@@ -363,7 +363,8 @@ def measure_wheel(
                 f"no usable stripe from the {position} sensor ({count} centre points)"
             )
     try:
-        profile = fuse_profile(inner_points, outer_points, side=side)
+        cameras = np.array([camera_centre_track(s) for s in sensors])
+        profile = fuse_profile(inner_points, outer_points, side=side, cameras_track_mm=cameras)
         parameters = fit_flange_parameters(profile.x_mm, profile.z_mm)
     except PipelineError as exc:
         return not_measured(str(exc))

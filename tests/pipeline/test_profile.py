@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pipeline.profile.flange import fit_flange_parameters
+from pipeline.profile.flange import FlangeNotFoundError, fit_flange_parameters
 from pipeline.profile.fusion import (
     DatumError,
     clean_profile_points,
@@ -299,3 +299,41 @@ def test_a_streak_one_sensor_draws_above_the_others_tread_is_dropped_point_by_po
 
     assert keep[~streak].all()
     assert not keep[above].any() and np.count_nonzero(above) >= 20
+
+
+def test_points_the_flange_hides_from_their_camera_are_dropped() -> None:
+    """The inner camera (inside the track, below the rail head) sees the flange's back and
+    its crest; beyond the crest the flange hides the flank from it. Where the outer sensor
+    lost the flank (z = 10–17 mm), an inner-sensor piece 1.2 mm outside it (a reflection)
+    is kept without the cameras and reads Sd over 1 mm off; with them it lies below the line
+    from the inner camera through the crest and is dropped, none of the true points is, and
+    the flank is honestly not measured."""
+    x, z = PROFILE.x_mm, PROFILE.z_mm
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(z)))])
+    along = np.arange(0.0, arc[-1], 0.13)
+    x, z = np.interp(along, arc, x), np.interp(along, arc, z)
+    crest = int(np.argmax(z))
+    flank = x > x[crest]
+    inner = x <= x[crest] + 1.0  # the back face, the flange's back and its crest
+    outer = (x >= x[crest] - 4.0) & ~(flank & (z > 10.0) & (z < 17.0))
+    spur = flank & (z > 11.0) & (z < 16.0)
+    xz = np.concatenate(
+        [
+            np.column_stack([x[inner], z[inner]]),
+            np.column_stack([x[outer], z[outer]]),
+            np.column_stack([x[spur] + 1.2, z[spur]]),
+        ]
+    )
+    sensor = np.repeat(np.array([0, 1, 0], np.int8), [inner.sum(), outer.sum(), spur.sum()])
+    true = np.arange(len(xz)) < inner.sum() + outer.sum()
+    cameras = np.array([[-236.0, 171.0], [420.0, 171.0]])  # inner, outer (x, z) [mm]
+
+    seen = clean_profile_points(xz, sensor, cameras)
+    blind = clean_profile_points(xz, sensor)
+
+    assert seen[true].all() and not seen[~true].any()
+    assert blind[~true].all()
+    wrong = fit_flange_parameters(xz[blind, 0], xz[blind, 1]).flange_thickness_mm
+    assert abs(wrong - PROFILE.truth.flange_thickness_mm) > 1.0
+    with pytest.raises(FlangeNotFoundError):
+        fit_flange_parameters(xz[seen, 0], xz[seen, 1])
