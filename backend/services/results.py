@@ -51,9 +51,8 @@ def closest_reference(x_mm: np.ndarray, rim_width_mm: float | None = None) -> st
     pass (seed 2026) 10 of the 11 results measured on its S1002 wheels (both methods)
     reached past 132.5 mm and were judged as LM wheels, whose back-to-back limit (1356 mm)
     then alarmed on 1360.8–1361.3 mm, inside the EN band; their rim widths read 129.9–130.1
-    mm. This picks the limit set
-    (LM or EN) and the curve drawn behind the profile; it changes no measured parameter. A
-    vehicle register would replace it.
+    mm. This picks the limit set (LM or EN) and the curve drawn behind the profile; it
+    changes no measured parameter. A vehicle register would replace it.
     """
     if x_mm.size == 0:
         return None
