@@ -33,6 +33,7 @@ from pipeline.extraction.curvature import (
 )
 from pipeline.extraction.gaps import bridge_gaps
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
+from pipeline.extraction.glints import without_glints
 from pipeline.extraction.line_test import (
     is_line,
     line_profiles,
@@ -817,12 +818,16 @@ def _assemble(
     c_grey: float,
     continuing: bool = False,
     gap_search: bool = False,
-) -> Centres:
+) -> tuple[Centres, np.ndarray]:
+    """The centres of the candidates (`extract_centres`'s chain rules and refinement) and
+    the spot chains' tops (`_spot_tops`)."""
     lines = _lines_only(image, candidates, width_min, c_grey)
     selected, (x, y, nx, ny), height, rejected_x, rejected_y = lines
     chains = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
+    link_chains = chains
     xy = np.column_stack([x, y])
     chains, spots = _no_spots(chains, height, selected, xy)
+    spot_tops = _spot_tops(spots, height, selected.sigma, xy, link_chains)
     found = np.concatenate(chains) if chains else np.zeros(0, np.int64)
     width_at = np.full(x.size, np.nan)
     points = (x[found], y[found], nx[found], ny[found])
@@ -881,7 +886,7 @@ def _assemble(
             x, y = remove_curvature_bias(
                 x, y, nx, ny, sigma, polylines, scatter_support=scatter_support
             )
-    return Centres(
+    centres = Centres(
         x=x,
         y=y,
         nx=nx,
@@ -898,6 +903,18 @@ def _assemble(
         rejected_x=rejected_x,
         rejected_y=rejected_y,
     )
+    return centres, spot_tops
+
+
+def _spot_tops(spots, height, sigma, xy, chains) -> np.ndarray:
+    """(G, 3) x, y [px] and σ [px] of the highest centre of each chain of `spots` (the
+    spot chains' points, from `_no_spots`), for `glints.without_glints`."""
+    if not spots.size:
+        return np.zeros((0, 3))
+    held = np.zeros(xy.shape[0], bool)
+    held[spots] = True
+    tops = [c[int(np.argmax(height[c]))] for c in chains if held[c[0]]]
+    return np.column_stack([xy[tops], sigma[tops]])
 
 
 def extract_centres(
@@ -912,6 +929,7 @@ def extract_centres(
     scatter_support: bool = False,
     normal_fit: bool | None = None,
     gap_search: bool = False,
+    glint_subtraction: bool = False,
     full_frame: bool = False,
     region: PixelRegion | None = None,
 ) -> Centres:
@@ -964,6 +982,11 @@ def extract_centres(
         from both ends (`pipeline.extraction.gaps.bridge_gaps`; "adaptive" only). Off by
         default: on simulated field passes it measures more wheels but its points lie
         farther from the outline than the chains' (docs/extraction.md §6a).
+    glint_subtraction : bool
+        Fit the glints the chain rules found as round spots, subtract them from the frame
+        and extract the centres again on it (`pipeline.extraction.glints`; "adaptive" only,
+        a frame with such spots costs a second extraction). Off by default (docs/extraction.md,
+        "Glints fitted and subtracted").
     full_frame : bool
         Analyse the whole frame (every block) instead of the stripe band located on the
         coarsest scale (the camera-rate path, "adaptive" and "steger"); the same kernels,
@@ -1051,6 +1074,7 @@ def extract_centres(
         gap_search=gap_search,
         full_frame=full_frame,
         every_strong=region is not None,
+        glint_subtraction=glint_subtraction,
     )
     return found if region is None else _in_frame(found, region, image.shape)
 
@@ -1069,9 +1093,12 @@ def _extract(
     gap_search: bool,
     full_frame: bool,
     every_strong: bool,
+    glint_subtraction: bool = False,
 ) -> Centres:
     """`extract_centres` of a validated frame; `every_strong` keeps every strong stripe
-    candidate (`segmentation.stripe_components`), as inside a search region."""
+    candidate (`segmentation.stripe_components`), as inside a search region. With
+    `glint_subtraction` ("adaptive") a frame whose chains hold round spots is extracted
+    again with the spots fitted and subtracted (`glints.without_glints`)."""
     sigmas = stripe_scales(float(width_min), float(width_max))
     fixed_sigma = float(sigma) if sigma is not None else sigmas[1]
     c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
@@ -1105,7 +1132,7 @@ def _extract(
                 selected = _select_fixed(scale, mask, all_blocks(mask.shape))
         else:
             selected, sigma_map = _select_adaptive(analysis.scales, sigmas, mask, blocks)
-    return _assemble(
+    found, spot_tops = _assemble(
         image,
         selected,
         mask,
@@ -1122,6 +1149,25 @@ def _extract(
         c_grey=c_grey,
         continuing=every_strong,
         gap_search=gap_search,
+    )
+    if not (glint_subtraction and method == "adaptive" and spot_tops.size):
+        return found
+    corrected = without_glints(image, spot_tops, full_scale(image.dtype))
+    if image.dtype == np.uint16:  # float frames are read on the 8-bit scale
+        corrected = np.rint(corrected).astype(np.uint16)
+    return _extract(
+        corrected,
+        method,
+        width_min,
+        width_max,
+        sigma,
+        curvature_correction=curvature_correction,
+        asymmetry_correction=asymmetry_correction,
+        scatter_support=scatter_support,
+        normal_fit=normal_fit,
+        gap_search=gap_search,
+        full_frame=full_frame,
+        every_strong=every_strong,
     )
 
 

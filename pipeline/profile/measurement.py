@@ -37,16 +37,18 @@ from pipeline.version import PIPELINE_VERSION
 MEASURED = "measured"
 NOT_MEASURED = "not measured"
 MEASURE_METHODS = ("adaptive", "steger")
-CORRECTIONS = ("curvature", "asymmetry", "scatter", "normal", "gaps")
+CORRECTIONS = ("curvature", "asymmetry", "scatter", "normal", "gaps", "glints")
 """Corrections a method label can switch on (+name) or off (−name): "steger+curvature",
 "adaptive+asymmetry", "adaptive-normal-curvature" (the Hessian centres without the
 curvature correction), "adaptive-normal+scatter" (Hessian centres with the along-stripe
 support chosen by the centre scatter); "normal" is the matched fit along the normal
 (`extract_centres(normal_fit=...)`), which replaces the curvature correction and the
 scatter support; "gaps" the guided search across gaps between chains
-(`extract_centres(gap_search=...)`, adaptive only). A bare method keeps its defaults
-(normal fit on for adaptive, off for Steger; curvature on for adaptive's Hessian centres,
-off for Steger; asymmetry, scatter and gaps off)."""
+(`extract_centres(gap_search=...)`, adaptive only); "glints" the glints beside the stripe
+fitted and subtracted before a second extraction (`extract_centres(glint_subtraction=...)`,
+adaptive only). A bare method keeps its defaults (normal fit on for adaptive, off for
+Steger; curvature on for adaptive's Hessian centres, off for Steger; asymmetry, scatter,
+gaps and glints off)."""
 MIN_SENSOR_POINTS = 50
 """A sensor with fewer centre points than this has no usable stripe (a wheel's stripe gives
 over a thousand)."""
@@ -175,6 +177,7 @@ class MethodOptions:
     scatter_support: bool
     normal_fit: bool
     gap_search: bool = False
+    glint_subtraction: bool = False
 
 
 def method_options(label: str) -> MethodOptions:
@@ -195,6 +198,7 @@ def method_options(label: str) -> MethodOptions:
         "scatter": False,
         "normal": adaptive,
         "gaps": False,
+        "glints": False,
     }
     for token in tokens[1:]:
         if token[1:] not in CORRECTIONS:
@@ -209,6 +213,7 @@ def method_options(label: str) -> MethodOptions:
         switches["scatter"],
         switches["normal"],
         switches["gaps"],
+        switches["glints"],
     )
 
 
@@ -260,6 +265,7 @@ def _frame_centres(images, sensor, options: MethodOptions, widths, region) -> li
             scatter_support=options.scatter_support,
             normal_fit=options.normal_fit,
             gap_search=options.gap_search,
+            glint_subtraction=options.glint_subtraction,
             region=region,
         )
         points = pixels_to_track_points(centres.x, centres.y, sensor)
