@@ -929,7 +929,7 @@ def extract_centres(
     scatter_support: bool = False,
     normal_fit: bool | None = None,
     gap_search: bool = False,
-    glint_subtraction: bool = False,
+    glint_subtraction: bool = True,
     full_frame: bool = False,
     region: PixelRegion | None = None,
 ) -> Centres:
@@ -983,10 +983,10 @@ def extract_centres(
         default: on simulated field passes it measures more wheels but its points lie
         farther from the outline than the chains' (docs/extraction.md §6a).
     glint_subtraction : bool
-        Fit the glints the chain rules found as round spots, subtract them from the frame
-        and extract the centres again on it (`pipeline.extraction.glints`; "adaptive" only,
-        a frame with such spots costs a second extraction). Off by default (docs/extraction.md,
-        "Glints fitted and subtracted").
+        Fit the glints the chain rules found as round spots beside the stripe, subtract them
+        from the frame and extract the centres again on it (`pipeline.extraction.glints`;
+        "adaptive" only: a frame with such spots costs a second extraction). On by default
+        (docs/extraction.md, "Glints fitted and subtracted").
     full_frame : bool
         Analyse the whole frame (every block) instead of the stripe band located on the
         coarsest scale (the camera-rate path, "adaptive" and "steger"); the same kernels,
