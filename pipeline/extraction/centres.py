@@ -1152,7 +1152,10 @@ def _extract(
     )
     if not (glint_subtraction and method == "adaptive" and spot_tops.size):
         return found
-    corrected = without_glints(image, spot_tops, full_scale(image.dtype))
+    stripe_xy = np.column_stack([found.x, found.y])
+    corrected = without_glints(image, spot_tops, full_scale(image.dtype), stripe_xy)
+    if corrected is None:
+        return found
     if image.dtype == np.uint16:  # float frames are read on the 8-bit scale
         corrected = np.rint(corrected).astype(np.uint16)
     return _extract(
