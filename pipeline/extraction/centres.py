@@ -1061,12 +1061,12 @@ def extract_centres(
         region.validate(image.shape)
         crop = image[region.row_start : region.row_stop, region.col_start : region.col_stop]
         frame = np.ascontiguousarray(crop)
-    found = _extract(
-        frame,
-        method,
-        width_min,
-        width_max,
-        sigma,
+    extract = functools.partial(
+        _extract,
+        method=method,
+        width_min=width_min,
+        width_max=width_max,
+        sigma=sigma,
         curvature_correction=curvature_correction,
         asymmetry_correction=asymmetry_correction,
         scatter_support=scatter_support,
@@ -1074,9 +1074,24 @@ def extract_centres(
         gap_search=gap_search,
         full_frame=full_frame,
         every_strong=region is not None,
-        glint_subtraction=glint_subtraction,
     )
+    found, spot_tops = extract(frame)
+    if glint_subtraction and method == "adaptive" and spot_tops.size:
+        corrected = _without_glints(frame, found, spot_tops)
+        if corrected is not None:
+            found, _ = extract(corrected)
     return found if region is None else _in_frame(found, region, image.shape)
+
+
+def _without_glints(image: np.ndarray, found: Centres, spot_tops: np.ndarray) -> np.ndarray | None:
+    """The frame with the glints at `spot_tops` near the centres `found` subtracted
+    (`glints.without_glints`), of the frame's type where the 8-bit scale would not hold
+    (uint16); None when no glint is near the stripe."""
+    stripe_xy = np.column_stack([found.x, found.y])
+    corrected = without_glints(image, spot_tops, full_scale(image.dtype), stripe_xy)
+    if corrected is not None and image.dtype == np.uint16:  # float frames: the 8-bit scale
+        corrected = np.rint(corrected).astype(np.uint16)
+    return corrected
 
 
 def _extract(
@@ -1093,12 +1108,10 @@ def _extract(
     gap_search: bool,
     full_frame: bool,
     every_strong: bool,
-    glint_subtraction: bool = False,
-) -> Centres:
-    """`extract_centres` of a validated frame; `every_strong` keeps every strong stripe
-    candidate (`segmentation.stripe_components`), as inside a search region. With
-    `glint_subtraction` ("adaptive") a frame whose chains hold round spots is extracted
-    again with the spots fitted and subtracted (`glints.without_glints`)."""
+) -> tuple[Centres, np.ndarray]:
+    """`extract_centres` of a validated frame, one pass, and the tops of the chains dropped
+    as round spots (`_spot_tops`, for `_without_glints`); `every_strong` keeps every strong
+    stripe candidate (`segmentation.stripe_components`), as inside a search region."""
     sigmas = stripe_scales(float(width_min), float(width_max))
     fixed_sigma = float(sigma) if sigma is not None else sigmas[1]
     c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
@@ -1132,7 +1145,7 @@ def _extract(
                 selected = _select_fixed(scale, mask, all_blocks(mask.shape))
         else:
             selected, sigma_map = _select_adaptive(analysis.scales, sigmas, mask, blocks)
-    found, spot_tops = _assemble(
+    return _assemble(
         image,
         selected,
         mask,
@@ -1149,28 +1162,6 @@ def _extract(
         c_grey=c_grey,
         continuing=every_strong,
         gap_search=gap_search,
-    )
-    if not (glint_subtraction and method == "adaptive" and spot_tops.size):
-        return found
-    stripe_xy = np.column_stack([found.x, found.y])
-    corrected = without_glints(image, spot_tops, full_scale(image.dtype), stripe_xy)
-    if corrected is None:
-        return found
-    if image.dtype == np.uint16:  # float frames are read on the 8-bit scale
-        corrected = np.rint(corrected).astype(np.uint16)
-    return _extract(
-        corrected,
-        method,
-        width_min,
-        width_max,
-        sigma,
-        curvature_correction=curvature_correction,
-        asymmetry_correction=asymmetry_correction,
-        scatter_support=scatter_support,
-        normal_fit=normal_fit,
-        gap_search=gap_search,
-        full_frame=full_frame,
-        every_strong=every_strong,
     )
 
 
