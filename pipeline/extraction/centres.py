@@ -1085,13 +1085,15 @@ def extract_centres(
 
 def _without_glints(image: np.ndarray, found: Centres, spot_tops: np.ndarray) -> np.ndarray | None:
     """The frame with the glints at `spot_tops` near the centres `found` subtracted
-    (`glints.without_glints`), of the frame's type where the 8-bit scale would not hold
-    (uint16); None when no glint is near the stripe."""
+    (`glints.without_glints`), rounded back to the frame's integer type (the second pass
+    runs the kernels the first one did, and c keeps its scale); None when no glint is near
+    the stripe."""
     stripe_xy = np.column_stack([found.x, found.y])
     corrected = without_glints(image, spot_tops, full_scale(image.dtype), stripe_xy)
-    if corrected is not None and image.dtype == np.uint16:  # float frames: the 8-bit scale
-        corrected = np.rint(corrected).astype(np.uint16)
-    return corrected
+    if corrected is None or not np.issubdtype(image.dtype, np.integer):
+        return corrected
+    top = np.iinfo(image.dtype).max
+    return np.clip(np.rint(corrected), 0, top).astype(image.dtype)
 
 
 def _extract(
