@@ -40,7 +40,7 @@ METHODS = (
     "adaptive",
     "adaptive+asymmetry",
     "adaptive+gaps",
-    "adaptive-glints",
+    "adaptive+glints",
     "adaptive-normal",
     "adaptive-normal+scatter",
     "adaptive-normal-curvature",
@@ -49,8 +49,8 @@ METHODS = (
     "steger+curvature+asymmetry",
 )
 """Adaptive (the matched fit along the normal on by default), adaptive with the guided
-search across gaps between chains (off by default, docs/extraction.md §6a), without the
-glints beside the stripe subtracted (on by default, docs/extraction.md "Glints fitted and
+search across gaps between chains (off by default, docs/extraction.md §6a), with the glints
+beside the stripe subtracted (off by default, docs/extraction.md "Glints fitted and
 subtracted"), its Hessian
 centres without the matched fit (curvature correction on, with the scatter-chosen support,
 and with neither), and Steger (corrections off by default), each with and without the

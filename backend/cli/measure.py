@@ -300,7 +300,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=("adaptive", "steger"),
         help="both (default), or method labels separated by commas with ±curvature, "
         "±asymmetry, ±scatter, ±normal, ±gaps, ±glints "
-        "(e.g. adaptive,adaptive-normal,adaptive-glints,steger+curvature+asymmetry)",
+        "(e.g. adaptive,adaptive-normal,adaptive+glints,steger+curvature+asymmetry)",
     )
     rr.add_argument("--json", required=True, metavar="OUT", help="output JSON file, - for stdout")
     add_agreement_arguments(rr)

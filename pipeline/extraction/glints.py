@@ -1,5 +1,6 @@
 """Glints beside the stripe, fitted and subtracted so that the stripe's centres can be read
-again (adaptive, on by default: `extract_centres(glint_subtraction=...)`, label −glints).
+again (adaptive, switchable, off by default: `extract_centres(glint_subtraction=True)`,
+method label +glints).
 
 A specular glint next to the stripe adds its light to one side of the stripe's
 cross-section: where it outshines a dim stripe (a steep flank at grazing laser incidence)

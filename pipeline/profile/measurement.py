@@ -46,9 +46,9 @@ support chosen by the centre scatter); "normal" is the matched fit along the nor
 scatter support; "gaps" the guided search across gaps between chains
 (`extract_centres(gap_search=...)`, adaptive only); "glints" the glints beside the stripe
 fitted and subtracted before a second extraction (`extract_centres(glint_subtraction=...)`,
-adaptive only). A bare method keeps its defaults (normal fit and glints on for adaptive,
-off for Steger; curvature on for adaptive's Hessian centres, off for Steger; asymmetry,
-scatter and gaps off)."""
+adaptive only). A bare method keeps its defaults (normal fit on for adaptive, off for
+Steger; curvature on for adaptive's Hessian centres, off for Steger; asymmetry, scatter,
+gaps and glints off)."""
 MIN_SENSOR_POINTS = 50
 """A sensor with fewer centre points than this has no usable stripe (a wheel's stripe gives
 over a thousand)."""
@@ -198,7 +198,7 @@ def method_options(label: str) -> MethodOptions:
         "scatter": False,
         "normal": adaptive,
         "gaps": False,
-        "glints": adaptive,
+        "glints": False,
     }
     for token in tokens[1:]:
         if token[1:] not in CORRECTIONS:

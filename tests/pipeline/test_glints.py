@@ -1,5 +1,5 @@
-"""Glints beside a dim stripe fitted and subtracted (`extract_centres(glint_subtraction=...)`,
-on by default; `pipeline.extraction.glints`): the stripe's centres beside them come back on
+"""Glints beside a dim stripe fitted and subtracted (`extract_centres(glint_subtraction=True)`,
+off by default; `pipeline.extraction.glints`): the stripe's centres beside them come back on
 its line."""
 
 from __future__ import annotations
@@ -39,10 +39,10 @@ def test_a_glint_touching_a_dim_stripe_is_subtracted_and_the_stripe_read_on_its_
     stripe_peak, offset_px, sigma_px, glint_peak
 ) -> None:
     image, truth = _beside(stripe_peak, offset_px, sigma_px, glint_peak)
-    plain = extract_centres(image, width_min=5, width_max=21, glint_subtraction=False)
+    plain = extract_centres(image, width_min=5, width_max=21)
     covered, worst = _near_glint(plain, truth)
     assert covered < 0.9 and worst > 0.9  # without it the glint cuts and bends the stripe
-    fixed = extract_centres(image, width_min=5, width_max=21)
+    fixed = extract_centres(image, width_min=5, width_max=21, glint_subtraction=True)
     covered, worst = _near_glint(fixed, truth)
     assert covered == 1.0
     assert worst < 0.2
@@ -51,8 +51,8 @@ def test_a_glint_touching_a_dim_stripe_is_subtracted_and_the_stripe_read_on_its_
 def test_a_frame_without_spots_is_extracted_once_and_unchanged() -> None:
     stripe, _ = _bend(ROWS, COLS, width_px=9.0, peak=150.0)
     image = _frame(stripe)
-    plain = extract_centres(image, width_min=5, width_max=21, glint_subtraction=False)
-    fixed = extract_centres(image, width_min=5, width_max=21)
+    plain = extract_centres(image, width_min=5, width_max=21)
+    fixed = extract_centres(image, width_min=5, width_max=21, glint_subtraction=True)
     np.testing.assert_array_equal(plain.x, fixed.x)
     np.testing.assert_array_equal(plain.y, fixed.y)
 

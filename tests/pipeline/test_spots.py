@@ -70,12 +70,10 @@ def test_no_centre_is_kept_on_a_spot_and_the_stripe_keeps_its_coverage() -> None
     stripe, truth = _bend(rows, cols, width_px=9.0, peak=150.0)
     spots = sum(_spot(rows, cols, *spot) for spot in SPOTS_BESIDE + SPOTS_ON)
     clean = extract_centres(_frame(stripe), width_min=5, width_max=21)
-    # The spot rule alone (without the glints' subtraction, which removes the spots beside
-    # the stripe before the second extraction: `test_glints`).
-    spotted = extract_centres(
-        _frame(stripe + spots), width_min=5, width_max=21, glint_subtraction=False
+    spotted = extract_centres(_frame(stripe + spots), width_min=5, width_max=21)
+    subtracted = extract_centres(
+        _frame(stripe + spots), width_min=5, width_max=21, glint_subtraction=True
     )
-    subtracted = extract_centres(_frame(stripe + spots), width_min=5, width_max=21)
     assert _covered(clean, truth) > 0.99
     assert _covered(spotted, truth) >= _covered(clean, truth) - 0.005
     assert _covered(subtracted, truth) >= _covered(clean, truth) - 0.005
