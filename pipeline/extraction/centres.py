@@ -35,6 +35,7 @@ from pipeline.extraction.gaps import bridge_gaps
 from pipeline.extraction.gaussian import MIN_SIGMA_PX
 from pipeline.extraction.glints import without_glints
 from pipeline.extraction.line_test import (
+    chain_tops,
     is_line,
     line_profiles,
     on_bodies,
@@ -823,11 +824,10 @@ def _assemble(
     the spot chains' tops (`_spot_tops`)."""
     lines = _lines_only(image, candidates, width_min, c_grey)
     selected, (x, y, nx, ny), height, rejected_x, rejected_y = lines
-    chains = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
-    link_chains = chains
+    linked = link_points(selected.rows, selected.cols, x, y, nx, ny, selected.sigma, mask.shape)
     xy = np.column_stack([x, y])
-    chains, spots = _no_spots(chains, height, selected, xy)
-    spot_tops = _spot_tops(spots, height, selected.sigma, xy, link_chains)
+    chains, spots = _no_spots(linked, height, selected, xy)
+    spot_tops = _spot_tops(spots, height, selected.sigma, xy, linked)
     found = np.concatenate(chains) if chains else np.zeros(0, np.int64)
     width_at = np.full(x.size, np.nan)
     points = (x[found], y[found], nx[found], ny[found])
@@ -913,7 +913,7 @@ def _spot_tops(spots, height, sigma, xy, chains) -> np.ndarray:
         return np.zeros((0, 3))
     held = np.zeros(xy.shape[0], bool)
     held[spots] = True
-    tops = [c[int(np.argmax(height[c]))] for c in chains if held[c[0]]]
+    tops = chain_tops(height, [c for c in chains if held[c[0]]])
     return np.column_stack([xy[tops], sigma[tops]])
 
 

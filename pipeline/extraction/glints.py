@@ -3,17 +3,17 @@ again (adaptive, switchable, off by default: `extract_centres(glint_subtraction=
 method label +glints).
 
 A specular glint next to the stripe adds its light to one side of the stripe's
-cross-section: where it outshines a dim stripe (a steep flank at grazing laser incidence)
-the cross-section holds no maximum of the stripe's own and the centres there are lost or
-bent towards it (docs/extraction.md, "Glints touching the stripe"). The glints are those
-the chain rules found as round spots (`line_test.is_spot`: one per spot, the highest
-centre of its chain). Each is fitted as a round Gaussian on a local background,
-b + A·exp(−r²/2s²), on the pixels within `FIT_REACH_PX` of it that the stripe does not
-brighten: light only adds, so after each fit the pixels more than `TRIM_NOISE` robust
-noise levels above the model (the stripe's) are left out and the fit is repeated,
-at most `FIT_ROUNDS` times. Saturated pixels never enter the fit. The fitted spot (not
-its background) is subtracted from the frame over ±4s, and the frame's centres are
-extracted again on it.
+cross-section: where it outshines a dim stripe (the steep worn step of a flank on the
+simulated clean passes) the cross-section holds no maximum of the stripe's own and the
+centres there are lost or bent towards it (docs/extraction.md, "Glints touching the
+stripe"). The glints are those the chain rules found as round spots (`line_test.is_spot`:
+one per spot, the highest centre of its chain). Each is fitted as a round Gaussian on a
+local background, b + A·exp(−r²/2s²), on the pixels within `FIT_REACH_PX` of it that the
+stripe does not brighten: light only adds, so after each fit the pixels more than
+`TRIM_NOISE` robust noise levels above the model (the stripe's) are left out and the fit
+is repeated, at most `FIT_ROUNDS` times. Saturated pixels never enter the fit. The fitted
+spot (not its background) is subtracted from the frame over ±4s, and the frame's centres
+are extracted again on it.
 """
 
 from __future__ import annotations
