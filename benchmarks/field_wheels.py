@@ -130,6 +130,11 @@ def view_table(sensor: np.ndarray, cosine: np.ndarray, offset: np.ndarray) -> st
     return "\n".join(lines) + "\n"
 
 
+def _error(name: str, value: float | None, true: float) -> str:
+    """"name ±error" [mm], or "name –" for a value not measured."""
+    return f"{name} –     " if value is None else f"{name} {value - true:+.3f}"
+
+
 def wheel_row(measurement: WheelMeasurement, truth: dict, outline: WheelProfile) -> str:
     """One wheel's row (see the module docstring)."""
     if measurement.status != MEASURED or measurement.profile is None:
@@ -138,9 +143,11 @@ def wheel_row(measurement: WheelMeasurement, truth: dict, outline: WheelProfile)
     assert parameters is not None
     cells = [
         f"dSh {parameters.flange_height_mm - truth['flange_height_mm']:+.3f}",
-        f"dSd {parameters.flange_thickness_mm - truth['flange_thickness_mm']:+.3f}",
+        _error("dSd", parameters.flange_thickness_mm, truth["flange_thickness_mm"]),
         f"gap {parameters.flank_gap_mm:.1f}",
     ]
+    if parameters.reason is not None:
+        cells.append(f"[{parameters.reason.split(':', 1)[0]} not measured]")
     x, z, sensor = profile.x_mm, profile.z_mm, profile.sensor
     x_top = float(x[np.argmax(z)])
     band = (x > x_top) & (z >= SD_BAND_MM[0]) & (z <= SD_BAND_MM[1])

@@ -362,7 +362,7 @@ class MethodResult(Sd10Alias):
     status: str
     reason: str | None = Field(
         description="why the wheel was not measured; on a measured result, which flange values "
-        "are missing and why, each named ('Sd 10: …; qR: …', 'qR: …'), null when none are"
+        "are missing and why, each named ('Sd: …', 'Sd 10: …; qR: …', 'qR: …'), null when none are"
     )
     flange_height_mm: float | None
     flange_thickness_mm: float | None
@@ -582,6 +582,11 @@ class WorstWheelRead(BaseModel):
     rim_width_mm: float | None = Field(default=None, description="its rim width")
     equivalent_conicity: float | None = Field(
         default=None, description="its axle's equivalent conicity at 3 mm (EN 15302)"
+    )
+    values_not_measured: str | None = Field(
+        default=None,
+        description="the same measurement's values not measured and why, each named ('Sd: …', "
+        "'Sd 10: …; qR: …'); a limit it has no value for is not checked; null when none",
     )
 
 

@@ -67,8 +67,8 @@ def construction_points(
     """The points that define Sh, Sd (12 and 10 mm) and qR in the profile frame [mm].
 
     Sd and qR are horizontal distances from the back face (x = 0), so the flank points are
-    (Sd, 12), (Sd10, 10) and (Sd10 − qR, Sh − 2) (no "sd_en" entry when Sd 10 was not
-    measured, no "qr" entry when qR was not); the flange top is the highest profile point,
+    (Sd, 12), (Sd10, 10) and (Sd10 − qR, Sh − 2) (no "sd", "sd_en" or "qr" entry for a value
+    not measured); the flange top is the highest profile point,
     at height Sh above the tread reference point (70, 0).
     """
     top = int(np.argmax(profile.z_mm))
@@ -79,11 +79,12 @@ def construction_points(
             "flange_top": [round(float(profile.x_mm[top]), 3), round(sh, 3)],
             "tread_point": [REFERENCE_POINT_X_MM, 0.0],
         },
-        "sd": {
+    }
+    if parameters.flange_thickness_mm is not None:
+        points["sd"] = {
             "back_face_x_mm": 0.0,
             "flank_point": [round(parameters.flange_thickness_mm, 3), 12.0],
-        },
-    }
+        }
     if sd10 is None:
         return points
     points["sd_en"] = {"flank_point": [round(sd10, 3), 10.0]}
@@ -136,7 +137,7 @@ def _profile_document(result: WheelMeasurement) -> dict[str, Any]:
 
 def measurement_row(result: WheelMeasurement, fleet: str, session: Session) -> Measurement:
     """A Measurement row (not yet attached to a pass wheel) from one method's result; its
-    reason says why the wheel, or only its Sd 10 and qR or its qR, was not measured."""
+    reason says why the wheel, or only some of its Sd, Sd 10 and qR, was not measured."""
     parameters, profile, tread = result.parameters, result.profile, result.tread
     quality = result.quality_figures()
     row = Measurement(

@@ -167,6 +167,7 @@ def worst_wheels(
                     Pass,
                     Site.name,
                     Measurement.reference_profile,
+                    Measurement.reason,
                     *(getattr(Measurement, name) for name in UNLIMITED_VALUES),
                 )
             ),
@@ -191,9 +192,10 @@ def worst_wheels(
             wheel_profile=profile_family(reference),
             margin=MarginRead.model_validate(margin),
             disposition=dispositions.get(pass_wheel_id),
+            values_not_measured=missing,
             **dict(zip(UNLIMITED_VALUES, values, strict=True)),
         )
-        for margin, pass_wheel_id, wheel, train_pass, site, reference, *values in rows
+        for margin, pass_wheel_id, wheel, train_pass, site, reference, missing, *values in rows
     ]
     return Page[WorstWheelRead](items=items, total=total or 0, offset=offset, limit=limit)
 

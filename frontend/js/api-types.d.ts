@@ -203,7 +203,7 @@ export interface Me {
 export interface MethodResult {
   method: string;
   status: string;
-  /** why the wheel was not measured; on a measured result, which flange values are missing and why, each named ('Sd 10: …; qR: …', 'qR: …'), null when none are */
+  /** why the wheel was not measured; on a measured result, which flange values are missing and why, each named ('Sd: …', 'Sd 10: …; qR: …', 'qR: …'), null when none are */
   reason: string | null;
   flange_height_mm: number | null;
   flange_thickness_mm: number | null;
@@ -544,6 +544,8 @@ export interface WorstWheelRead {
   rim_width_mm?: number | null;
   /** its axle's equivalent conicity at 3 mm (EN 15302) */
   equivalent_conicity?: number | null;
+  /** the same measurement's values not measured and why, each named ('Sd: …', 'Sd 10: …; qR: …'); a limit it has no value for is not checked; null when none */
+  values_not_measured?: string | null;
 }
 
 /** The JSON body of each route's success response. */

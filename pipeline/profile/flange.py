@@ -8,10 +8,11 @@ ordered polyline by linear interpolation (reference tables, the simulator's true
 `fit_flange_parameters` estimates them from measured, noisy profile points with local
 least-squares fits, so no single noisy point decides a parameter.
 
-Which failure blocks what: without the flange top (Sh) or the flank at 12 mm (Sd) the wheel
-is not measured (`FlangeNotFoundError`); without the flank at 10 mm only Sd 10 and qR (which
-starts from that flank point) are missing, and without it at Sh − 2 only qR. The measured
-parameters are returned either way, with `FlangeParameters.reason` naming what is missing.
+Which failure blocks what: without the flange top (Sh) the wheel is not measured
+(`FlangeNotFoundError`); without the flank at 12 mm Sd is missing, without it at 10 mm Sd 10
+and qR (which starts from that flank point), and without it at Sh − 2 only qR. The measured
+parameters are returned either way, with `FlangeParameters.reason` naming what is missing
+(docs/numbers.md, "Wheel parameters").
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ outlines (field wear ranges, 0.02 mm noise) a 2.5 mm gap is bridged within 0.030
 and 0.039 at 10; 3.5 mm: 0.035 and 0.155 (the root arc), the reference flank shifted in x and
 z: 0.148 and 0.046; on field profiles every bridge moves Sd by up to 0.3–0.4 mm (the centres'
 wave along the flank; docs/simulator.md, "Wider flank bridges"). The gap is reported
-(`FlangeParameters.flank_gap_mm`); a longer one leaves the wheel not measured at 12 mm,
+(`FlangeParameters.flank_gap_mm`); a longer one leaves Sd not measured at 12 mm,
 Sd 10 and qR not measured at 10 mm, qR alone at Sh − 2."""
 MIN_FIT_POINTS = 5
 OUTLIER_MADS = 3.0
@@ -87,8 +88,9 @@ class FlangeParameters:
     ----------
     flange_height_mm : float
         Sh, flange top above the reference point.
-    flange_thickness_mm : float
-        Sd at z = 12 mm from the back face.
+    flange_thickness_mm : float or None
+        Sd at z = 12 mm from the back face; None when the flank there cannot be measured
+        (`reason` says why): Sh is still measured.
     flange_thickness_10_mm : float or None
         Sd at z = 10 mm (EN variant); None when the flank there cannot be measured
         (`reason` says why): Sh and Sd are still measured.
@@ -100,12 +102,12 @@ class FlangeParameters:
         Sd or qR that had to be bridged (fewer than `MIN_FIT_POINTS` points within 1 mm on
         a side of it), at most `MAX_FLANK_GAP_MM`; 0 when every height had its points [mm].
     reason : str or None
-        Why Sd 10 or qR was not measured, each part naming its parameter ("Sd 10: …",
-        "qR: …", joined by "; "); None when all four were measured.
+        Why Sd, Sd 10 or qR was not measured, each part naming its parameter ("Sd: …",
+        "Sd 10: …", "qR: …", joined by "; "); None when all four were measured.
     """
 
     flange_height_mm: float
-    flange_thickness_mm: float
+    flange_thickness_mm: float | None
     flange_thickness_10_mm: float | None
     qr_mm: float | None
     flank_gap_mm: float = 0.0
@@ -378,8 +380,8 @@ def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameter
     Raises
     ------
     FlangeNotFoundError
-        If the flange top or the flank at z = 12 mm (Sd) has too few points. A flank
-        without points at 10 mm leaves Sd 10 and qR not measured, one without points at
+        If the flange top has too few points. A flank without points at 12 mm leaves Sd
+        not measured, one without points at 10 mm Sd 10 and qR, one without points at
         Sh − 2 only qR (`FlangeParameters.reason` says which and why).
 
     Notes
@@ -397,15 +399,27 @@ def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameter
     x_top, height = _fit_top(x, z)
     if not math.isfinite(height):
         raise FlangeNotFoundError("the flange top fit failed")
-    flank_12, gap = _fit_flank(x, z, x_top, SD_HEIGHT_MM, SD_FIT_HALF_WINDOW_MM)
-    try:
-        flank_10, gap_10 = _fit_flank(x, z, x_top, SD_EN_HEIGHT_MM, SD_FIT_HALF_WINDOW_MM)
-    except FlangeNotFoundError as exc:
-        reason = f"Sd 10: {exc}; qR: needs the flank at z = {SD_EN_HEIGHT_MM:.2f} mm"
-        return FlangeParameters(height, flank_12, None, None, gap, reason)
-    gap = max(gap, gap_10)
-    try:
-        flank_top, gap_top = _fit_flank(x, z, x_top, height - QR_DROP_MM)
-    except FlangeNotFoundError as exc:
-        return FlangeParameters(height, flank_12, flank_10, None, gap, f"qR: {exc}")
-    return FlangeParameters(height, flank_12, flank_10, flank_10 - flank_top, max(gap, gap_top))
+    reasons: list[str] = []
+    gap = 0.0
+
+    def flank(height_mm: float, half_window_mm: float, name: str) -> float | None:
+        nonlocal gap
+        try:
+            x_flank, bridged = _fit_flank(x, z, x_top, height_mm, half_window_mm)
+        except FlangeNotFoundError as exc:
+            reasons.append(f"{name}: {exc}")
+            return None
+        gap = max(gap, bridged)
+        return x_flank
+
+    flank_12 = flank(SD_HEIGHT_MM, SD_FIT_HALF_WINDOW_MM, "Sd")
+    flank_10 = flank(SD_EN_HEIGHT_MM, SD_FIT_HALF_WINDOW_MM, "Sd 10")
+    qr = None
+    if flank_10 is None:
+        reasons.append(f"qR: needs the flank at z = {SD_EN_HEIGHT_MM:.2f} mm")
+    else:
+        flank_top = flank(height - QR_DROP_MM, FLANK_HALF_WINDOW_MM, "qR")
+        qr = None if flank_top is None else flank_10 - flank_top
+    return FlangeParameters(
+        height, flank_12, flank_10, qr, gap, "; ".join(reasons) if reasons else None
+    )

@@ -53,24 +53,35 @@ def _s1002_without_flank_below(z_end_mm: float) -> tuple[FusedProfile, FlangePar
     """The S1002 outline every 0.05 mm of arc with its flank lost from z = 4 mm up to
     `z_end_mm` (the outer stripe ending above the flange root), as a fused profile, and the
     true parameters of the whole outline."""
-    reference = load_reference_profile("S1002")
+    return _without_flank("S1002", 4.0, z_end_mm)
+
+
+def _without_flank(
+    name: str, z_start_mm: float, z_end_mm: float
+) -> tuple[FusedProfile, FlangeParameters]:
+    """The `name` outline every 0.05 mm of arc with its flank lost between z_start_mm and
+    z_end_mm, as a fused profile, and the true parameters of the whole outline."""
+    reference = load_reference_profile(name)
     x, z = reference.x_mm, reference.z_mm
     arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(z)))])
     at = np.arange(0.0, arc[-1], 0.05)
     x, z = np.interp(at, arc, x), np.interp(at, arc, z)
     truth = curve_flange_parameters(x, z)
-    keep = ~((x > x[np.argmax(z)]) & (z > 4.0) & (z < z_end_mm))
+    keep = ~((x > x[np.argmax(z)]) & (z > z_start_mm) & (z < z_end_mm))
     x, z = x[keep], z[keep]
     sensor = np.zeros(x.size, np.int8)
     return FusedProfile(x, z, sensor, -676.0, 0.0, None, 0, 0), truth
 
 
-def _store_partial_wheel(client, pass_id: int, vehicle: str) -> tuple[int, FlangeParameters]:
-    """An EN wheel whose flank ends at z = 11.5 mm (Sd 10 and qR not measured), stored
-    through the service's own row, margin and alarm code; its wheel id and the truth."""
-    profile, truth = _s1002_without_flank_below(11.5)
+def _store_partial_wheel(
+    client, pass_id: int, vehicle: str, lost: tuple[str, float, float] = ("S1002", 4.0, 11.5)
+) -> tuple[int, FlangeParameters]:
+    """A wheel whose flank is lost over `lost` (outline, z from, z to [mm]; by default an EN
+    wheel whose flank ends at z = 11.5 mm: Sd 10 and qR not measured), stored through the
+    service's own row, margin and alarm code; its wheel id and the truth."""
+    profile, truth = _without_flank(*lost)
     parameters = fit_flange_parameters(profile.x_mm, profile.z_mm)
-    assert parameters.flange_thickness_10_mm is None  # the case under test
+    assert parameters.reason is not None  # the case under test
     result = WheelMeasurement(
         "left", "adaptive", MEASURED, None, parameters, profile, (), profile.x_mm.size, 0
     )
@@ -143,3 +154,37 @@ def test_a_wheel_without_sd_10_is_stored_checked_and_reported_without_it(
     header = whl.text.split("\n\n")[0].splitlines()
     assert f"Sh={result['flange_height_mm']:.4f}" in header
     assert not any(line.startswith(("Sd=", "qR=")) for line in header)
+
+
+def test_an_lm_wheel_without_sd_keeps_sh_and_shows_what_is_unchecked(client, auth) -> None:
+    """A flank gap about z = 12 mm (the field's dim flank beside its glare): the wheel is
+    measured without Sd, which the LM limits check, so no flange-thickness margin or alarm;
+    Sh and Sd 10 are stored, the profile has no Sd construction, and the worst-wheels row
+    says Sd was not measured (it must be gauged by hand)."""
+    pass_id = open_pass(client, auth, "Basel SBB", "2026-05-04T08:00:00Z", "X1")
+    wheel_id, truth = _store_partial_wheel(client, pass_id, "V006", ("LMA", 10.9, 15.0))
+    viewer = auth("viewer")
+
+    wheels = client.get(f"/api/passes/{pass_id}/wheels", headers=viewer).json()
+    wheel = next(w for w in wheels if w["wheel_id"] == wheel_id)
+    (result,) = wheel["results"]
+    assert result["status"] == "measured" and result["reference_profile"] == "LMA"
+    assert result["flange_height_mm"] == pytest.approx(truth.flange_height_mm, abs=0.02)
+    assert result["flange_thickness_mm"] is None
+    sd_10 = result["flange_thickness_10_mm"]
+    assert sd_10 == pytest.approx(truth.flange_thickness_10_mm, abs=0.03)
+    assert re.fullmatch(
+        r"Sd: too few profile points on the flank near z = 12\.00 mm \(a gap of 4\.\d mm .*",
+        result["reason"],
+    )
+    assert "flange_thickness" not in {m["parameter"].removesuffix("_mm") for m in wheel["margins"]}
+
+    profile = client.get(f"/api/passes/{pass_id}/wheels/{wheel_id}/profile", headers=viewer)
+    assert set(profile.json()["construction"]) == {"sh", "sd_en", "qr"}
+
+    rows = client.get(
+        "/api/review/worst-wheels", headers=viewer, params={"pass_id": pass_id}
+    ).json()["items"]
+    row = next(r for r in rows if r["wheel_id"] == wheel_id)
+    assert row["values_not_measured"] == result["reason"]
+    assert row["margin"]["parameter"] != "flange_thickness_mm"

@@ -12,6 +12,7 @@ import {
   limitStem,
   limitsFor,
   marginOf,
+  missingValueNames,
   missingValuesReason,
   passFilterQuery,
   passStatus,
@@ -132,6 +133,20 @@ test('missingValuesReason gives a measured result its missing values, not a fail
   assert.equal(missingValuesReason({ status: 'measured', reason: null }), null);
   assert.equal(missingValuesReason({ status: 'not_measured', reason: 'no usable stripe' }), null);
   assert.equal(missingValuesReason(null), null);
+});
+
+test('missingValueNames reads the names of the values a reason is given for', () => {
+  const sd =
+    'Sd: too few profile points on the flank near z = 12.00 mm (a gap of 4.1 mm about it; gaps ≤ 2.5 mm are bridged)';
+  assert.deepEqual(missingValueNames(sd), ['Sd']);
+  assert.deepEqual(missingValueNames(`${sd}; Sd 10: too few; qR: needs the flank at z = 10.00 mm`), [
+    'Sd',
+    'Sd 10',
+    'qR',
+  ]);
+  assert.deepEqual(missingValueNames('qR: too few profile points'), ['qR']);
+  assert.deepEqual(missingValueNames(null), []);
+  assert.deepEqual(missingValueNames('no usable stripe from the outer sensor'), []);
 });
 
 test('uncheckedLimits names the limited parameters a measured wheel has no value for', () => {

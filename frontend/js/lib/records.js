@@ -49,14 +49,28 @@ export function hasAlarmOn(result, key, family) {
 
 /**
  * Why a measured result lacks some of its flange values, or null: the service sends it as a
- * measured result's `reason`, each part naming its parameter ("Sd 10: …; qR: …" when the
- * flank at 10 mm was not measured, "qR: …" when only qR was). A result that was not
+ * measured result's `reason`, each part naming its parameter ("Sd: …" when the flank at
+ * 12 mm was not measured, "Sd 10: …; qR: …" when the flank at 10 mm was not, "qR: …" when only
+ * qR was). A result that was not
  * measured at all has its own reason instead (the whole wheel's), so it gives null here.
  * @param {any} result a MethodResult or null
  * @returns {string|null}
  */
 export function missingValuesReason(result) {
   return result?.status === 'measured' ? (result.reason ?? null) : null;
+}
+
+/**
+ * The names of the values a `missingValuesReason` text gives reasons for, in its order:
+ * "Sd: …; qR: …" → ["Sd", "qR"].
+ * @param {string|null|undefined} reason
+ * @returns {string[]}
+ */
+export function missingValueNames(reason) {
+  return (reason ?? '')
+    .split('; ')
+    .map((part) => part.split(': ', 1)[0])
+    .filter((name) => /^(Sd|Sd 10|qR)$/.test(name));
 }
 
 /**

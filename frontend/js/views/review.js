@@ -2,10 +2,11 @@
 /**
  * Worst wheels: what needs action first. Every wheel (its newest pass, or one pass) by the
  * margin to its nearest limit, smallest first, in mm and in % of the limit band; red in
- * alarm, amber near a limit; each with its disposition ("open" when none).
+ * alarm, amber near a limit; each with its disposition ("open" when none) and the values its
+ * measurement lacks (a limit without a value is not checked).
  */
 import { fmtDisposition, fmtNumber, fmtTime, PARAMETERS, parameterOf } from '../lib/format.js';
-import { REVIEW_PAGE_ROWS } from '../lib/records.js';
+import { missingValueNames, REVIEW_PAGE_ROWS } from '../lib/records.js';
 import { buildHash } from '../lib/route.js';
 import { html, nothing, render } from '../../vendor/lit-html-3.3.3.js';
 import { definitions, emptyRow, filterButtons } from './dom.js';
@@ -139,7 +140,7 @@ function row(item, rank) {
     @click=${onClick}
   >
     <td class="num">${rank}</td>
-    <td><span class="badge ${m.level}">${level}</span></td>
+    <td><span class="badge ${m.level}">${level}</span>${missingNote(item.values_not_measured)}</td>
     <td><a href=${buildHash(['vehicles', item.vehicle_id])}>${item.vehicle_id}</a></td>
     <td class="num">${item.axle}</td>
     <td>${item.side}</td>
@@ -155,6 +156,18 @@ function row(item, rank) {
     <td class="mono">${fmtTime(item.started_at)}</td>
     <td>${item.site}</td>
   </tr>`;
+}
+
+/**
+ * "Sd not measured" under a row's level when the measurement lacks values (a limit without a
+ * value is not checked: gauge it by hand), the service's reason as its title.
+ * @param {string|null|undefined} reason the row's `values_not_measured`
+ * @returns {import('../../vendor/lit-html-3.3.3.js').TemplateResult|typeof nothing}
+ */
+function missingNote(reason) {
+  const names = missingValueNames(reason);
+  if (!names.length) return nothing;
+  return html`<span class="missing-values" title=${reason ?? ''}>${names.join(', ')} not measured</span>`;
 }
 
 /**
