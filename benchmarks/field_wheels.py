@@ -4,7 +4,8 @@
 under FOLDER (rendering the field benchmark's passes there first when it holds none:
 `field_repeatability`'s train, seed and repeats, every field effect on; `--seed=N` draws
 another train and passes, held out from the benchmark's) and prints one row
-per wheel: measured or why not, the Sh and Sd errors, the mean offset of each sensor's
+per wheel: measured or why not, the Sh, Sd and Sd 10 errors ("–" and the values' names in
+brackets where a value is not measured), the mean offset of each sensor's
 points from the true flank at z = 11–13 mm (x less the true flank's x at the point's
 height) and the median signed distance of each sensor's points from the true outline
 within ±2.5 mm of the top (+: outside the wheel) [mm]. With `--view` it ends with a table
@@ -131,7 +132,7 @@ def view_table(sensor: np.ndarray, cosine: np.ndarray, offset: np.ndarray) -> st
 
 
 def _error(name: str, value: float | None, true: float) -> str:
-    """"name ±error" [mm], or "name –" for a value not measured."""
+    """ "name ±error" [mm], or "name –" for a value not measured."""
     return f"{name} –     " if value is None else f"{name} {value - true:+.3f}"
 
 
@@ -144,10 +145,13 @@ def wheel_row(measurement: WheelMeasurement, truth: dict, outline: WheelProfile)
     cells = [
         f"dSh {parameters.flange_height_mm - truth['flange_height_mm']:+.3f}",
         _error("dSd", parameters.flange_thickness_mm, truth["flange_thickness_mm"]),
+        _error("dSd10", parameters.flange_thickness_10_mm, truth["flange_thickness_10_mm"]),
         f"gap {parameters.flank_gap_mm:.1f}",
     ]
     if parameters.reason is not None:
-        cells.append(f"[{parameters.reason.split(':', 1)[0]} not measured]")
+        parts = [part.split(": ", 1)[0] for part in parameters.reason.split("; ")]
+        names = [name for name in parts if name in ("Sd", "Sd 10", "qR")]
+        cells.append(f"[{', '.join(names)} not measured]")
     x, z, sensor = profile.x_mm, profile.z_mm, profile.sensor
     x_top = float(x[np.argmax(z)])
     band = (x > x_top) & (z >= SD_BAND_MM[0]) & (z <= SD_BAND_MM[1])

@@ -338,3 +338,28 @@ def test_points_the_flange_hides_from_their_camera_are_dropped() -> None:
     honest = fit_flange_parameters(xz[seen, 0], xz[seen, 1])
     assert honest.flange_thickness_mm is None and honest.flange_thickness_10_mm is None
     assert honest.reason is not None and honest.reason.startswith("Sd: too few profile points")
+
+
+def test_the_datum_is_the_cleaned_profiles_own_tread_height() -> None:
+    """Nine points of another part's stripe 6 mm inside the wheel at x = 74–75 mm, beside an
+    outer sensor whose tread is sampled every 0.18 mm, pull the first datum (taken from every
+    point within ±5 mm of x = 70 mm) by 0.58 mm; fusion drops them, and the profile's z = 0 is
+    then set at its own tread, so Sh and Sd read as without them (seed 2027's field pass 4,
+    V002/1/left, a cluster of 9 points 5.9 mm inside: Sh +0.338 mm before)."""
+    x, z = PROFILE.x_mm, PROFILE.z_mm
+
+    def track(select: np.ndarray, step: int = 1) -> np.ndarray:
+        at = np.flatnonzero(select)[::step]
+        return np.column_stack([676.5 + x[at], np.zeros(at.size), -z[at]])
+
+    px = np.linspace(74.0, 75.0, 9)
+    pz = np.interp(px, x[x > 40], z[x > 40]) + 6.0
+    piece = np.column_stack([676.5 + px, np.zeros_like(px), -pz])
+    inner = np.concatenate([track((x < 25) & (z > -39)), piece])
+    profile = fuse_profile(inner, track((x > 10) & (x < x.max()), 5), side="right")
+
+    assert profile.rejected_points >= 9
+    assert profile.reference_track_z_mm == pytest.approx(0.0, abs=2e-3)
+    p = fit_flange_parameters(profile.x_mm, profile.z_mm)
+    assert p.flange_height_mm == pytest.approx(PROFILE.truth.flange_height_mm, abs=0.01)
+    assert p.flange_thickness_mm == pytest.approx(PROFILE.truth.flange_thickness_mm, abs=0.01)
