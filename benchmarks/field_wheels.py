@@ -26,6 +26,7 @@ from scipy.spatial import cKDTree
 from benchmarks.field_repeatability import AXLES, REPEATS, SEED, VEHICLES
 from pipeline.archive.pass_archive import read_pass_archive
 from pipeline.calibration.geometry import camera_centre_track
+from pipeline.profile.flange import missing_value_names
 from pipeline.profile.fusion import FusedProfile
 from pipeline.profile.measurement import MEASURED, WheelMeasurement, measure_wheel
 from pipeline.simulation.field import FIELD_MODES
@@ -149,9 +150,7 @@ def wheel_row(measurement: WheelMeasurement, truth: dict, outline: WheelProfile)
         f"gap {parameters.flank_gap_mm:.1f}",
     ]
     if parameters.reason is not None:
-        parts = [part.split(": ", 1)[0] for part in parameters.reason.split("; ")]
-        names = [name for name in parts if name in ("Sd", "Sd 10", "qR")]
-        cells.append(f"[{', '.join(names)} not measured]")
+        cells.append(f"[{', '.join(missing_value_names(parameters.reason))} not measured]")
     x, z, sensor = profile.x_mm, profile.z_mm, profile.sensor
     x_top = float(x[np.argmax(z)])
     band = (x > x_top) & (z >= SD_BAND_MM[0]) & (z <= SD_BAND_MM[1])

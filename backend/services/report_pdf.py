@@ -36,6 +36,7 @@ from reportlab.platypus import (
 from backend.api.schemas import MethodResult, PassSummary, PassWheelRead
 from backend.services.margins import REPORTED, Margin, Parameter
 from backend.services.review import disposition_text
+from pipeline.profile.flange import missing_value_names
 
 WHEEL_COLUMNS = tuple(p for p in REPORTED if not p.per_axle)
 """The values of a wheel's table row, in `REPORTED` order."""
@@ -271,14 +272,19 @@ def _cells(result: MethodResult | None) -> list[str]:
     return [_number(getattr(result, p.key), p) for p in WHEEL_COLUMNS]
 
 
-def _status(result: MethodResult | None, wheel: PassWheelRead) -> str:
+def _status(result: MethodResult | None, wheel: PassWheelRead, brief: bool = False) -> str:
+    """A result's cell: not measured and why, or its alarms or "within limits" and the values
+    it lacks, with their reasons (`brief`: their names only, as in the pass table)."""
     if result is None:
         return wheel.state.replace("_", " ") + (f": {wheel.reason}" if wheel.reason else "")
     if result.status != "measured":
         return f"not measured: {result.reason or wheel.reason or '–'}"
     status = f"{len(result.alarms)} alarm(s)" if result.alarms else "within limits"
     # a measured result's reason names the values it lacks ("Sd 10: …; qR: …")
-    return status if result.reason is None else f"{status}; not measured: {result.reason}"
+    if result.reason is None:
+        return status
+    missing = ", ".join(missing_value_names(result.reason)) if brief else result.reason
+    return f"{status}; not measured: {missing}"
 
 
 def _colours(row: int, margins: list[Margin], first_column: int) -> list[Any]:
@@ -313,7 +319,7 @@ def _full_table(
             margins = section.margins.get(method, [])
             data.append([w.vehicle_id, w.axle, w.side, section.family or "–", method.capitalize(),
                          *_cells(result),
-                         Paragraph(_status(result, w), s["small"])])  # fmt: skip
+                         Paragraph(_status(result, w, brief=True), s["small"])])  # fmt: skip
             extra += _colours(len(data) - 1, margins, 5)
     used = sorted({section.family for section in sections if section.family})
     for family in used:

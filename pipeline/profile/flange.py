@@ -76,6 +76,17 @@ OUTLIER_PASSES = 4
 dropped and the fit repeated (up to 4 passes), so a stray spot cannot pull a parameter."""
 
 
+VALUE_NAMES = ("Sd", "Sd 10", "qR")
+"""The names `FlangeParameters.reason` gives its parts ("Sd: …; Sd 10: …; qR: …")."""
+
+
+def missing_value_names(reason: str | None) -> list[str]:
+    """The values a `FlangeParameters.reason` says were not measured, in its order:
+    "Sd: …; qR: …" → ["Sd", "qR"]; none for None or a whole wheel's reason."""
+    parts = (part.split(": ", 1)[0] for part in (reason or "").split("; "))
+    return [name for name in parts if name in VALUE_NAMES]
+
+
 class FlangeNotFoundError(PipelineError):
     """The profile does not show a flange top or flank where the parameters need them."""
 
@@ -356,8 +367,8 @@ def _fit_flank(
         if min(below, above) < MIN_FIT_POINTS or bridged > MAX_FLANK_GAP_MM:
             raise FlangeNotFoundError(
                 f"too few profile points on the {what} (a gap of {bridged:.1f} mm about it "
-                f"with {below} points below and {above} above within 1 mm of its edges; gaps "
-                f"≤ {MAX_FLANK_GAP_MM:g} mm are bridged)"
+                f"with {below} points below and {above} above within 1 mm of its edges, where "
+                f"gaps ≤ {MAX_FLANK_GAP_MM:g} mm are bridged)"
             )
     near |= np.abs(dz) <= half_window_mm
     degree = 2 if np.ptp(dz[near]) > FLANK_HALF_WINDOW_MM else 1

@@ -74,11 +74,10 @@ def _without_flank(
 
 
 def _store_partial_wheel(
-    client, pass_id: int, vehicle: str, lost: tuple[str, float, float] = ("S1002", 4.0, 11.5)
+    client, pass_id: int, vehicle: str, lost: tuple[str, float, float]
 ) -> tuple[int, FlangeParameters]:
-    """A wheel whose flank is lost over `lost` (outline, z from, z to [mm]; by default an EN
-    wheel whose flank ends at z = 11.5 mm: Sd 10 and qR not measured), stored through the
-    service's own row, margin and alarm code; its wheel id and the truth."""
+    """A wheel whose flank is lost over `lost` (outline, z from, z to [mm]), stored through
+    the service's own row, margin and alarm code; its wheel id and the truth."""
     profile, truth = _without_flank(*lost)
     parameters = fit_flange_parameters(profile.x_mm, profile.z_mm)
     assert parameters.reason is not None  # the case under test
@@ -97,19 +96,26 @@ def _store_partial_wheel(
         return wheel.id, truth
 
 
+def _stored(client, auth, started_at: str, vehicle: str, lost: tuple[str, float, float]):
+    """`_store_partial_wheel` in a new pass: its pass and wheel ids, the truth, and the wheel
+    and its one result as the pass's wheels list serves them."""
+    pass_id = open_pass(client, auth, "Basel SBB", started_at, f"X{vehicle}")
+    wheel_id, truth = _store_partial_wheel(client, pass_id, vehicle, lost)
+    wheels = client.get(f"/api/passes/{pass_id}/wheels", headers=auth("viewer")).json()
+    wheel = next(w for w in wheels if w["wheel_id"] == wheel_id)
+    (result,) = wheel["results"]
+    return pass_id, wheel_id, truth, wheel, result
+
+
 def test_a_wheel_without_sd_10_is_stored_checked_and_reported_without_it(
     client, auth, tmp_path
 ) -> None:
     """Sh and Sd are stored and served; Sd 10 and qR are null everywhere with the reason, and
     the EN limits (which check the flange thickness at 10 mm) raise no alarm and keep no
     margin for the missing Sd 10 (as 0 mm it would be 22 mm below the EN minimum)."""
-    pass_id = open_pass(client, auth, "Basel SBB", "2026-05-03T08:00:00Z", "X0")
-    wheel_id, truth = _store_partial_wheel(client, pass_id, "V005")
+    stored = _stored(client, auth, "2026-05-03T08:00:00Z", "V005", ("S1002", 4.0, 11.5))
+    pass_id, wheel_id, truth, wheel, result = stored
     viewer = auth("viewer")
-
-    wheels = client.get(f"/api/passes/{pass_id}/wheels", headers=viewer).json()
-    wheel = next(w for w in wheels if w["wheel_id"] == wheel_id)
-    (result,) = wheel["results"]
     assert result["status"] == "measured" and result["reference_profile"] == "S1002"
     assert result["flange_height_mm"] == pytest.approx(truth.flange_height_mm, abs=0.02)
     assert result["flange_thickness_mm"] == pytest.approx(truth.flange_thickness_mm, abs=0.03)
@@ -145,7 +151,8 @@ def test_a_wheel_without_sd_10_is_stored_checked_and_reported_without_it(
     words = " ".join(text.split())
     assert "within limits; not measured: Sd 10: too few profile points on the flank near z = " \
         "10.00 mm" in words  # fmt: skip
-    assert "qR: needs the flank at z = 10.00 mm" in words
+    assert "qR: needs the flank at z = 10.00 mm" in words  # the wheel's own table, in full
+    assert "within limits; not measured: Sd 10, qR" in words  # the pass table, by name
     assert not re.search(r"\bnan\b", words, re.IGNORECASE)
     assert "Flank at z = 12 mm: Sd" in words and "Flank at z = 10 mm" not in words
 
@@ -161,13 +168,9 @@ def test_an_lm_wheel_without_sd_keeps_sh_and_shows_what_is_unchecked(client, aut
     measured without Sd, which the LM limits check, so no flange-thickness margin or alarm;
     Sh and Sd 10 are stored, the profile has no Sd construction, and the worst-wheels row
     says Sd was not measured (it must be gauged by hand)."""
-    pass_id = open_pass(client, auth, "Basel SBB", "2026-05-04T08:00:00Z", "X1")
-    wheel_id, truth = _store_partial_wheel(client, pass_id, "V006", ("LMA", 10.9, 15.0))
+    stored = _stored(client, auth, "2026-05-04T08:00:00Z", "V006", ("LMA", 10.9, 15.0))
+    pass_id, wheel_id, truth, wheel, result = stored
     viewer = auth("viewer")
-
-    wheels = client.get(f"/api/passes/{pass_id}/wheels", headers=viewer).json()
-    wheel = next(w for w in wheels if w["wheel_id"] == wheel_id)
-    (result,) = wheel["results"]
     assert result["status"] == "measured" and result["reference_profile"] == "LMA"
     assert result["flange_height_mm"] == pytest.approx(truth.flange_height_mm, abs=0.02)
     assert result["flange_thickness_mm"] is None

@@ -137,7 +137,7 @@ test('missingValuesReason gives a measured result its missing values, not a fail
 
 test('missingValueNames reads the names of the values a reason is given for', () => {
   const sd =
-    'Sd: too few profile points on the flank near z = 12.00 mm (a gap of 4.1 mm about it; gaps ≤ 2.5 mm are bridged)';
+    'Sd: too few profile points on the flank near z = 12.00 mm (a gap of 4.1 mm about it …, where gaps ≤ 2.5 mm are bridged)';
   assert.deepEqual(missingValueNames(sd), ['Sd']);
   assert.deepEqual(missingValueNames(`${sd}; Sd 10: too few; qR: needs the flank at z = 10.00 mm`), [
     'Sd',

@@ -18,6 +18,7 @@ from pipeline.profile.flange import (
     FlangeNotFoundError,
     curve_flange_parameters,
     fit_flange_parameters,
+    missing_value_names,
 )
 from pipeline.profile.reference import load_reference_profile
 from pipeline.simulation.wheel import Wear, wheel_profile
@@ -151,3 +152,14 @@ def test_a_flank_lost_below_the_top_leaves_only_qr_not_measured(name) -> None:
     assert fitted.flange_thickness_mm == pytest.approx(truth.flange_thickness_mm, abs=0.02)
     assert fitted.flange_thickness_10_mm == pytest.approx(truth.flange_thickness_10_mm, abs=0.02)
     assert fitted.flank_gap_mm == 0.0
+
+
+def test_the_names_of_the_values_a_reason_gives_reasons_for() -> None:
+    x, z = _without_flank(*_samples("LMA"), "LMA", 2.0, 20.0)
+    reason = fit_flange_parameters(x, z).reason
+    assert missing_value_names(reason) == ["Sd", "Sd 10", "qR"]
+    assert missing_value_names("qR: too few profile points on the flank near z = 26.00 mm") == [
+        "qR"
+    ]
+    assert missing_value_names(None) == []
+    assert missing_value_names("no usable stripe from the outer sensor (3 centre points)") == []
