@@ -68,6 +68,9 @@ class WorstWheelFilter:
     pass_id: int | None = None
     latest_only: bool = True
     open_only: bool = False
+    not_measured_only: bool = False
+    """Only measurements that lack some of Sd, Sd 10 and qR (their flange must be gauged by
+    hand: a limit without a value is not checked)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -101,6 +104,8 @@ def _filtered(query: Select, where: WorstWheelFilter, newest: list[int] | None) 
         query = query.where(Measurement.pass_wheel_id.in_(newest))
     if where.open_only:
         query = query.where(~exists().where(Disposition.pass_wheel_id == PassWheel.id))
+    if where.not_measured_only:
+        query = query.where(Measurement.reason.is_not(None))
     return query
 
 

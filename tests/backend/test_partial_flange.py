@@ -76,11 +76,11 @@ def _without_flank(
 def _store_partial_wheel(
     client, pass_id: int, vehicle: str, lost: tuple[str, float, float]
 ) -> tuple[int, FlangeParameters]:
-    """A wheel whose flank is lost over `lost` (outline, z from, z to [mm]), stored through
-    the service's own row, margin and alarm code; its wheel id and the truth."""
+    """A wheel whose flank is lost over `lost` (outline, z from, z to [mm]; none where they
+    are equal), stored through the service's own row, margin and alarm code; its wheel id
+    and the truth."""
     profile, truth = _without_flank(*lost)
     parameters = fit_flange_parameters(profile.x_mm, profile.z_mm)
-    assert parameters.reason is not None  # the case under test
     result = WheelMeasurement(
         "left", "adaptive", MEASURED, None, parameters, profile, (), profile.x_mm.size, 0
     )
@@ -191,3 +191,12 @@ def test_an_lm_wheel_without_sd_keeps_sh_and_shows_what_is_unchecked(client, aut
     row = next(r for r in rows if r["wheel_id"] == wheel_id)
     assert row["values_not_measured"] == result["reason"]
     assert row["margin"]["parameter"] != "flange_thickness_mm"
+    whole_id, _ = _store_partial_wheel(client, pass_id, "V007", ("LMA", 0.0, 0.0))
+
+    def listed(**only: str) -> set[int]:
+        params = {"pass_id": pass_id, **only}
+        items = client.get("/api/review/worst-wheels", headers=viewer, params=params).json()
+        return {r["wheel_id"] for r in items["items"]}
+
+    assert listed() >= {wheel_id, whole_id}
+    assert listed(not_measured_only="true") == {wheel_id}
