@@ -8,11 +8,12 @@ ordered polyline by linear interpolation (reference tables, the simulator's true
 `fit_flange_parameters` estimates them from measured, noisy profile points with local
 least-squares fits, so no single noisy point decides a parameter.
 
-Which failure blocks what: without the flange top (Sh) the wheel is not measured
-(`FlangeNotFoundError`); without the flank at 12 mm Sd is missing, without it at 10 mm Sd 10
-and qR (which starts from that flank point), and without it at Sh − 2 only qR. The measured
-parameters are returned either way, with `FlangeParameters.reason` naming what is missing
-(docs/numbers.md, "Wheel parameters").
+Which failure blocks what: without the flange top (Sh), or with a top no higher than the Sd
+height (no flange), the wheel is not measured (`FlangeNotFoundError`); without the flank
+at 12 mm Sd is missing, without it at 10 mm Sd 10 and qR (which starts from that flank
+point), and without it at Sh − 2 only qR. The measured parameters are returned either way,
+with `FlangeParameters.reason` naming what is missing (docs/numbers.md, "Wheel
+parameters").
 """
 
 from __future__ import annotations
@@ -391,7 +392,9 @@ def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameter
     Raises
     ------
     FlangeNotFoundError
-        If the flange top has too few points. A flank without points at 12 mm leaves Sd
+        If the flange top has too few points, or its crest is not above z = 12 mm (no
+        flange: before pipeline 0.12.0 the flank at 12 mm ensured it). A flank without
+        points at 12 mm leaves Sd
         not measured, one without points at 10 mm Sd 10 and qR, one without points at
         Sh − 2 only qR (`FlangeParameters.reason` says which and why).
 
@@ -410,6 +413,13 @@ def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameter
     x_top, height = _fit_top(x, z)
     if not math.isfinite(height):
         raise FlangeNotFoundError("the flange top fit failed")
+    if height <= SD_HEIGHT_MM:
+        # Sd and Sd 10 are defined on a flange that rises above them; a crest lower than
+        # that is a bump of the tread or of a piece left, not a flange (real Sh: 25–36 mm)
+        raise FlangeNotFoundError(
+            f"no flange: the highest crest is at z = {height:.2f} mm, not above the Sd height "
+            f"z = {SD_HEIGHT_MM:.2f} mm"
+        )
     reasons: list[str] = []
     gap = 0.0
 

@@ -53,8 +53,8 @@ def test_profile_without_flank_is_not_measurable() -> None:
     x = np.linspace(0, 100, 200)
     with pytest.raises(FlangeNotFoundError, match="flank"):
         curve_flange_parameters(x, np.zeros_like(x))
-    with pytest.raises(FlangeNotFoundError):
-        fit_flange_parameters(x, -((x - 50) ** 2) / 100)
+    with pytest.raises(FlangeNotFoundError, match="no flange: the highest crest is at z = "):
+        fit_flange_parameters(x, -((x - 50) ** 2) / 100)  # a crest, but 0 mm high
 
 
 def test_mismatched_arrays_are_refused() -> None:
