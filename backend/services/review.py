@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from datetime import UTC
 from typing import cast
 
-from sqlalchemy import Select, exists, func, select
+from sqlalchemy import ColumnElement, Select, and_, exists, func, or_, select
 from sqlalchemy.orm import Session
 
 from backend.api.schemas import (
@@ -27,8 +27,13 @@ from backend.api.schemas import (
 )
 from backend.errors import InvalidInputError
 from backend.services.auth import record_audit
-from backend.services.limits import WHEEL_PROFILES, profile_family, review_thresholds
-from backend.services.margins import PARAMETER_KEYS
+from backend.services.limits import (
+    REFERENCE_PROFILE_FAMILY,
+    WHEEL_PROFILES,
+    profile_family,
+    review_thresholds,
+)
+from backend.services.margins import PARAMETER_KEYS, PARAMETERS
 from backend.services.results import measurement_margins, store_margins
 from db.models import (
     ApiToken,
@@ -68,9 +73,9 @@ class WorstWheelFilter:
     pass_id: int | None = None
     latest_only: bool = True
     open_only: bool = False
-    not_measured_only: bool = False
-    """Only measurements that lack some of Sd, Sd 10 and qR (their flange must be gauged by
-    hand: a limit without a value is not checked)."""
+    unchecked_only: bool = False
+    """Only measurements with a flange limit left unchecked, their Sd (LM), Sd 10 (EN) or qR
+    not measured: their flange must be gauged by hand."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -104,9 +109,28 @@ def _filtered(query: Select, where: WorstWheelFilter, newest: list[int] | None) 
         query = query.where(Measurement.pass_wheel_id.in_(newest))
     if where.open_only:
         query = query.where(~exists().where(Disposition.pass_wheel_id == PassWheel.id))
-    if where.not_measured_only:
-        query = query.where(Measurement.reason.is_not(None))
+    if where.unchecked_only:
+        query = query.where(_flange_limit_unchecked())
     return query
+
+
+FLANGE_VALUES = ("flange_thickness_mm", "flange_thickness_10_mm", "qr_mm")
+"""The flange values a measured wheel can lack (`FlangeParameters.reason` names them)."""
+
+
+def _flange_limit_unchecked() -> ColumnElement[bool]:
+    """SQL: the measurement lacks a flange value its family's limits check (Sd for LM, Sd 10
+    for EN, qR for both; `margins.PARAMETERS`), the family read from its reference profile
+    as `limits.profile_family` reads it."""
+    lm_names = [name for name, family in REFERENCE_PROFILE_FAMILY.items() if family == "LM"]
+    is_lm = func.upper(func.coalesce(Measurement.reference_profile, "")).in_(lm_names)
+    family = {"LM": is_lm, "EN": ~is_lm}
+    missing = []
+    for parameter in PARAMETERS:
+        if parameter.key in FLANGE_VALUES:
+            checked = or_(*(family[f] for f in parameter.families))
+            missing.append(and_(checked, getattr(Measurement, parameter.key).is_(None)))
+    return and_(Measurement.reason.is_not(None), or_(*missing))
 
 
 def _joined(query: Select, where: WorstWheelFilter | None = None) -> Select:

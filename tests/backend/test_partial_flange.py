@@ -191,12 +191,16 @@ def test_an_lm_wheel_without_sd_keeps_sh_and_shows_what_is_unchecked(client, aut
     row = next(r for r in rows if r["wheel_id"] == wheel_id)
     assert row["values_not_measured"] == result["reason"]
     assert row["margin"]["parameter"] != "flange_thickness_mm"
+    # beside it: a whole wheel, and an EN wheel without Sd, whose limits (Sd 10, qR) are checked
     whole_id, _ = _store_partial_wheel(client, pass_id, "V007", ("LMA", 0.0, 0.0))
+    en_id, _ = _store_partial_wheel(client, pass_id, "V008", ("S1002", 10.9, 15.0))
 
-    def listed(**only: str) -> set[int]:
+    def listed(**only: str) -> dict[int, dict]:
         params = {"pass_id": pass_id, **only}
         items = client.get("/api/review/worst-wheels", headers=viewer, params=params).json()
-        return {r["wheel_id"] for r in items["items"]}
+        return {r["wheel_id"]: r for r in items["items"]}
 
-    assert listed() >= {wheel_id, whole_id}
-    assert listed(not_measured_only="true") == {wheel_id}
+    every = listed()
+    assert {wheel_id, whole_id, en_id} <= set(every)
+    assert every[en_id]["values_not_measured"].startswith("Sd: too few")
+    assert set(listed(unchecked_only="true")) == {wheel_id}

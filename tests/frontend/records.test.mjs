@@ -107,7 +107,7 @@ test('reviewQuery maps the worst-wheels form to the API, a page to its offset', 
     limit: String(REVIEW_PAGE_ROWS),
   });
   assert.deepEqual(reviewQuery({ page: 'x' }), { limit: String(REVIEW_PAGE_ROWS) });
-  assert.deepEqual(reviewQuery({ missing: '1' }), { not_measured_only: 'true', limit: String(REVIEW_PAGE_ROWS) });
+  assert.deepEqual(reviewQuery({ unchecked: '1' }), { unchecked_only: 'true', limit: String(REVIEW_PAGE_ROWS) });
 });
 
 test('familyOf and marginOf read a wheel as the service files it', () => {

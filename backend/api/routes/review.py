@@ -45,15 +45,19 @@ def get_worst_wheels(
     pass_id: Annotated[int | None, Query(ge=1, le=MAX_INTEGER, description="one pass only")] = None,
     latest_only: Annotated[bool, Query(description="each wheel's newest pass only")] = True,
     open_only: Annotated[bool, Query(description="only wheels without a disposition")] = False,
-    not_measured_only: Annotated[
-        bool, Query(description="only wheels lacking some of Sd, Sd 10 and qR (gauge by hand)")
+    unchecked_only: Annotated[
+        bool,
+        Query(
+            description="only wheels with a flange limit left unchecked: Sd (LM), Sd 10 (EN) "
+            "or qR not measured (gauge them by hand)"
+        ),
     ] = False,
     offset: Offset = 0,
     limit: Annotated[int, Query(ge=1, le=500)] = 50,
 ) -> Page[WorstWheelRead]:
     """Wheels by margin to their nearest limit (fraction of the band), smallest first."""
     where = WorstWheelFilter(
-        site, fleet, vehicle, parameter, pass_id, latest_only, open_only, not_measured_only
+        site, fleet, vehicle, parameter, pass_id, latest_only, open_only, unchecked_only
     )
     return worst_wheels(session, where, offset, limit)
 

@@ -184,7 +184,7 @@ export function passFilterQuery(filter) {
 
 /**
  * The API query of the worst-wheels filter form.
- * @param {Record<string, string>} filter site, fleet, vehicle, parameter, open ('1'), missing ('1'), history ('1'), pass, page (1-based)
+ * @param {Record<string, string>} filter site, fleet, vehicle, parameter, open ('1'), unchecked ('1'), history ('1'), pass, page (1-based)
  * @returns {Record<string, string>}
  */
 export function reviewQuery(filter) {
@@ -192,7 +192,7 @@ export function reviewQuery(filter) {
   const query = {};
   for (const key of ['site', 'fleet', 'vehicle', 'parameter']) if (filter[key]) query[key] = filter[key];
   if (filter.open === '1') query.open_only = 'true';
-  if (filter.missing === '1') query.not_measured_only = 'true';
+  if (filter.unchecked === '1') query.unchecked_only = 'true';
   if (filter.history === '1') query.latest_only = 'false';
   if (filter.pass) query.pass_id = filter.pass;
   const page = Number(filter.page ?? 1);

@@ -85,9 +85,10 @@ export function renderReview(root, state, handlers) {
           </select></label
         >
         <label><input type="checkbox" name="open" value="1" .checked=${filter.open === '1'} /> open only</label>
-        <label title="wheels lacking Sd, Sd EN or qR: a limit without a value is not checked, gauge them by hand"
-          ><input type="checkbox" name="missing" value="1" .checked=${filter.missing === '1'} /> values not
-          measured</label
+        <label
+          title="wheels whose Sd (LM), Sd EN (EN) or qR was not measured: that limit is not checked, gauge them by hand"
+          ><input type="checkbox" name="unchecked" value="1" .checked=${filter.unchecked === '1'} /> limits not
+          checked</label
         >
         <label title="every pass of each wheel, not only its newest"
           ><input type="checkbox" name="history" value="1" .checked=${filter.history === '1'} /> all passes</label
