@@ -68,8 +68,8 @@ def construction_points(
 
     Sd and qR are horizontal distances from the back face (x = 0), so the flank points are
     (Sd, 12), (Sd10, 10) and (Sd10 − qR, Sh − 2) (no "sd", "sd_en" or "qr" entry for a value
-    not measured); the flange top is the highest profile point,
-    at height Sh above the tread reference point (70, 0).
+    not measured); the flange top is the highest profile point, at height Sh above the
+    tread reference point (70, 0).
     """
     top = int(np.argmax(profile.z_mm))
     sh = parameters.flange_height_mm
