@@ -394,9 +394,8 @@ def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameter
     FlangeNotFoundError
         If the flange top has too few points, or its crest is not above z = 12 mm (no
         flange: before pipeline 0.12.0 the flank at 12 mm ensured it). A flank without
-        points at 12 mm leaves Sd
-        not measured, one without points at 10 mm Sd 10 and qR, one without points at
-        Sh − 2 only qR (`FlangeParameters.reason` says which and why).
+        points at 12 mm leaves Sd not measured, one without points at 10 mm Sd 10 and qR,
+        one without points at Sh − 2 only qR (`FlangeParameters.reason` says which and why).
 
     Notes
     -----

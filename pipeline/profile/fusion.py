@@ -183,34 +183,30 @@ def _back_face_u(u_inner: np.ndarray) -> float:
     return float(np.median(near))
 
 
-def _height_at_reference(dx: np.ndarray, height: np.ndarray) -> float:
-    """Height at dx = 0 of a quadratic through (dx, height), refitted once without the
-    points beyond 3 robust standard deviations (at least 0.05 mm) [mm]."""
-    coefficients = np.polyfit(dx, height, 2)
-    residual = height - np.polyval(coefficients, dx)
-    keep = np.abs(residual) <= max(3.0 * 1.4826 * np.median(np.abs(residual)), 0.05)
-    return float(np.polyfit(dx[keep], height[keep], 2)[2])
-
-
 def _reference_z(u: np.ndarray, big_z: np.ndarray, u_back: float) -> float:
     near = np.abs(u - u_back - REFERENCE_X_MM) <= REFERENCE_HALF_WINDOW_MM
     if np.count_nonzero(near) < MIN_BACK_FACE_POINTS:
         raise DatumError("no tread points around the reference point x = 70 mm")
-    return _height_at_reference(u[near] - u_back - REFERENCE_X_MM, big_z[near])
+    dx = u[near] - u_back - REFERENCE_X_MM
+    coefficients = np.polyfit(dx, big_z[near], 2)
+    residual = big_z[near] - np.polyval(coefficients, dx)
+    keep = np.abs(residual) <= max(3.0 * 1.4826 * np.median(np.abs(residual)), 0.05)
+    return float(np.polyfit(dx[keep], big_z[near][keep], 2)[2])
 
 
 def _cleaned_reference_offset(x: np.ndarray, z: np.ndarray) -> float:
-    """z at x = 70 mm of the cleaned profile's own tread points (0 when fewer than 20) [mm].
+    """z at x = 70 mm of the cleaned profile's own tread points, by `_reference_z` (0 when
+    fewer than 20) [mm].
 
     The first datum comes from every point near x = 70 mm, before `clean_profile_points`
     drops what is not the wheel's one curve; on field frames those can hold a streak that
     pulls it (seed 2027, pass 4, V002/1/left: the cleaned tread at z = +0.34 mm, Sh +0.338
     mm too high). The profile is set down by this offset so that its own tread passes
     through the reference point."""
-    near = np.abs(x - REFERENCE_X_MM) <= REFERENCE_HALF_WINDOW_MM
-    if np.count_nonzero(near) < MIN_BACK_FACE_POINTS:
+    try:
+        return _reference_z(x, z, 0.0)
+    except DatumError:
         return 0.0
-    return _height_at_reference(x[near] - REFERENCE_X_MM, z[near])
 
 
 def _refine_back_face(u: np.ndarray, z: np.ndarray, u_back: float) -> float:
