@@ -163,3 +163,24 @@ def test_the_names_of_the_values_a_reason_gives_reasons_for() -> None:
     ]
     assert missing_value_names(None) == []
     assert missing_value_names("no usable stripe from the outer sensor (3 centre points)") == []
+
+
+@pytest.mark.parametrize("name", ["LMA", "S1002"])
+@pytest.mark.parametrize("offset_mm", [4.0, 9.6])
+def test_a_stray_piece_millimetres_off_the_flank_does_not_pull_sd(name, offset_mm) -> None:
+    """A piece of another stripe (a fifth of the points near z = 9–10 mm, millimetres beyond
+    the flank) is left out of the flank fits: the least-squares start once settled between it
+    and the flank (Sd 10 1.2 mm wide on a field wheel seen in 5 frames)."""
+    truth = curve_flange_parameters(*_samples(name, 0.01))
+    x, z = _samples(name, 0.02)
+    x_top = x[np.argmax(z)]
+    piece = np.flatnonzero((x > x_top) & (z > 9.0) & (z < 9.6))
+    rng = np.random.default_rng(3)
+    stray_x = np.repeat(x[piece], 3) + offset_mm + rng.normal(0, 0.05, 3 * piece.size)
+    stray_z = np.repeat(z[piece], 3)
+    fitted = fit_flange_parameters(
+        np.concatenate([x + rng.normal(0, 0.01, x.size), stray_x]), np.concatenate([z, stray_z])
+    )
+    assert fitted.flange_thickness_mm == pytest.approx(truth.flange_thickness_mm, abs=0.03)
+    assert fitted.flange_thickness_10_mm == pytest.approx(truth.flange_thickness_10_mm, abs=0.03)
+    assert fitted.qr_mm == pytest.approx(truth.qr_mm, abs=0.05)
