@@ -3,7 +3,8 @@
 `python -m benchmarks.field_wheels FOLDER [METHOD]` measures every wheel of the pass folders
 under FOLDER (rendering the field benchmark's passes there first when it holds none:
 `field_repeatability`'s train, seed and repeats, every field effect on; `--seed=N` draws
-another train and passes, held out from the benchmark's) and prints one row
+another train and passes, held out from the benchmark's; `--frames=N` renders N frames per
+sensor and wheel, `passes.FRAME_SPACING_MM` apart) and prints one row
 per wheel: measured or why not, the Sh, Sd and Sd 10 errors ("–" and the values' names in
 brackets where a value is not measured), the mean offset of each sensor's
 points from the true flank at z = 11–13 mm (x less the true flank's x at the point's
@@ -170,7 +171,8 @@ def main(argv: list[str]) -> int:
     view = "--view" in argv
     seeds = [int(a.split("=", 1)[1]) for a in argv if a.startswith("--seed=")]
     seed = seeds[-1] if seeds else SEED
-    argv = [a for a in argv if a != "--view" and not a.startswith("--seed=")]
+    frames = [int(a.split("=", 1)[1]) for a in argv if a.startswith("--frames=")]
+    argv = [a for a in argv if a != "--view" and not a.startswith(("--seed=", "--frames="))]
     if not argv:
         sys.stderr.write(__doc__.split("\n\n")[1] + "\n")
         return 2
@@ -184,6 +186,7 @@ def main(argv: list[str]) -> int:
             axles_per_vehicle=AXLES,
             seed=seed,
             repeat=REPEATS,
+            frames_per_sensor=frames[-1] if frames else 1,
             field=FIELD_MODES["harsh"],
         )
     train = synthetic_train(VEHICLES, seed, axles_per_vehicle=AXLES)

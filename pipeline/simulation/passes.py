@@ -64,6 +64,15 @@ AXLES_PER_VEHICLE = 4
 TRUTH_NAME = "truth.json"
 SPEED_KMH = 5.0
 """The paper passed its train 9 times at 5 km/h."""
+FRAME_SPACING_MM = 7.0
+"""Travel of the wheel between the frames a sensor takes of it [mm]: a burst at 200 frames/s
+triggered by the wheel at 5 km/h (1.39 m/s). Far enough apart that each frame sees its own
+patch of the wheel's surface: the reflectance texture's correlation of 3–15 px is 0.7–3.3 mm
+along the track (4.5 px/mm there at the tread; correlation < 0.03 beyond it), so the
+simulator draws it anew per frame (`field.stripe_texture`); near enough that the laser plane
+still cuts the wheel through its axis: a section a mm off the axis reads the flange
+a²·(1/r_tread − 1/r_tip)/2 higher, at most 0.006 mm at the 3 frames' ±7 mm plus the
+trigger's ±3 mm (docs/simulator.md, "Frames per wheel")."""
 
 
 @dataclass(frozen=True, slots=True, eq=False)
@@ -332,7 +341,7 @@ def simulate_pass(
     started_at : datetime
         Timezone-aware start time written to the manifest.
     frames_per_sensor : int
-        Frames each sensor takes of each wheel (the wheel moves 2 mm between them).
+        Frames each sensor takes of each wheel (`FRAME_SPACING_MM` apart).
     site : str
     field : FieldEffects, optional
         The field effects the frames show; None: the clean stripe on black.
@@ -356,7 +365,9 @@ def simulate_pass(
         offset, yaw, along = axle_motion[key]
         paths: dict[str, list[str]] = {"inner": [], "outer": []}
         for k in range(frames_per_sensor):
-            pose = _pose(wheel, offset, yaw, along + 2.0 * (k - (frames_per_sensor - 1) / 2))
+            pose = _pose(
+                wheel, offset, yaw, along + FRAME_SPACING_MM * (k - (frames_per_sensor - 1) / 2)
+            )
             for position in ("inner", "outer"):
                 name = f"{wheel.side}_{position}"
                 counters[name] += 1
