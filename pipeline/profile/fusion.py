@@ -106,7 +106,12 @@ point test runs on the tread side of the flange top below z = 5 mm only (`POINT_
 tread and flange root), where the profile is shallow: on the flank a spur of the other
 sensor's below the true flank would drop it (Steger, field pass-007 V002/2/right: a loop
 1–5 mm outside the flank whose lower end lies under the outer sensor's flank points; with
-the test everywhere Sd read 3.78 mm off instead of 1.81)."""
+the test everywhere Sd read 3.78 mm off instead of 1.81). The inner sensor's points are
+tested on the whole tread side of the top, against the outer sensor's, which sees that
+flank: an inner streak above the outer's flank is not the wheel (pipeline 0.12.2: a field
+wheel in 3 frames, 43 inner points 3.5–5.8 mm beyond the flank at z = 14–20 mm, linked to
+the profile, read the flange angle 10.3° steep), and the outer flank is never judged by
+the inner's points."""
 POINT_RULE_Z_MM = 5.0
 RIM_FACE_MARGIN_MM = 3.0
 """Both tests stop 3 mm before the accepted points' largest x (the rim face)."""
@@ -504,9 +509,10 @@ def clean_profile_points(
         keep[kept[main]] = _single_valued(xz[kept[main]], labels[main])
     if not np.any(keep):
         return keep
-    tread = (xz[:, 1] < POINT_RULE_Z_MM) & (xz[:, 0] > xz[keep][np.argmax(xz[keep, 1]), 0])
-    for own, other in ((inner, outer), (outer, inner)):
-        mine, theirs = np.flatnonzero(keep & own & tread), np.flatnonzero(keep & other)
+    beyond = xz[:, 0] > xz[keep][np.argmax(xz[keep, 1]), 0]  # the tread side of the top
+    tread = (xz[:, 1] < POINT_RULE_Z_MM) & beyond
+    for own, other, tested in ((inner, outer, beyond), (outer, inner, tread)):
+        mine, theirs = np.flatnonzero(keep & own & tested), np.flatnonzero(keep & other)
         if mine.size and theirs.size >= CONSENSUS_MIN_POINTS:
             keep[mine[_doubled(xz[mine], xz[theirs])]] = False
     if cameras_xz is not None and np.any(keep):

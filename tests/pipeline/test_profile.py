@@ -304,8 +304,9 @@ def test_a_streak_one_sensor_draws_above_the_others_tread_is_dropped_point_by_po
 def test_points_the_flange_hides_from_their_camera_are_dropped() -> None:
     """The inner camera (inside the track, below the rail head) sees the flange's back and
     its crest; beyond the crest the flange hides the flank from it. Where the outer sensor
-    lost the flank (z = 10–17 mm), an inner-sensor piece 1.2 mm outside it (a reflection)
-    is kept without the cameras and reads Sd over 1 mm off; with them it lies below the line
+    lost the flank (z = 5–17 mm, so that none of its points lies below the piece for
+    fusion's point rule), an inner-sensor piece 1.2 mm outside it (a reflection) is kept
+    without the cameras and reads Sd over 1 mm off; with them it lies below the line
     from the inner camera through the crest and is dropped, none of the true points is, and
     the flank is honestly not measured."""
     x, z = PROFILE.x_mm, PROFILE.z_mm
@@ -315,7 +316,7 @@ def test_points_the_flange_hides_from_their_camera_are_dropped() -> None:
     crest = int(np.argmax(z))
     flank = x > x[crest]
     inner = x <= x[crest] + 1.0  # the back face, the flange's back and its crest
-    outer = (x >= x[crest] - 4.0) & ~(flank & (z > 10.0) & (z < 17.0))
+    outer = (x >= x[crest] - 4.0) & ~(flank & (z > 5.0) & (z < 17.0))
     spur = flank & (z > 11.0) & (z < 16.0)
     xz = np.concatenate(
         [
@@ -363,3 +364,29 @@ def test_the_datum_is_the_cleaned_profiles_own_tread_height() -> None:
     p = fit_flange_parameters(profile.x_mm, profile.z_mm)
     assert p.flange_height_mm == pytest.approx(PROFILE.truth.flange_height_mm, abs=0.01)
     assert p.flange_thickness_mm == pytest.approx(PROFILE.truth.flange_thickness_mm, abs=0.01)
+
+
+def test_an_inner_streak_beyond_the_flank_is_dropped_and_the_outer_flank_kept() -> None:
+    """An inner-sensor streak 4–6 mm beyond the flank at z = 14–20 mm, linked to the inner
+    sensor's top (a field wheel in 3 frames: flange angle 10.3° steep), lies above the outer
+    sensor's flank points there and is dropped; no outer flank point is judged by it."""
+    x, z = PROFILE.x_mm, PROFILE.z_mm
+    top = int(np.argmax(z))
+    inner = np.flatnonzero(x < x[top] + 3.0)
+    outer = np.flatnonzero((x > x[top] - 3.0) & (x < x.max()))
+    flank = lambda height: np.interp(height, z[top:][::-1], x[top:][::-1])  # noqa: E731
+    # from the inner's last top point out into the air, then 5 mm beyond the flank down to
+    # z = 14 mm, 0.1 mm apart: one linked piece with the profile
+    start = np.array([x[inner[-1]], z[inner[-1]]])
+    bend = np.array([flank(20.0) + 5.0, 20.0])
+    out = np.linspace(start, bend, int(np.hypot(*(bend - start)) / 0.1))
+    heights = np.arange(20.0, 14.0, -0.1)
+    down = np.column_stack([flank(heights) + 5.0, heights])
+    streak = np.concatenate([out, down])
+    air = streak[:, 0] > flank(streak[:, 1]) + 3.0
+    xz = np.concatenate([np.column_stack([x, z])[inner], streak, np.column_stack([x, z])[outer]])
+    sensor = np.repeat(np.array([0, 0, 1], np.int8), [inner.size, len(streak), outer.size])
+    keep = clean_profile_points(xz, sensor)
+    assert np.count_nonzero(air) >= 60
+    assert not keep[inner.size : inner.size + len(streak)][air].any()
+    assert keep[inner.size + len(streak) :].all()
