@@ -156,6 +156,10 @@ def test_killed_during_measurement_the_pass_resumes_by_itself_to_completion(
     assert_intact(server)
 
 
+KILL_SHARES = (0.5, 0.25, 0.1)
+"""When the PDF render is killed, as shares of a warm render's time: sooner each try."""
+
+
 def test_killed_during_a_pdf_report_the_pass_is_unchanged_and_the_report_renders_again(
     make_server: Callable[..., LiveServer], axle_archive: bytes
 ) -> None:
@@ -170,7 +174,6 @@ def test_killed_during_a_pdf_report_the_pass_is_unchanged_and_the_report_renders
         started = time.monotonic()
         assert client.get(report).status_code == 200
         render_s = time.monotonic() - started  # as long as the render killed below
-    shutil.rmtree(server.data_dir / "reports")
     outcome: list[object] = []
 
     def fetch() -> None:
@@ -180,13 +183,20 @@ def test_killed_during_a_pdf_report_the_pass_is_unchanged_and_the_report_renders
             except httpx.TransportError as exc:
                 outcome.append(exc)
 
-    reader = threading.Thread(target=fetch)
-    reader.start()
-    threading.Event().wait(render_s / 2)
-    server.kill()
-    reader.join(timeout=30)
+    # The kill must land inside a render: a render that finished first (one clean CI run in
+    # a few: the third render was quicker than the second) is tried again, killed sooner.
+    for share in KILL_SHARES:
+        shutil.rmtree(server.data_dir / "reports", ignore_errors=True)
+        outcome.clear()
+        reader = threading.Thread(target=fetch)
+        reader.start()
+        threading.Event().wait(render_s * share)
+        server.kill()
+        reader.join(timeout=30)
+        server.start()
+        if outcome and isinstance(outcome[0], httpx.TransportError):
+            break
     assert outcome and isinstance(outcome[0], httpx.TransportError), outcome
-    server.start()
     with server.client("viewer") as client:
         again = client.get(report)
         assert again.status_code == 200 and again.content.startswith(b"%PDF")
