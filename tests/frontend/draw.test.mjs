@@ -80,35 +80,36 @@ test('drawFrame marks rejected candidates of shown methods only, apart from the 
   assert.equal(rects, 5);
 });
 
-test('drawProfile strokes a multi-valued flange in API order, never sorted by x', () => {
+test('drawProfile strokes the reference in its order, never sorted by x', () => {
   const { ctx, calls } = recordingContext();
   // back face going up, then over the flange and down its flank: x goes 0 → 10 → 5 → 30
-  const curve = { method: 'adaptive', x_mm: [0, 10, 5, 30], z_mm: [0, 28, 20, 0] };
+  const reference = { name: 'LMA', x_mm: [0, 10, 5, 30], z_mm: [0, 28, 20, 0] };
   drawProfile(
     ctx,
-    { curves: [curve], reference: null, constructions: null, values: {} },
+    { curves: [], reference, constructions: null, values: {} },
     { widthPx: 400, heightPx: 300, pixelRatio: 1 },
   );
-  const path = calls.filter(([name]) => name === 'moveTo' || name === 'lineTo');
-  // the curve is the last path before the key; find the 4-vertex run that ends with it
-  const xs = path.map(([, [px]]) => px);
+  const xs = calls.filter(([name]) => name === 'moveTo' || name === 'lineTo').map(([, [px]]) => px);
   const run = xs.slice(-4);
   assert.ok(run[0] < run[2] && run[2] < run[1] && run[1] < run[3], `order kept: ${run}`);
 });
 
-test('drawProfile breaks the line at a gap (null)', () => {
+test('drawProfile draws a measured profile as its points: no line joins interleaved frames', () => {
   const { ctx, calls } = recordingContext();
-  const curve = { method: 'steger', x_mm: [0, 1, null, 3, 4], z_mm: [0, 1, null, 1, 0] };
+  // two frames of one tread, 0.4 mm apart, interleaved along x, and a stray point below
+  const x = [60, 60.1, 60.2, 60.3, 61, 130];
+  const z = [0, 0.4, 0, 0.4, 0, -20];
+  const curve = { method: 'adaptive', x_mm: [...x, null], z_mm: [...z, null] };
   drawProfile(
     ctx,
     { curves: [curve], reference: null, constructions: null, values: {} },
     { widthPx: 400, heightPx: 300, pixelRatio: 1 },
   );
-  const ops = calls
-    .filter(([n]) => n === 'moveTo' || n === 'lineTo')
-    .map(([n]) => n)
-    .slice(-4);
-  assert.deepEqual(ops, ['moveTo', 'lineTo', 'moveTo', 'lineTo']);
+  const rects = calls.filter(([name]) => name === 'rect').map(([, args]) => args);
+  // the clip rectangle, then one square per finite point
+  assert.equal(rects.length, 1 + x.length);
+  const afterClip = calls.slice(calls.findIndex(([name]) => name === 'clip'));
+  assert.equal(afterClip.filter(([name]) => name === 'lineTo').length, 0, 'nothing is stroked between the points');
 });
 
 test('drawProfile labels the constructions with the service values', () => {

@@ -82,3 +82,28 @@ export function strokePolyline(ctx, scale, xs, ys) {
   }
   ctx.stroke();
 }
+
+/**
+ * Fill a square of `sizePx` CSS px at each finite point, in one path (the fill style is
+ * the caller's); points without a value are skipped.
+ * @param {CanvasRenderingContext2D} ctx
+ * @param {import('../lib/plot-scale.js').PlotScale} scale
+ * @param {ArrayLike<number|null>} xs
+ * @param {ArrayLike<number|null>} ys
+ * @param {number} sizePx
+ * @returns {number} points drawn
+ */
+export function fillPoints(ctx, scale, xs, ys, sizePx) {
+  const half = sizePx / 2;
+  let drawn = 0;
+  ctx.beginPath();
+  for (let i = 0; i < xs.length; i += 1) {
+    const x = xs[i];
+    const y = ys[i];
+    if (x === null || y === null || !Number.isFinite(x) || !Number.isFinite(y)) continue;
+    ctx.rect(scale.toX(x) - half, scale.toY(y) - half, sizePx, sizePx);
+    drawn += 1;
+  }
+  ctx.fill();
+  return drawn;
+}

@@ -1,14 +1,20 @@
 // @ts-check
 /**
  * The fused wheel profile against the reference profile, with the Sh, Sd and qR
- * constructions the service computed. Pure drawing on our own canvas: the profile is
- * stroked in the order the API gives it (along the profile), never sorted by x, so the
- * multi-valued flange keeps its shape; both axes share one mm scale.
+ * constructions the service computed. Pure drawing on our own canvas; both axes share one
+ * mm scale. A measured profile is drawn as its points: it pools every frame of both
+ * sensors, whose points interleave along x (frame-to-frame offsets of 0.1–0.4 mm), so a
+ * line through them in the API's order would zigzag between frames and join a stray piece
+ * to the tread. The reference is stroked in its order (never sorted by x, so the
+ * multi-valued flange keeps its shape).
  */
 import { boundsOf } from '../lib/ticks.js';
 import { makePlotScale } from '../lib/plot-scale.js';
-import { drawAxes, strokePolyline } from './axes.js';
+import { drawAxes, fillPoints, strokePolyline } from './axes.js';
 import { METHOD_COLOURS } from './frame.js';
+
+/** Side of a measured profile point's square, CSS px. */
+const POINT_SIZE_PX = 2;
 
 /**
  * @typedef {object} ProfileCurve
@@ -66,11 +72,10 @@ export function drawProfile(ctx, data, options) {
     strokePolyline(ctx, scale, data.reference.x_mm, data.reference.z_mm);
     ctx.setLineDash([]);
   }
-  ctx.lineWidth = 2;
   // the first curve is the selected method: draw it last, on top
   for (const curve of [...data.curves].reverse()) {
-    ctx.strokeStyle = METHOD_COLOURS[/** @type {'adaptive'|'steger'} */ (curve.method)] ?? '#fff';
-    strokePolyline(ctx, scale, curve.x_mm, curve.z_mm);
+    ctx.fillStyle = METHOD_COLOURS[/** @type {'adaptive'|'steger'} */ (curve.method)] ?? '#fff';
+    fillPoints(ctx, scale, curve.x_mm, curve.z_mm, POINT_SIZE_PX);
   }
   if (data.constructions) drawConstructions(ctx, scale, data.constructions, data.values);
   ctx.restore();
@@ -204,17 +209,23 @@ function label(ctx, s, x, y, text, colour, dxPx, centred = false) {
  * @param {ProfileData} data
  */
 function drawKey(ctx, s, data) {
-  const entries = data.curves.map((c) => [c.method, METHOD_COLOURS[/** @type {'adaptive'} */ (c.method)]]);
-  if (data.reference) entries.push([`reference ${data.reference.name}`, '#9aa5b1']);
+  /** @type {Array<[string, string, boolean]>} name, colour, drawn as points */
+  const entries = data.curves.map((c) => [
+    `${c.method} (points)`,
+    METHOD_COLOURS[/** @type {'adaptive'} */ (c.method)],
+    true,
+  ]);
+  if (data.reference) entries.push([`reference ${data.reference.name}`, '#9aa5b1', false]);
   ctx.font = '11px system-ui, sans-serif';
   ctx.textAlign = 'left';
   ctx.textBaseline = 'middle';
   let y = s.bottom - 10 - 14 * (entries.length - 1);
-  for (const [name, colour] of entries) {
+  for (const [name, colour, points] of entries) {
     ctx.fillStyle = colour;
-    ctx.fillRect(s.right - 130, y - 1, 16, 3);
+    if (points) for (let dx = 0; dx < 16; dx += 5) ctx.fillRect(s.right - 150 + dx, y - 1, 3, 3);
+    else ctx.fillRect(s.right - 150, y - 1, 16, 3);
     ctx.fillStyle = '#c9d1db';
-    ctx.fillText(name, s.right - 108, y);
+    ctx.fillText(name, s.right - 128, y);
     y += 14;
   }
 }
