@@ -451,6 +451,11 @@ class ProfileRead(BaseModel):
     reference_profile: str | None
     x_mm: list[float]
     z_mm: list[float]
+    outline_x_mm: list[float | None] = Field(
+        description="the profile's outline (pipeline.profile.outline): medians of the points "
+        "in 0.25 mm steps along the profile, null between pieces apart by a gap [mm]"
+    )
+    outline_z_mm: list[float | None]
     reference_x_mm: list[float]
     reference_z_mm: list[float]
     construction: dict[str, Any]

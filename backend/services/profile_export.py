@@ -1,9 +1,12 @@
 """A wheel's fused profile out of the system: CSV, DXF and MiniProf-style `.whl`.
 
-All three hold the stored profile in the profile frame (x from the back face, z up, z = 0
-at x = 70 mm) in mm, with what identifies it: pass, wheel, method, pipeline and
-calibration versions. The text formats are written by `pipeline.profile.exchange` (and
-read back by it); the DXF is one 2-D polyline drawn by ezdxf, in mm.
+All three hold the stored profile's outline (`pipeline.profile.outline`: one ordered trace,
+the medians of the fused points in 0.25 mm steps along the profile, as a handheld gauge
+samples its contour) in the profile frame (x from the back face, z up, z = 0 at x = 70 mm)
+in mm, with what identifies it: pass, wheel, method, pipeline and calibration versions.
+The fused points themselves are served by `GET …/wheels/{id}/profile` (x_mm, z_mm). The
+text formats are written by `pipeline.profile.exchange` (and read back by it); the DXF is
+one 2-D polyline drawn by ezdxf, in mm.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from backend.errors import NotFoundError
 from backend.services.wheel_data import measurement_or_404
 from db.models import PassWheel
 from pipeline.profile.exchange import profile_csv_text, profile_whl_text
+from pipeline.profile.outline import OUTLINE_STEP_MM, outline_points
 
 FORMATS = ("csv", "dxf", "whl")
 MEDIA_TYPES = {"csv": "text/csv", "dxf": "image/vnd.dxf", "whl": "text/plain"}
@@ -63,7 +67,8 @@ def export_profile(pass_wheel: PassWheel, method: str, fmt: str) -> ExportedProf
     profile = measurement.profile or {}
     if not profile.get("x_mm"):
         raise NotFoundError(f"the {method} result of wheel {pass_wheel.wheel_id} has no profile")
-    x_mm, z_mm = np.asarray(profile["x_mm"], float), np.asarray(profile["z_mm"], float)
+    outline = outline_points(np.asarray(profile["x_mm"]), np.asarray(profile["z_mm"]))
+    x_mm, z_mm = outline[np.isfinite(outline[:, 0])].T
     train_pass, wheel = pass_wheel.train_pass, pass_wheel.wheel
     ident = [
         ("Pass", str(train_pass.id)),
@@ -74,6 +79,11 @@ def export_profile(pass_wheel: PassWheel, method: str, fmt: str) -> ExportedProf
         ("PipelineVersion", measurement.pipeline_version),
         ("CalibrationVersion", str(train_pass.calibration.version)),
         ("Frame", "x from the back face, z up, z = 0 at x = 70 mm; mm"),
+        (
+            "Points",
+            f"outline: medians of {len(profile['x_mm'])} fused points in "
+            f"{OUTLINE_STEP_MM} mm steps along the profile",
+        ),
     ]
     stem = f"wheelscan-pass-{train_pass.id}-wheel-{wheel.id}-{method}"
     if fmt == "csv":

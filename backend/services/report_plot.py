@@ -42,7 +42,8 @@ METHOD_NAMES = {"adaptive": "Adaptive", "steger": "Steger"}
 
 @dataclass(frozen=True, slots=True)
 class Curve:
-    """One polyline of the plot: the reference or a method's fused profile [mm]."""
+    """One curve of the plot: the reference, or a method's profile outline (NaN between
+    pieces) [mm]."""
 
     kind: str
     x_mm: np.ndarray

@@ -42,13 +42,14 @@ from backend.services.results import PARAMETER_NAMES
 from backend.services.review import DISPOSITION_WORDS
 from db.models import Pass, PassWheel
 from db.types import utc_now
+from pipeline.profile.outline import outline_points
 from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile
 
 REPORT_CACHE_FILES = 500
 """PDFs kept in the cache, newest first (a pass PDF is ~250 kB: about 125 MB at most)."""
 STALE_PART_S = 3600.0
 """A half-written cache file older than this was left by a killed process."""
-REPORT_LAYOUT = "11"
+REPORT_LAYOUT = "12"
 """Part of the cache key: bump when the PDF's layout changes, so old PDFs are not served."""
 CSV_COLUMNS = (
     "pass_id", "site", "started_at", "vehicle_id", "axle", "side", "wheel_id", "state",
@@ -135,7 +136,8 @@ def _section(
     for method, measurement in measurements.items():
         profile = measurement.profile or {}
         if profile.get("x_mm"):
-            curves.append(Curve(method, np.asarray(profile["x_mm"]), np.asarray(profile["z_mm"])))
+            outline = outline_points(np.asarray(profile["x_mm"]), np.asarray(profile["z_mm"]))
+            curves.append(Curve(method, *outline.T))
     measured = [m for m in measurements.values() if m.status == "measured"]
     # the constructions drawn: a measured method's, adaptive first
     primary = min(measured or list(measurements.values()), key=lambda m: m.method != "adaptive",

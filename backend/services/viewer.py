@@ -44,6 +44,7 @@ from pipeline.calibration.model import (
     StationCalibration,
     parse_calibration,
 )
+from pipeline.profile.outline import outline_points
 
 NOMINAL_RADIUS_MM = 460.0
 """Rolling radius used for the reconstruction (920 mm wheels); the diameter is not measured."""
@@ -78,7 +79,8 @@ class WheelSceneData:
     title : str
         Label shown in the scene.
     profile_x_mm, profile_z_mm : ndarray of shape (K,)
-        Fused profile in the profile frame, in order along the profile (NaN marks gaps).
+        The profile's outline in the profile frame (`pipeline.profile.outline`), in order
+        along the profile (NaN marks gaps).
     points_track_mm : dict of str to ndarray of shape (N, 3)
         Centre points of each sensor of the axle in the track frame [mm].
     calibration : StationCalibration
@@ -351,12 +353,13 @@ def load_wheel_scene_data(
         if axle_measurement is not None:
             points.update(_track_points(store, axle_measurement, calibration))
     profile = measurement.profile or {}
+    outline = outline_points(np.asarray(profile["x_mm"]), np.asarray(profile["z_mm"]))
     return WheelSceneData(
         wheel_id=wheel_id,
         side=wheel.side,
         title=f"vehicle {wheel.vehicle_id} · axle {wheel.axle} · {wheel.side} · {method}",
-        profile_x_mm=np.array(profile["x_mm"], dtype=float),
-        profile_z_mm=np.array(profile["z_mm"], dtype=float),
+        profile_x_mm=outline[:, 0],
+        profile_z_mm=outline[:, 1],
         points_track_mm=points,
         calibration=calibration,
         back_face_track_x_mm=profile.get("back_face_track_x_mm"),

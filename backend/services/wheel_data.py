@@ -6,6 +6,7 @@ Lookups that the API answers with 404 raise `NotFoundError` with what is missing
 
 from __future__ import annotations
 
+import numpy as np
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
@@ -18,6 +19,7 @@ from backend.services.results import PARAMETER_NAMES
 from backend.storage.artefacts import FrameArtefacts
 from backend.storage.store import BlobStore
 from db.models import Frame, Measurement, MeasurementFrame, PassWheel
+from pipeline.profile.outline import outline_points
 from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile
 
 
@@ -95,11 +97,17 @@ def wheel_profile(pass_wheel: PassWheel, method: str) -> ProfileRead:
     reference = measurement.reference_profile
     ref = load_reference_profile(reference) if reference in REFERENCE_PROFILES else None
     result = method_result(measurement)
+    outline = outline_points(
+        np.asarray(profile.get("x_mm", [])), np.asarray(profile.get("z_mm", []))
+    )
+    outline_columns = [[None if np.isnan(v) else float(v) for v in column] for column in outline.T]
     return ProfileRead(
         method=method,
         reference_profile=reference,
         x_mm=profile.get("x_mm", []),
         z_mm=profile.get("z_mm", []),
+        outline_x_mm=outline_columns[0],
+        outline_z_mm=outline_columns[1],
         reference_x_mm=ref.x_mm.tolist() if ref else [],
         reference_z_mm=ref.z_mm.tolist() if ref else [],
         construction=profile.get("construction", {}),

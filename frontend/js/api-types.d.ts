@@ -324,6 +324,9 @@ export interface ProfileRead {
   reference_profile: string | null;
   x_mm: number[];
   z_mm: number[];
+  /** the profile's outline (pipeline.profile.outline): medians of the points in 0.25 mm steps along the profile, null between pieces apart by a gap [mm] */
+  outline_x_mm: (number | null)[];
+  outline_z_mm: (number | null)[];
   reference_x_mm: number[];
   reference_z_mm: number[];
   construction: Record<string, unknown>;

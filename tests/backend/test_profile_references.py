@@ -21,6 +21,7 @@ import pytest
 from backend.cli import main as cli
 from pipeline.profile.exchange import parse_profile_file
 from pipeline.profile.flange import curve_flange_parameters
+from pipeline.profile.outline import outline_points
 from pipeline.version import PIPELINE_VERSION
 from tests.backend.pdf_checks import overlapping_words, pdf_pages, pdf_text
 from tests.backend.test_measurement_e2e import client, measured, simulated, tokens
@@ -49,7 +50,11 @@ def test_exports_read_back_within_a_micrometre(client, auth, measured, method) -
     pass_id = measured["pass_id"]
     wheel = first_wheel(client, auth, pass_id)
     profile = stored_profile(client, auth, pass_id, wheel["wheel_id"], method)
-    x, z = np.array(profile["x_mm"]), np.array(profile["z_mm"])
+    # the files hold the outline the API serves (one trace; its gaps are joined)
+    outline = np.array([profile["outline_x_mm"], profile["outline_z_mm"]], dtype=float)
+    x, z = outline[:, np.isfinite(outline[0])]
+    assert np.array_equal(outline.T, outline_points(profile["x_mm"], profile["z_mm"]), True)
+    assert 0 < x.size < len(profile["x_mm"])
     base = f"/api/passes/{pass_id}/wheels/{wheel['wheel_id']}/profile"
     files = {}
     for fmt in ("csv", "dxf", "whl"):

@@ -112,6 +112,25 @@ test('drawProfile draws a measured profile as its points: no line joins interlea
   assert.equal(afterClip.filter(([name]) => name === 'lineTo').length, 0, 'nothing is stroked between the points');
 });
 
+test('drawProfile strokes the outline the service gives over the points, broken at null', () => {
+  const { ctx, calls } = recordingContext();
+  const curve = {
+    method: 'adaptive',
+    x_mm: [60, 60.1, 60.2, 70],
+    z_mm: [0, 0.4, 0, 0],
+    outline_x_mm: [60, 60.2, null, 70, 71],
+    outline_z_mm: [0.2, 0.2, null, 0, 0],
+  };
+  drawProfile(
+    ctx,
+    { curves: [curve], reference: null, constructions: null, values: {} },
+    { widthPx: 400, heightPx: 300, pixelRatio: 1 },
+  );
+  const afterClip = calls.slice(calls.findIndex(([name]) => name === 'clip'));
+  const ops = afterClip.filter(([n]) => n === 'moveTo' || n === 'lineTo').map(([n]) => n);
+  assert.deepEqual(ops, ['moveTo', 'lineTo', 'moveTo', 'lineTo']);
+});
+
 test('drawProfile labels the constructions with the service values', () => {
   const { ctx, calls } = recordingContext();
   drawProfile(

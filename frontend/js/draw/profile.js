@@ -5,8 +5,10 @@
  * mm scale. A measured profile is drawn as its points: it pools every frame of both
  * sensors, whose points interleave along x (frame-to-frame offsets of 0.1–0.4 mm), so a
  * line through them in the API's order would zigzag between frames and join a stray piece
- * to the tread. The reference is stroked in its order (never sorted by x, so the
- * multi-valued flange keeps its shape).
+ * to the tread. Over them runs the profile's outline the service computed (medians in
+ * 0.25 mm steps along the profile, what the exports hold). The outline and the reference
+ * are stroked in their order (never sorted by x, so the multi-valued flange keeps its
+ * shape).
  */
 import { boundsOf } from '../lib/ticks.js';
 import { makePlotScale } from '../lib/plot-scale.js';
@@ -15,12 +17,16 @@ import { METHOD_COLOURS } from './frame.js';
 
 /** Side of a measured profile point's square, CSS px. */
 const POINT_SIZE_PX = 2;
+/** Opacity of the points under the outline. */
+const POINT_ALPHA = 0.45;
 
 /**
  * @typedef {object} ProfileCurve
  * @property {string} method "adaptive" or "steger"
  * @property {Array<number|null>} x_mm
  * @property {Array<number|null>} z_mm
+ * @property {Array<number|null>} [outline_x_mm] the profile's outline, null between pieces
+ * @property {Array<number|null>} [outline_z_mm]
  */
 
 /**
@@ -75,7 +81,14 @@ export function drawProfile(ctx, data, options) {
   // the first curve is the selected method: draw it last, on top
   for (const curve of [...data.curves].reverse()) {
     ctx.fillStyle = METHOD_COLOURS[/** @type {'adaptive'|'steger'} */ (curve.method)] ?? '#fff';
+    ctx.globalAlpha = POINT_ALPHA;
     fillPoints(ctx, scale, curve.x_mm, curve.z_mm, POINT_SIZE_PX);
+    ctx.globalAlpha = 1;
+    if (curve.outline_x_mm && curve.outline_z_mm) {
+      ctx.strokeStyle = ctx.fillStyle;
+      ctx.lineWidth = 1.5;
+      strokePolyline(ctx, scale, curve.outline_x_mm, curve.outline_z_mm);
+    }
   }
   if (data.constructions) drawConstructions(ctx, scale, data.constructions, data.values);
   ctx.restore();
@@ -209,12 +222,8 @@ function label(ctx, s, x, y, text, colour, dxPx, centred = false) {
  * @param {ProfileData} data
  */
 function drawKey(ctx, s, data) {
-  /** @type {Array<[string, string, boolean]>} name, colour, drawn as points */
-  const entries = data.curves.map((c) => [
-    `${c.method} (points)`,
-    METHOD_COLOURS[/** @type {'adaptive'} */ (c.method)],
-    true,
-  ]);
+  /** @type {Array<[string, string, boolean]>} name, colour, a method (points) or not */
+  const entries = data.curves.map((c) => [c.method, METHOD_COLOURS[/** @type {'adaptive'} */ (c.method)], true]);
   if (data.reference) entries.push([`reference ${data.reference.name}`, '#9aa5b1', false]);
   ctx.font = '11px system-ui, sans-serif';
   ctx.textAlign = 'left';
@@ -222,10 +231,15 @@ function drawKey(ctx, s, data) {
   let y = s.bottom - 10 - 14 * (entries.length - 1);
   for (const [name, colour, points] of entries) {
     ctx.fillStyle = colour;
-    if (points) for (let dx = 0; dx < 16; dx += 5) ctx.fillRect(s.right - 150 + dx, y - 1, 3, 3);
-    else ctx.fillRect(s.right - 150, y - 1, 16, 3);
+    // a method: its points (faint) with the outline through them; the reference: a line
+    if (points) {
+      ctx.globalAlpha = POINT_ALPHA;
+      for (let dx = 0; dx < 16; dx += 5) ctx.fillRect(s.right - 130 + dx, y - 4, 3, 3);
+      ctx.globalAlpha = 1;
+      ctx.fillRect(s.right - 130, y, 16, 1.5);
+    } else ctx.fillRect(s.right - 130, y - 1, 16, 3);
     ctx.fillStyle = '#c9d1db';
-    ctx.fillText(name, s.right - 128, y);
+    ctx.fillText(name, s.right - 108, y);
     y += 14;
   }
 }

@@ -32,7 +32,13 @@ export function renderProfile(canvas, profiles, methods, marker = null) {
   const scale = drawProfile(
     ctx,
     {
-      curves: usable.map((m) => ({ method: m, x_mm: profiles[m].x_mm, z_mm: profiles[m].z_mm })),
+      curves: usable.map((m) => ({
+        method: m,
+        x_mm: profiles[m].x_mm,
+        z_mm: profiles[m].z_mm,
+        outline_x_mm: profiles[m].outline_x_mm,
+        outline_z_mm: profiles[m].outline_z_mm,
+      })),
       reference: first.reference_x_mm?.length
         ? { name: first.reference_profile ?? 'reference', x_mm: first.reference_x_mm, z_mm: first.reference_z_mm }
         : null,

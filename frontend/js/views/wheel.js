@@ -213,7 +213,7 @@ export class WheelView {
       note ??
       (hovered
         ? `${hovered.method}: x ${fmtNumber(hovered.x, 2)} mm · z ${fmtNumber(hovered.z, 2)} mm`
-        : 'Points: every frame of both sensors, as fused. Dashed grey: reference. Constructions of the selected method: Sh (yellow), Sd (green), qR (pink). Hover the profile to read points.');
+        : 'Points: every frame of both sensors, as fused; the line through them: their outline (as exported). Dashed grey: reference. Constructions of the selected method: Sh (yellow), Sd (green), qR (pink). Hover the profile to read points.');
   }
 
   /**
