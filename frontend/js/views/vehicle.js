@@ -42,32 +42,34 @@ export function renderVehicle(root, state) {
       (adaptive) and its disposition.
       <a href=${buildHash(['review'], { vehicle: v.history.vehicle_id })}>Worst wheels of this vehicle</a>
     </p>
-    <table class="grid vehicle-history">
-      <thead>
-        <tr>
-          <th>Pass</th>
-          <th>Time</th>
-          <th>Site</th>
-          ${columns.map((c) => html`<th>axle ${c.axle} ${c.side}</th>`)}
-        </tr>
-      </thead>
-      <tbody>
-        ${passes.map(
-          (/** @type {any} */ p) =>
-            html`<tr data-pass-id=${String(p.pass_id)}>
-              <td><a href=${buildHash(['passes', p.pass_id])}>#${p.pass_id}</a></td>
-              <td class="mono">${fmtTime(p.started_at)}</td>
-              <td>${p.site}</td>
-              ${columns.map((c) =>
-                cell(
-                  p,
-                  p.wheels.find((/** @type {any} */ w) => w.axle === c.axle && w.side === c.side),
-                ),
-              )}
-            </tr>`,
-        )}
-      </tbody>
-    </table>`;
+    <div class="table-scroll">
+      <table class="grid vehicle-history">
+        <thead>
+          <tr>
+            <th>Pass</th>
+            <th>Time</th>
+            <th>Site</th>
+            ${columns.map((c) => html`<th>axle ${c.axle} ${c.side}</th>`)}
+          </tr>
+        </thead>
+        <tbody>
+          ${passes.map(
+            (/** @type {any} */ p) =>
+              html`<tr data-pass-id=${String(p.pass_id)}>
+                <td><a href=${buildHash(['passes', p.pass_id])}>#${p.pass_id}</a></td>
+                <td class="mono">${fmtTime(p.started_at)}</td>
+                <td>${p.site}</td>
+                ${columns.map((c) =>
+                  cell(
+                    p,
+                    p.wheels.find((/** @type {any} */ w) => w.axle === c.axle && w.side === c.side),
+                  ),
+                )}
+              </tr>`,
+          )}
+        </tbody>
+      </table>
+    </div>`;
   render(page(history), root);
 }
 
@@ -80,10 +82,11 @@ function cell(p, wheel) {
   if (!wheel) return html`<td class="empty">–</td>`;
   const nearest = [...(wheel.margins ?? [])].sort((a, b) => a.margin_fraction - b.margin_fraction)[0];
   const label = nearest
-    ? `${parameterOf(nearest.parameter).label} ${fmtNumber(nearest.value_mm)} mm (${fmtNumber(100 * nearest.margin_fraction, 0)} %)`
+    ? `${parameterOf(nearest.parameter).label} ${fmtNumber(nearest.value_mm)} mm`
     : wheel.state.replace('_', ' ');
+  const margin = nearest ? `${fmtNumber(100 * nearest.margin_fraction, 0)} % margin · ` : '';
   return html`<td class="cell level-${wheel.level}" data-level=${wheel.level}>
     <a href=${buildHash(['passes', p.pass_id, 'wheels', wheel.wheel_id])}>${label}</a>
-    <div class="disposition ${wheel.disposition ? 'set' : 'open'}">${fmtDisposition(wheel.disposition)}</div>
+    <div class="disposition ${wheel.disposition ? 'set' : 'open'}">${margin}${fmtDisposition(wheel.disposition)}</div>
   </td>`;
 }
