@@ -97,27 +97,29 @@ export function renderReview(root, state, handlers) {
         ${filterButtons(filter, handlers.applyFilter)}
         <span class="count">${review.loading ? 'loading…' : `${review.page?.total ?? 0} wheels`}</span>
       </form>
-      <table class="grid worst">
-        <thead>
-          <tr>
-            ${COLUMNS.map(([t, cls, key]) => {
-              const p = key ? parameterOf(key) : null;
-              return html`<th class=${cls ?? nothing} title=${p ? `${p.title}: ${p.definition}` : nothing}>
-                ${p?.unit ? `${t} ${p.unit}` : t}
-              </th>`;
-            })}
-          </tr>
-        </thead>
-        <tbody>
-          ${
-            items.length
-              ? items.map((/** @type {any} */ item, /** @type {number} */ i) =>
-                  row(item, (review.page?.offset ?? 0) + i + 1),
-                )
-              : emptyRow(COLUMNS.length, review.loading ? 'Loading…' : 'No measured wheels match.')
-          }
-        </tbody>
-      </table>
+      <div class="table-scroll">
+        <table class="grid worst">
+          <thead>
+            <tr>
+              ${COLUMNS.map(([t, cls, key]) => {
+                const p = key ? parameterOf(key) : null;
+                return html`<th class=${cls ?? nothing} title=${p ? `${p.title}: ${p.definition}` : nothing}>
+                  ${p?.unit ? `${t} ${p.unit}` : t}
+                </th>`;
+              })}
+            </tr>
+          </thead>
+          <tbody>
+            ${
+              items.length
+                ? items.map((/** @type {any} */ item, /** @type {number} */ i) =>
+                    row(item, (review.page?.offset ?? 0) + i + 1),
+                  )
+                : emptyRow(COLUMNS.length, review.loading ? 'Loading…' : 'No measured wheels match.')
+            }
+          </tbody>
+        </table>
+      </div>
       ${pager(review.page, filter, handlers.applyFilter)} ${definitions(PARAMETERS)}
     </section>`,
     root,
