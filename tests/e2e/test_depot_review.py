@@ -682,17 +682,17 @@ def test_defect_5_the_difference_plot_shows_every_offset_and_leads_to_the_frame(
     data = plot.evaluate("(c) => ({ ...c.dataset })")
     assert float(data["deltaTopPx"]) >= float(data["maxAbsPx"]) > 0, data
     assert "shaded: ±RMS" in page.locator(".diff-plot + .note").inner_text()
-    plot.scroll_into_view_if_needed()  # below the fold when the side panel is long
-    box = plot.bounding_box()
     before = page.locator(".frame-canvas").get_attribute("data-viewport")
-    y = box["y"] + float(data["zeroY"])
+    # positions relative to the plot, found anew at each step: the panels above it (Δr, the
+    # handheld comparison) may still fill in and move it down the side panel
+    y = float(data["zeroY"])
     for sx in range(int(float(data["left"])), int(float(data["right"])), 3):
-        page.mouse.move(box["x"] + sx, y)
+        plot.hover(position={"x": sx, "y": y})
         if plot.get_attribute("data-hovered") != "-1":
             break
     assert plot.get_attribute("data-hovered") != "-1", "no pair found along the zero line"
     assert "click to show it on the frame" in page.locator(".diff-plot + .note").inner_text()
-    page.mouse.click(box["x"] + sx, y)
+    plot.click(position={"x": sx, "y": y})
     page.wait_for_function(
         "(b) => document.querySelector('.frame-canvas').dataset.viewport !== b", arg=before
     )
