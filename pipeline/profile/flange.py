@@ -69,6 +69,21 @@ z: 0.148 and 0.046; on field profiles every bridge moves Sd by up to 0.3–0.4 m
 wave along the flank; docs/simulator.md, "Wider flank bridges"). The gap is reported
 (`FlangeParameters.flank_gap_mm`); a longer one leaves Sd not measured at 12 mm,
 Sd 10 and qR not measured at 10 mm, qR alone at Sh − 2."""
+FLANK_WEIGHT_STRENGTH = 20.0
+"""The flank fits weight each centre by its line strength s (`Centres.strength`, σ²|λ1|,
+proportional to the stripe's peak above its surround): w = s / √(1 + (s / 20)²), i.e. the
+inverse of a centre error σ² ∝ (1/s)² + (1/20)². A centre's shift from noise and from the
+lit scene's slope under the stripe goes as 1/peak (the matched fit's first-order shift
+2√2·g·s²/A, docs/simulator.md, "The glare's chords"), so a dim frame's flank reads off by
+more; the texture's shift is multiplicative, the same at any peak, and the glare's stretches
+(s 40–90, saturated) have their end hooks, hence the floor: above s ≈ 20 the weight levels
+off. On the field benchmark's 3-frame passes the dim flank (s 7–12) of one frame often lies
+0.2–0.3 mm off beside another frame's brighter stretch; the per-frame flank offset at
+z = 10–14 mm correlates with 1/s (|offset| vs s: −0.44, 203 outer frames, seed 2027).
+Seeds 2027 / 2028 (the floor chosen on both), 9 harsh passes × 8 wheels, Sd MAE 0.0425 →
+0.0373 / 0.0447 → 0.0357 mm, largest 0.227 → 0.194 / 0.172 → 0.126 (docs/simulator.md,
+"Flank fits weighted by line strength"). Without strengths (a handheld profile) the fits
+are unweighted."""
 MIN_FIT_POINTS = 5
 OUTLIER_MADS = 3.0
 OUTLIER_FLOOR_MM = 0.03
@@ -183,20 +198,31 @@ def curve_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParamet
 
 
 def robust_polyfit(
-    t: np.ndarray, v: np.ndarray, degree: int, what: str, start: np.ndarray | None = None
+    t: np.ndarray,
+    v: np.ndarray,
+    degree: int,
+    what: str,
+    start: np.ndarray | None = None,
+    weights: np.ndarray | None = None,
 ) -> np.ndarray:
     """Least-squares polynomial v(t), refitted without outliers until the inliers settle.
 
-    `start` (bool, default all) are the first fit's points. Raises FlangeNotFoundError
-    naming `what` when fewer than `MIN_FIT_POINTS` points (or consistent points) remain.
+    `start` (bool, default all) are the first fit's points; `weights` (default none) weight
+    each point's residual in the least squares (`numpy.polyfit`'s w, 1/σ), not the outlier
+    test. Raises FlangeNotFoundError naming `what` when fewer than `MIN_FIT_POINTS` points
+    (or consistent points) remain.
     """
     if t.size < MIN_FIT_POINTS:
         raise FlangeNotFoundError(f"too few profile points on the {what}")
     inlier = np.ones(t.size, bool) if start is None else np.asarray(start, bool).copy()
     if np.count_nonzero(inlier) < MIN_FIT_POINTS:
         raise FlangeNotFoundError(f"too few consistent profile points on the {what}")
+
+    def fit(at: np.ndarray) -> np.ndarray:
+        return np.polyfit(t[at], v[at], degree, w=None if weights is None else weights[at])
+
     for _ in range(OUTLIER_PASSES):
-        coefficients = np.polyfit(t[inlier], v[inlier], degree)
+        coefficients = fit(inlier)
         residual = np.abs(v - np.polyval(coefficients, t))
         limit = max(OUTLIER_MADS * 1.4826 * float(np.median(residual[inlier])), OUTLIER_FLOOR_MM)
         if np.array_equal(residual <= limit, inlier):
@@ -204,7 +230,14 @@ def robust_polyfit(
         inlier = residual <= limit
         if np.count_nonzero(inlier) < MIN_FIT_POINTS:
             raise FlangeNotFoundError(f"too few consistent profile points on the {what}")
-    return np.polyfit(t[inlier], v[inlier], degree)
+    return fit(inlier)
+
+
+def strength_weights(strength: np.ndarray) -> np.ndarray:
+    """The flank fits' weight of centres of line strength s: s / √(1 + (s / 20)²)
+    (`FLANK_WEIGHT_STRENGTH`)."""
+    s = np.maximum(np.asarray(strength, dtype=GEOMETRY_FLOAT), 0.0)
+    return s / np.sqrt(1.0 + (s / FLANK_WEIGHT_STRENGTH) ** 2)
 
 
 LINE_START_POINTS = 400
@@ -372,6 +405,7 @@ def _fit_flank(
     x_top: float,
     height_mm: float,
     half_window_mm: float = FLANK_HALF_WINDOW_MM,
+    strength: np.ndarray | None = None,
 ) -> tuple[float, float]:
     """x of the flank at z = height and the gap bridged about the height (0: none) [mm].
 
@@ -379,7 +413,8 @@ def _fit_flank(
     ±`half_window_mm` of the height. Where those within ±1 mm are fewer than
     `MIN_FIT_POINTS` or leave a gap of > 1 mm about the height, a gap of ≤
     `MAX_FLANK_GAP_MM` (edges found within ±3 mm) is bridged by the quadratic through 1 mm
-    of points on each side of it (and those within the half window).
+    of points on each side of it (and those within the half window). With the centres'
+    line strengths the fit weights them (`strength_weights`).
     """
     flank = (x > x_top) & (x < x_top + 40.0)
     dz = z[flank] - height_mm
@@ -404,17 +439,27 @@ def _fit_flank(
     near |= np.abs(dz) <= half_window_mm
     degree = 2 if np.ptp(dz[near]) > FLANK_HALF_WINDOW_MM else 1
     t, v = dz[near], x[flank][near]
-    x_flank = float(np.polyval(robust_polyfit(t, v, degree, what, line_inliers(t, v)), 0.0))
+    weights = None if strength is None else strength_weights(strength[flank][near])
+    if weights is not None and not np.any(weights > 0):
+        weights = None
+    x_flank = float(
+        np.polyval(robust_polyfit(t, v, degree, what, line_inliers(t, v), weights), 0.0)
+    )
     return x_flank, bridged
 
 
-def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameters:
+def fit_flange_parameters(
+    x_mm: np.ndarray, z_mm: np.ndarray, strength: np.ndarray | None = None
+) -> FlangeParameters:
     """Flange parameters estimated from measured profile points by local least squares.
 
     Parameters
     ----------
     x_mm, z_mm : ndarray of shape (K,)
         Profile points in the profile frame, in any order [mm].
+    strength : ndarray of shape (K,), optional
+        Line strength of each point's centre (`Centres.strength`): the flank fits weight
+        the points by it (`FLANK_WEIGHT_STRENGTH`); None fits them unweighted.
 
     Returns
     -------
@@ -440,6 +485,10 @@ def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameter
     points: a crest seen on one side only is not measured.
     """
     x, z = _check_points(x_mm, z_mm)
+    if strength is not None:
+        strength = np.asarray(strength, dtype=GEOMETRY_FLOAT)
+        if strength.shape != x.shape or not np.all(np.isfinite(strength)):
+            raise ValueError(f"strength must be finite of shape {x.shape}, got {strength.shape}")
     x_top, height = _fit_top(x, z)
     if not math.isfinite(height):
         raise FlangeNotFoundError("the flange top fit failed")
@@ -456,7 +505,7 @@ def fit_flange_parameters(x_mm: np.ndarray, z_mm: np.ndarray) -> FlangeParameter
     def flank(height_mm: float, half_window_mm: float, name: str) -> float | None:
         nonlocal gap
         try:
-            x_flank, bridged = _fit_flank(x, z, x_top, height_mm, half_window_mm)
+            x_flank, bridged = _fit_flank(x, z, x_top, height_mm, half_window_mm, strength)
         except FlangeNotFoundError as exc:
             reasons.append(f"{name}: {exc}")
             return None

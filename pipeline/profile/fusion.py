@@ -158,6 +158,9 @@ class FusedProfile:
         Outer points in that overlap.
     rejected_points : int
         Points dropped as inconsistent with the other sensor or as stray pieces.
+    strength : ndarray of shape (K,), float64, or None
+        Line strength of each point's centre (`Centres.strength`), when the points came with
+        it: the flank fits weight by it (`pipeline.profile.flange.FLANK_WEIGHT_STRENGTH`).
     """
 
     x_mm: np.ndarray
@@ -168,10 +171,12 @@ class FusedProfile:
     overlap_residual_mm: float | None
     overlap_points: int
     rejected_points: int
+    strength: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        for array in (self.x_mm, self.z_mm, self.sensor):
-            array.flags.writeable = False
+        for array in (self.x_mm, self.z_mm, self.sensor, self.strength):
+            if array is not None:
+                array.flags.writeable = False
 
 
 def _back_face_u(u_inner: np.ndarray) -> float:
@@ -527,6 +532,7 @@ def fuse_profile(
     *,
     side: str,
     cameras_track_mm: np.ndarray | None = None,
+    strengths: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> FusedProfile:
     """Fuse a wheel's inner and outer track-frame points into its profile.
 
@@ -539,6 +545,9 @@ def fuse_profile(
     cameras_track_mm : ndarray of shape (2, 3), optional
         The inner and the outer camera's centre in the track frame [mm]: points the flange
         hides from their camera are dropped (`HIDDEN_MARGIN_MM`).
+    strengths : (ndarray of shape (K_inner,), ndarray of shape (K_outer,)), optional
+        Line strength of each inner and outer point's centre, kept with the points
+        (`FusedProfile.strength`).
 
     Returns
     -------
@@ -556,6 +565,13 @@ def fuse_profile(
     sensor = np.concatenate(
         [np.zeros(len(inner_track_mm), np.int8), np.ones(len(outer_track_mm), np.int8)]
     )
+    strength = None
+    if strengths is not None:
+        strength = np.concatenate([np.asarray(a, GEOMETRY_FLOAT).ravel() for a in strengths])
+        if strength.shape != sensor.shape:
+            raise ValueError(
+                f"strengths must hold one value per point ({sensor.size}), got {strength.size}"
+            )
     u, big_z = sign * points[:, 0], points[:, 2]
     u_back = _back_face_u(u[sensor == 0])
     z_ref = _reference_z(u, big_z, u_back)
@@ -565,12 +581,14 @@ def fuse_profile(
     keep = (x > WHEEL_REACH_MM[0]) & (x < WHEEL_REACH_MM[1])
     keep &= (z > WHEEL_Z_MM[0]) & (z < WHEEL_Z_MM[1])
     x, z, sensor = x[keep], z[keep], sensor[keep]
+    strength = None if strength is None else strength[keep]
     cameras_xz = None
     if cameras_track_mm is not None:
         cameras = np.asarray(cameras_track_mm, dtype=GEOMETRY_FLOAT)
         cameras_xz = np.column_stack([sign * cameras[:, 0] - u_back, z_ref - cameras[:, 2]])
     clean = clean_profile_points(np.column_stack([x, z]), sensor, cameras_xz)
     x, z, sensor = x[clean], z[clean], sensor[clean]
+    strength = None if strength is None else strength[clean]
     offset = _cleaned_reference_offset(x, z)
     z, z_ref = z - offset, z_ref - offset
     on_face = (np.abs(x) < BACK_FACE_BAND_MM) & (z < BACK_FACE_Z_MM[1])
@@ -593,4 +611,5 @@ def fuse_profile(
         overlap_residual_mm=residual,
         overlap_points=count,
         rejected_points=int(np.count_nonzero(~clean)),
+        strength=None if strength is None else strength[order],
     )

@@ -300,6 +300,13 @@ def _stack(frames: list[FrameCentres]) -> np.ndarray:
     return np.concatenate([f.points_track_mm[f.used] for f in frames])
 
 
+def _stack_strength(frames: list[FrameCentres]) -> np.ndarray:
+    """The line strength of `_stack`'s points, in its order."""
+    if not frames:
+        return np.zeros(0)
+    return np.concatenate([f.centres.strength[f.used] for f in frames])
+
+
 def measure_wheel(
     frames_inner: Sequence[np.ndarray],
     frames_outer: Sequence[np.ndarray],
@@ -370,8 +377,14 @@ def measure_wheel(
             )
     try:
         cameras = np.array([camera_centre_track(s) for s in sensors])
-        profile = fuse_profile(inner_points, outer_points, side=side, cameras_track_mm=cameras)
-        parameters = fit_flange_parameters(profile.x_mm, profile.z_mm)
+        profile = fuse_profile(
+            inner_points,
+            outer_points,
+            side=side,
+            cameras_track_mm=cameras,
+            strengths=(_stack_strength(inner), _stack_strength(outer)),
+        )
+        parameters = fit_flange_parameters(profile.x_mm, profile.z_mm, profile.strength)
     except PipelineError as exc:
         return not_measured(str(exc))
     tread, tread_reason, surface = None, None, None
