@@ -294,17 +294,15 @@ def _in_window(frames: list[FrameCentres], side: str) -> list[FrameCentres]:
     return result
 
 
-def _stack(frames: list[FrameCentres]) -> np.ndarray:
+def _stack(frames: list[FrameCentres]) -> tuple[np.ndarray, np.ndarray]:
+    """The frames' used points in the track frame (K, 3) [mm] and their centres' line
+    strengths (K,), in the same order."""
     if not frames:
-        return np.zeros((0, 3))
-    return np.concatenate([f.points_track_mm[f.used] for f in frames])
-
-
-def _stack_strength(frames: list[FrameCentres]) -> np.ndarray:
-    """The line strength of `_stack`'s points, in its order."""
-    if not frames:
-        return np.zeros(0)
-    return np.concatenate([f.centres.strength[f.used] for f in frames])
+        return np.zeros((0, 3)), np.zeros(0)
+    return (
+        np.concatenate([f.points_track_mm[f.used] for f in frames]),
+        np.concatenate([f.centres.strength[f.used] for f in frames]),
+    )
 
 
 def measure_wheel(
@@ -362,7 +360,7 @@ def measure_wheel(
     if search_region:
         windowed = _in_window(inner + outer, side)
         inner, outer = windowed[: len(inner)], windowed[len(inner) :]
-    inner_points, outer_points = _stack(inner), _stack(outer)
+    (inner_points, inner_strength), (outer_points, outer_strength) = _stack(inner), _stack(outer)
     counts = (len(inner_points), len(outer_points))
 
     def not_measured(reason: str) -> WheelMeasurement:
@@ -382,7 +380,7 @@ def measure_wheel(
             outer_points,
             side=side,
             cameras_track_mm=cameras,
-            strengths=(_stack_strength(inner), _stack_strength(outer)),
+            strengths=(inner_strength, outer_strength),
         )
         parameters = fit_flange_parameters(profile.x_mm, profile.z_mm, profile.strength)
     except PipelineError as exc:
