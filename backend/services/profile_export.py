@@ -18,10 +18,10 @@ import ezdxf
 import numpy as np
 
 from backend.errors import NotFoundError
-from backend.services.wheel_data import measurement_or_404
+from backend.services.wheel_data import measurement_or_404, stored_outline
 from db.models import PassWheel
 from pipeline.profile.exchange import profile_csv_text, profile_whl_text
-from pipeline.profile.outline import OUTLINE_STEP_MM, outline_points
+from pipeline.profile.outline import OUTLINE_STEP_MM
 
 FORMATS = ("csv", "dxf", "whl")
 MEDIA_TYPES = {"csv": "text/csv", "dxf": "image/vnd.dxf", "whl": "text/plain"}
@@ -67,8 +67,8 @@ def export_profile(pass_wheel: PassWheel, method: str, fmt: str) -> ExportedProf
     profile = measurement.profile or {}
     if not profile.get("x_mm"):
         raise NotFoundError(f"the {method} result of wheel {pass_wheel.wheel_id} has no profile")
-    outline = outline_points(np.asarray(profile["x_mm"]), np.asarray(profile["z_mm"]))
-    x_mm, z_mm = outline[np.isfinite(outline[:, 0])].T
+    outline = stored_outline(profile)
+    x_mm, z_mm = outline[np.isfinite(outline[:, 0])].T  # one trace: its gaps joined
     train_pass, wheel = pass_wheel.train_pass, pass_wheel.wheel
     ident = [
         ("Pass", str(train_pass.id)),

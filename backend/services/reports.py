@@ -23,7 +23,6 @@ from datetime import UTC
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from sqlalchemy.orm import Session
 
 from backend import __version__
@@ -40,9 +39,9 @@ from backend.services.report_pdf import ReportHeader, WheelSection, render_pdf
 from backend.services.report_plot import Curve, construction_labels, profile_drawing
 from backend.services.results import PARAMETER_NAMES
 from backend.services.review import DISPOSITION_WORDS
+from backend.services.wheel_data import stored_outline
 from db.models import Pass, PassWheel
 from db.types import utc_now
-from pipeline.profile.outline import outline_points
 from pipeline.profile.reference import REFERENCE_PROFILES, load_reference_profile
 
 REPORT_CACHE_FILES = 500
@@ -136,8 +135,7 @@ def _section(
     for method, measurement in measurements.items():
         profile = measurement.profile or {}
         if profile.get("x_mm"):
-            outline = outline_points(np.asarray(profile["x_mm"]), np.asarray(profile["z_mm"]))
-            curves.append(Curve(method, *outline.T))
+            curves.append(Curve(method, *stored_outline(profile).T))
     measured = [m for m in measurements.values() if m.status == "measured"]
     # the constructions drawn: a measured method's, adaptive first
     primary = min(measured or list(measurements.values()), key=lambda m: m.method != "adaptive",

@@ -30,6 +30,7 @@ from sqlalchemy.orm import Session
 from backend.config import Settings
 from backend.errors import NotFoundError
 from backend.services.pass_wheels import method_measurement
+from backend.services.wheel_data import stored_outline
 from backend.storage.artefacts import load_artefacts
 from backend.storage.store import BlobStore
 from db.models import Measurement, PassWheel, Wheel
@@ -44,7 +45,6 @@ from pipeline.calibration.model import (
     StationCalibration,
     parse_calibration,
 )
-from pipeline.profile.outline import outline_points
 
 NOMINAL_RADIUS_MM = 460.0
 """Rolling radius used for the reconstruction (920 mm wheels); the diameter is not measured."""
@@ -353,7 +353,7 @@ def load_wheel_scene_data(
         if axle_measurement is not None:
             points.update(_track_points(store, axle_measurement, calibration))
     profile = measurement.profile or {}
-    outline = outline_points(np.asarray(profile["x_mm"]), np.asarray(profile["z_mm"]))
+    outline = stored_outline(profile)
     return WheelSceneData(
         wheel_id=wheel_id,
         side=wheel.side,

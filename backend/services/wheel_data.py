@@ -6,6 +6,8 @@ Lookups that the API answers with 404 raise `NotFoundError` with what is missing
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from sqlalchemy import select
 from sqlalchemy.orm import Session
@@ -89,6 +91,12 @@ def stored_artefacts(
     return frame, cached_artefacts(store, row.artefact_sha256)
 
 
+def stored_outline(profile: dict[str, Any]) -> np.ndarray:
+    """The outline (`pipeline.profile.outline.outline_points`: (S, 2) [mm], a NaN row
+    between pieces) of a measurement's stored profile document; no rows without points."""
+    return outline_points(np.asarray(profile.get("x_mm", [])), np.asarray(profile.get("z_mm", [])))
+
+
 def wheel_profile(pass_wheel: PassWheel, method: str) -> ProfileRead:
     """The fused profile of `method` and its reference profile [mm], with the Sh/Sd/qR
     construction points, the parameters and the axle's Δr(y) and conicity curve."""
@@ -97,10 +105,9 @@ def wheel_profile(pass_wheel: PassWheel, method: str) -> ProfileRead:
     reference = measurement.reference_profile
     ref = load_reference_profile(reference) if reference in REFERENCE_PROFILES else None
     result = method_result(measurement)
-    outline = outline_points(
-        np.asarray(profile.get("x_mm", [])), np.asarray(profile.get("z_mm", []))
-    )
-    outline_columns = [[None if np.isnan(v) else float(v) for v in column] for column in outline.T]
+    outline_columns = [
+        [None if np.isnan(v) else float(v) for v in column] for column in stored_outline(profile).T
+    ]
     return ProfileRead(
         method=method,
         reference_profile=reference,

@@ -51,12 +51,17 @@ def _group_medians(groups: np.ndarray, values: np.ndarray) -> np.ndarray:
     return (low + high) / 2
 
 
+def _steps(key: np.ndarray) -> np.ndarray:
+    """Index 0..S−1 of each point's OUTLINE_STEP_MM step of `key`, in increasing `key`."""
+    return np.unique(np.floor(key / OUTLINE_STEP_MM).astype(np.int64), return_inverse=True)[1]
+
+
 def _step_medians(key: np.ndarray, x: np.ndarray, z: np.ndarray) -> np.ndarray:
     """(median x, median z) of the points in each OUTLINE_STEP_MM step of `key`, in
     increasing `key`; shape (S, 2)."""
     if key.size == 0:
         return np.zeros((0, 2), GEOMETRY_FLOAT)
-    groups = np.unique(np.floor(key / OUTLINE_STEP_MM).astype(np.int64), return_inverse=True)[1]
+    groups = _steps(key)
     return np.column_stack([_group_medians(groups, x), _group_medians(groups, z)])
 
 
@@ -79,7 +84,7 @@ def _steep_steps(x: np.ndarray, z: np.ndarray, groups: np.ndarray) -> np.ndarray
 
 def _walk(x: np.ndarray, z: np.ndarray) -> list[np.ndarray]:
     """The non-face points' trace: x steps, runs of steep steps walked along z."""
-    groups = np.unique(np.floor(x / OUTLINE_STEP_MM).astype(np.int64), return_inverse=True)[1]
+    groups = _steps(x)
     steep = _steep_steps(x, z, groups)
     runs = np.split(np.arange(steep.size), np.flatnonzero(np.diff(steep.astype(np.int8))) + 1)
     trace: list[np.ndarray] = []
