@@ -68,7 +68,8 @@ def _step_medians(key: np.ndarray, x: np.ndarray, z: np.ndarray) -> np.ndarray:
 def _steep_steps(x: np.ndarray, z: np.ndarray, groups: np.ndarray) -> np.ndarray:
     """Which x steps (`groups`) hold a steep part: their z spread (STEEP_MAD_MM) or the
     slope of the steps' medians two steps either side (STEEP_SLOPE); a step of fewer than
-    3 points takes the flag of the step before it."""
+    3 points takes the flag of the step before it (the first steps: of the first step of 3
+    or more)."""
     counts = np.bincount(groups)
     mx, mz = _group_medians(groups, x), _group_medians(groups, z)
     spread = _group_medians(groups, np.abs(z - mz[groups]))
@@ -77,8 +78,9 @@ def _steep_steps(x: np.ndarray, z: np.ndarray, groups: np.ndarray) -> np.ndarray
     run = mx[ahead] - mx[behind]
     rise = np.abs(mz[ahead] - mz[behind])
     steep = (spread > STEEP_MAD_MM) | (rise > STEEP_SLOPE * np.where(run > 0, run, np.inf))
+    full = np.flatnonzero(counts >= 3)
     for i in np.flatnonzero(counts < 3):
-        steep[i] = steep[i - 1] if i > 0 else steep[i]
+        steep[i] = steep[i - 1] if i > 0 else (steep[full[0]] if full.size else steep[i])
     return steep
 
 
