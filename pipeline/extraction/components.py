@@ -48,7 +48,8 @@ def room_for_runs(band, height):
 
 
 @kernel
-def _find(parent, p):
+def find_root(parent, p):
+    """The root of node `p` in a union-find forest `parent`, halving the path on the way."""
     while parent[p] != p:
         parent[p] = parent[parent[p]]
         p = parent[p]
@@ -115,14 +116,14 @@ def label_runs(runs):
             scan += 1
         j = scan
         while j < k and runs[j, 0] == r - 1 and runs[j, 1] <= c1:
-            a, b = _find(parent, k), _find(parent, j)
+            a, b = find_root(parent, k), find_root(parent, j)
             if a != b:
                 parent[max(a, b)] = min(a, b)
             j += 1
     label = np.empty(count, np.int64)
     components = 1
     for k in range(count):
-        root = _find(parent, k)
+        root = find_root(parent, k)
         if root == k:
             label[k] = components
             components += 1

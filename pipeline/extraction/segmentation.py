@@ -18,11 +18,9 @@ by its place in the track frame.
 from __future__ import annotations
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
-from pipeline.extraction.components import ComponentShapes
+from pipeline.extraction.components import ComponentShapes, find_root
+from pipeline.jit import kernel
 
 MIN_COMPONENT_AREA_PX = 40
 """Components smaller than this [px²] are noise or stray spots, never a stripe."""
@@ -249,23 +247,83 @@ def chain_maxima(values: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
     return np.maximum.reduceat(values[points], np.cumsum(size) - size)
 
 
+@kernel
+def _box_pairs(x, y, ex, ey, reach):
+    """The pairs (end, point) of ends (ex, ey) and points (x, y) [px] at most `reach` apart
+    along both axes: (P,) int64 each, a superset of the pairs within `reach`. The points
+    are sorted by x once and each end reads only those of its x span."""
+    order = np.argsort(x, kind="mergesort")
+    sx = x[order]
+    lo = np.searchsorted(sx, ex - reach)
+    hi = np.searchsorted(sx, ex + reach, side="right")
+    count = 0
+    for e in range(ex.size):
+        for i in range(lo[e], hi[e]):
+            count += abs(y[order[i]] - ey[e]) <= reach
+    ends = np.empty(count, np.int64)
+    points = np.empty(count, np.int64)
+    count = 0
+    for e in range(ex.size):
+        for i in range(lo[e], hi[e]):
+            if abs(y[order[i]] - ey[e]) <= reach:
+                ends[count], points[count] = e, order[i]
+                count += 1
+    return ends, points
+
+
+@kernel
+def _components(a, b, size):
+    """Connected components of the graph of `size` nodes with the edges a[k]–b[k]: each
+    node's label (int64, 0 …)."""
+    parent = np.arange(size)
+    for k in range(a.size):
+        ra, rb = find_root(parent, a[k]), find_root(parent, b[k])
+        if ra != rb:
+            parent[max(ra, rb)] = min(ra, rb)
+    label = np.empty(size, np.int64)
+    count = 0
+    for k in range(size):
+        root = find_root(parent, k)
+        if root == k:
+            label[k] = count
+            count += 1
+        else:
+            label[k] = label[root]
+    return label
+
+
+_BOX_SLACK_PX = 1e-6
+"""Widening of the squares searched around each end [px]: a centre whose squared distance
+rounds to LINE_JOIN_PX² may lie a hair beyond it along an axis."""
+
+
 def joined_lines(xy: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
     """Which line each chain belongs to (int (len(chains),)): chains are joined when an end of
     one lies within LINE_JOIN_PX of a centre of the other that lies within LINE_SIDE_PX of
     the end's tangent line (`chain_ends`), transitively. `xy` (K, 2) are the centres [px],
-    `chains` index arrays into it."""
+    `chains` index arrays into it.
+
+    The centres within reach of each end: those of its square (`_box_pairs`), then the
+    distance test of a k-d tree's leaves (the squares summed, against LINE_JOIN_PX²; a
+    tree built for a few ends cost more than the rest of the chain rules).
+    """
     order = np.concatenate(chains)
     owner = np.repeat(np.arange(len(chains)), [c.size for c in chains])
-    tree = cKDTree(xy[order])
     ends = chain_ends(xy[:, 0], xy[:, 1], chains)
-    near = tree.query_ball_point(ends[:, :2], LINE_JOIN_PX)
-    rows = np.repeat(np.arange(ends.shape[0]), [len(n) for n in near])
-    hits = np.concatenate(near).astype(np.int64) if rows.size else rows
-    gap = xy[order[hits]] - ends[rows, :2]
+    at = xy[order]
+    rows, hits = _box_pairs(
+        np.ascontiguousarray(at[:, 0]),
+        np.ascontiguousarray(at[:, 1]),
+        np.ascontiguousarray(ends[:, 0]),
+        np.ascontiguousarray(ends[:, 1]),
+        LINE_JOIN_PX + _BOX_SLACK_PX,
+    )
+    gap = at[hits] - ends[rows, :2]
+    within = gap[:, 0] * gap[:, 0] + gap[:, 1] * gap[:, 1] <= LINE_JOIN_PX * LINE_JOIN_PX
+    rows, hits, gap = rows[within], hits[within], gap[within]
     side = np.abs(gap[:, 0] * ends[rows, 3] - gap[:, 1] * ends[rows, 2])
     rows, cols = rows[side <= LINE_SIDE_PX] // 2, owner[hits[side <= LINE_SIDE_PX]]
-    graph = coo_matrix((np.ones(rows.size), (rows, cols)), shape=(len(chains),) * 2)
-    return connected_components(graph, directed=False)[1]
+    return _components(rows, cols, len(chains))
 
 
 def longest_lines(xy: np.ndarray, chains: list[np.ndarray]) -> np.ndarray:
