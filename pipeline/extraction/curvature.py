@@ -175,6 +175,27 @@ def local_curvature(x: np.ndarray, y: np.ndarray, nx, ny, sigma: np.ndarray) -> 
     return out
 
 
+@kernel
+def _lepski(offsets, counts, scatter, correlation, factors):
+    """Per point, the widest of the windows `factors` (F,) whose fit (`offsets` (F, K), on
+    `counts` points) and those of every narrower one pass Lepski's test, all narrower ones
+    passing too (see `_scatter_windows`): that factor and its fit, (K,) each."""
+    chosen = np.empty(offsets.shape[1])
+    fitted = np.empty(offsets.shape[1])
+    for i in range(offsets.shape[1]):
+        chosen[i], fitted[i] = factors[0], offsets[0, i]
+        admissible = True
+        for k in range(1, factors.size):
+            for j in range(k):
+                count = np.maximum(counts[j, i], 1.0)
+                independent = np.maximum(count / np.maximum(correlation[i], 1.0), 1.0)
+                limit = LEPSKI_Z * scatter[i] * np.sqrt(2.0 / independent)
+                admissible &= np.abs(offsets[k, i] - offsets[j, i]) <= limit
+            if admissible:
+                chosen[i], fitted[i] = factors[k], offsets[k, i]
+    return chosen, fitted
+
+
 def _scatter_windows(
     x, y, nx, ny, sigma, bounds, correlation_px=None, first=None, *, measured=False
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -195,28 +216,19 @@ def _scatter_windows(
     the stripe is smooth, no wider where its shape changes. A point's fit depends only on
     its own window, so the fit on the chosen window is the one made while choosing it.
     """
-    fits: list[tuple[np.ndarray, np.ndarray]] = []
-    for factor in SUPPORT_FACTORS:
-        if first is not None and not fits:
-            offset, count = first
+    offsets, counts = np.empty((2, len(SUPPORT_FACTORS), x.size))
+    for f, factor in enumerate(SUPPORT_FACTORS):
+        if first is not None and f == 0:
+            offsets[0], counts[0] = first
         else:
-            kappa, offset, count = (np.empty(x.size) for _ in range(3))
-            _fit_curvatures(x, y, nx, ny, sigma * factor, bounds, kappa, offset, count)
-        fits.append((offset, np.maximum(count, 1.0)))
-    scatter = _spread(fits[0][0], bounds)
-    chosen = np.full(x.size, SUPPORT_FACTORS[0])
-    fitted = fits[0][0].copy()
-    admissible = np.ones(x.size, bool)
+            kappa = np.empty(x.size)
+            _fit_curvatures(x, y, nx, ny, sigma * factor, bounds, kappa, offsets[f], counts[f])
+    scatter = _spread(offsets[0], bounds)
     correlation = 2.0 * sigma if correlation_px is None else correlation_px
     if measured:
-        correlation = np.maximum(correlation, _error_correlation(fits[0][0], bounds))
-    for k in range(1, len(SUPPORT_FACTORS)):
-        for j in range(k):
-            independent = np.maximum(fits[j][1] / np.maximum(correlation, 1.0), 1.0)
-            limit = LEPSKI_Z * scatter * np.sqrt(2.0 / independent)
-            admissible &= np.abs(fits[k][0] - fits[j][0]) <= limit
-        chosen[admissible] = SUPPORT_FACTORS[k]
-        fitted[admissible] = fits[k][0][admissible]
+        correlation = np.maximum(correlation, _error_correlation(offsets[0], bounds))
+    factors = np.array(SUPPORT_FACTORS)
+    chosen, fitted = _lepski(offsets, counts, scatter, np.ascontiguousarray(correlation), factors)
     return sigma * chosen, fitted
 
 
