@@ -36,8 +36,13 @@ from pipeline.extraction.blocks import (
     run_starts,
     zero_blocks,
 )
-from pipeline.extraction.hessian import eigen2
-from pipeline.extraction.ridges import min_structure_squared, ridge_estimate, ridge_value
+from pipeline.extraction.hessian import eigen2_parts, unit_normal
+from pipeline.extraction.ridges import (
+    fast_ridge,
+    min_structure_squared,
+    near_threshold,
+    ridge_value,
+)
 from pipeline.extraction.scalespace import (
     MAX_LEVEL,
     ScaleLevel,
@@ -57,6 +62,11 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
     On the frame grid (stride 1) V is only ever compared with RIDGE_THRESHOLD
     (`band_segmentation._stripe_runs`), so there it is `ridge_estimate` (its side of the
     threshold exact); a coarser grid's V is read bilinearly and is `ridge_value`.
+
+    Per stretch of a row: the candidates are found (one branch-free loop), their second
+    derivatives gathered, and their eigenvalues (and on the frame grid `fast_ridge`'s V)
+    computed in loops of selects, which vectorise; then, candidate by candidate, the
+    normal, the V near the threshold or off the frame grid, and the hints.
     """
     height, width = ix.shape
     frame_grid = stride == 1
@@ -71,6 +81,12 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
     least = 0.25 * min_s2
     d_xx, d_xy, d_yy = ixx.ravel(), ixy.ravel(), iyy.ravel()
     candidate = np.empty(width, np.bool_)
+    # The stretch's candidates: column, ∂² in frame units, λ1, λ2, unnormalised normal and
+    # its length, V (`fast_ridge`).
+    column = np.empty(width, np.int64)
+    hxx, hxy, hyy = np.empty(width), np.empty(width), np.empty(width)
+    l1, l2, vx, vy = np.empty(width), np.empty(width), np.empty(width), np.empty(width)
+    length, fast = np.empty(width), np.empty(width)
     flat_hints = hints.ravel()
     row_step, one, two = np.uint64(frame_cols), np.uint64(1), np.uint64(2)
     for br, bc0, bc1 in block_runs(blocks):
@@ -85,13 +101,25 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
                 dxx, dxy, dyy = d_xx[at + i], d_xy[at + i], d_yy[at + i]
                 s2 = (dxx * dxx + dyy * dyy + 2 * dxy * dxy) * (norm * norm)
                 candidate[i] = (dxx + dyy < 0) & (s2 > least)
-            for c in range(c0, c1):
-                if not candidate[c - c0]:
-                    continue
-                dxx, dxy, dyy = ixx[r, c], ixy[r, c], iyy[r, c]
-                lambda1, lambda2, nx, ny = eigen2(dxx * second, dxy * second, dyy * second)
-                if frame_grid:
-                    response[r, c] = ridge_estimate(lambda1 * sigma2, lambda2 * sigma2, c_grey)
+            count = np.uint64(0)
+            for i in range(np.uint64(c1 - c0)):
+                if candidate[i]:
+                    column[count] = c0 + i
+                    hxx[count] = d_xx[at + i] * second
+                    hxy[count] = d_xy[at + i] * second
+                    hyy[count] = d_yy[at + i] * second
+                    count += np.uint64(1)
+            for j in range(count):
+                l1[j], l2[j], vx[j], vy[j], length[j] = eigen2_parts(hxx[j], hxy[j], hyy[j])
+            if frame_grid:
+                for j in range(count):
+                    fast[j] = fast_ridge(l1[j] * sigma2, l2[j] * sigma2, c_grey)
+            for j in range(count):
+                c = column[j]
+                lambda1, lambda2 = l1[j], l2[j]
+                nx, ny = unit_normal(vx[j], vy[j], length[j])
+                if frame_grid and not near_threshold(fast[j]):
+                    response[r, c] = fast[j]  # `ridge_estimate`, split
                 else:
                     response[r, c] = ridge_value(lambda1 * sigma2, lambda2 * sigma2, c_grey)
                 strength[r, c] = -sigma2 * min(lambda1, 0.0)
@@ -106,10 +134,10 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
                 hc = min(max(int(np.rint(x)), 0), frame_cols - 1)
                 if 0 < hr < frame_rows - 1 and 0 < hc < frame_cols - 1:
                     # The 3×3 pixels by flat offsets: no bounds per pixel, no view per hint.
-                    at = np.uint64((hr - 1) * frame_cols + hc - 1)
+                    spot = np.uint64((hr - 1) * frame_cols + hc - 1)
                     for _ in range(3):
-                        flat_hints[at] = flat_hints[at + one] = flat_hints[at + two] = True
-                        at += row_step
+                        flat_hints[spot] = flat_hints[spot + one] = flat_hints[spot + two] = True
+                        spot += row_step
                     continue
                 for rr in range(max(hr - 1, 0), min(hr + 2, frame_rows)):
                     for cc in range(max(hc - 1, 0), min(hc + 2, frame_cols)):

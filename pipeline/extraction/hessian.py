@@ -25,14 +25,10 @@ class HessianEigen:
 
 
 @kernel
-def eigen2(ixx: float, ixy: float, iyy: float) -> tuple[float, float, float, float]:
-    """λ1, λ2 (|λ1| ≥ |λ2|) and the unit eigenvector (nx, ny) of λ1 of one 2×2 Hessian.
-
-    λ = m ± r with m = (Ixx + Iyy)/2 and r = √(((Ixx − Iyy)/2)² + Ixy²); the larger magnitude
-    is m + sign(m)·r. The eigenvector of λ1 is (Ixy, λ1 − Ixx) or (λ1 − Iyy, Ixy); the longer
-    of the two is used, which is the numerically stable choice. Where the Hessian is a multiple
-    of the identity the normal is undefined and (1, 0) is returned.
-    """
+def eigen2_parts(ixx: float, ixy: float, iyy: float) -> tuple[float, float, float, float, float]:
+    """λ1, λ2 (|λ1| ≥ |λ2|), the eigenvector (vx, vy) of λ1 not yet normalised, and its
+    length √(vx² + vy²): `eigen2` before `unit_normal`, by selects rather than branches,
+    so that a loop over it vectorises (`band_analysis._analyse_blocks`)."""
     mean = 0.5 * (ixx + iyy)
     half_diff = 0.5 * (ixx - iyy)
     root = np.sqrt(half_diff * half_diff + ixy * ixy)
@@ -41,16 +37,34 @@ def eigen2(ixx: float, ixy: float, iyy: float) -> tuple[float, float, float, flo
     lambda2 = mean - signed_root
     ax, ay = ixy, lambda1 - ixx
     bx, by = lambda1 - iyy, ixy
-    if ax * ax + ay * ay >= bx * bx + by * by:
-        vx, vy = ax, ay
-    else:
-        vx, vy = bx, by
-    norm = np.sqrt(vx * vx + vy * vy)  # no overflow: derivatives of grey levels
+    longer_a = ax * ax + ay * ay >= bx * bx + by * by
+    vx = ax if longer_a else bx
+    vy = ay if longer_a else by
+    return lambda1, lambda2, vx, vy, np.sqrt(vx * vx + vy * vy)  # no overflow: grey levels
+
+
+@kernel
+def unit_normal(vx: float, vy: float, norm: float) -> tuple[float, float]:
+    """(vx, vy) / `norm` (its length, `eigen2_parts`); (1, 0) where it is 0."""
     if norm < 1e-18:  # squares near the subnormals (float32 from 1e-19): hypot scales them
         norm = np.hypot(vx, vy)
     if norm == 0:
-        return lambda1, lambda2, 1.0, 0.0
-    return lambda1, lambda2, vx / norm, vy / norm
+        return 1.0, 0.0
+    return vx / norm, vy / norm
+
+
+@kernel
+def eigen2(ixx: float, ixy: float, iyy: float) -> tuple[float, float, float, float]:
+    """λ1, λ2 (|λ1| ≥ |λ2|) and the unit eigenvector (nx, ny) of λ1 of one 2×2 Hessian.
+
+    λ = m ± r with m = (Ixx + Iyy)/2 and r = √(((Ixx − Iyy)/2)² + Ixy²); the larger magnitude
+    is m + sign(m)·r. The eigenvector of λ1 is (Ixy, λ1 − Ixx) or (λ1 − Iyy, Ixy); the longer
+    of the two is used, which is the numerically stable choice. Where the Hessian is a multiple
+    of the identity the normal is undefined and (1, 0) is returned.
+    """
+    lambda1, lambda2, vx, vy, norm = eigen2_parts(ixx, ixy, iyy)
+    nx, ny = unit_normal(vx, vy, norm)
+    return lambda1, lambda2, nx, ny
 
 
 @kernel

@@ -37,23 +37,40 @@ half ulp of float32 at 0.5, where V is stored)."""
 
 
 @kernel
-def _ridge(lambda1: float, lambda2: float, c_grey: float, fast: bool) -> float:
-    """V from σ²-normalised eigenvalues, its two exp by libm or, if `fast`, by `fast_exp`."""
-    if not lambda1 < 0:
-        return 0.0
+def _exponents(lambda1: float, lambda2: float, c_grey: float) -> tuple[float, float]:
+    """The exponents of V's blob term, −RA²/2β², and structure term, −S²/2c²."""
     ratio = lambda2 / lambda1
     blob_exponent = ratio * ratio * (-1 / (2 * RIDGE_BETA**2))
-    blob = fast_exp(blob_exponent) if fast else np.exp(blob_exponent)
-    exponent = (lambda1 * lambda1 + lambda2 * lambda2) * (-1 / (2 * c_grey**2))
-    if exponent < -STRUCTURE_SATURATED:
-        return blob  # × a structure term of exactly 1
-    return blob * (1 - (fast_exp(exponent) if fast else np.exp(exponent)))
+    return blob_exponent, (lambda1 * lambda1 + lambda2 * lambda2) * (-1 / (2 * c_grey**2))
 
 
 @kernel
 def ridge_value(lambda1: float, lambda2: float, c_grey: float) -> float:
     """V of one pixel from its σ²-normalised eigenvalues (see `ridge_response`)."""
-    return _ridge(lambda1, lambda2, c_grey, False)
+    if not lambda1 < 0:
+        return 0.0
+    blob_exponent, exponent = _exponents(lambda1, lambda2, c_grey)
+    blob = np.exp(blob_exponent)
+    if exponent < -STRUCTURE_SATURATED:
+        return blob  # × a structure term of exactly 1
+    return blob * (1 - np.exp(exponent))
+
+
+@kernel
+def fast_ridge(lambda1: float, lambda2: float, c_grey: float) -> float:
+    """`ridge_value` with its two exp by `fast_exp`, by selects rather than branches, so
+    that a loop over it vectorises: within 2·EXP_RELATIVE_ERROR of V."""
+    blob_exponent, exponent = _exponents(lambda1, lambda2, c_grey)
+    blob = fast_exp(blob_exponent)
+    value = blob if exponent < -STRUCTURE_SATURATED else blob * (1 - fast_exp(exponent))
+    return value if lambda1 < 0 else 0.0
+
+
+@kernel
+def near_threshold(value: float) -> bool:
+    """Whether `fast_ridge`'s V lies within THRESHOLD_MARGIN of RIDGE_THRESHOLD, where
+    `ridge_value` decides its side."""
+    return abs(value - RIDGE_THRESHOLD) < THRESHOLD_MARGIN
 
 
 @kernel
@@ -62,13 +79,14 @@ def ridge_estimate(lambda1: float, lambda2: float, c_grey: float) -> float:
     `ridge_value` bit for bit (in float64 and once stored as float32), for fields that are
     only ever compared with the threshold.
 
-    Its two exp are `fast_exp` (the blob term's exponent lies in [−2, 0] as |λ2| ≤ |λ1|,
-    the structure term's in [−STRUCTURE_SATURATED, 0]), each within EXP_RELATIVE_ERROR;
-    within THRESHOLD_MARGIN of the threshold `ridge_value` decides. On a lit frame's grid
-    of σ1 (851k candidates, 1.97 exp each) about 15 % of the V/C/hints kernel.
+    Its two exp are `fast_exp` (`fast_ridge`: the blob term's exponent lies in [−2, 0] as
+    |λ2| ≤ |λ1|, the structure term's in [−STRUCTURE_SATURATED, 0]), each within
+    EXP_RELATIVE_ERROR; within THRESHOLD_MARGIN of the threshold `ridge_value` decides. On
+    a lit frame's grid of σ1 (851k candidates, 1.97 exp each) about 15 % of the V/C/hints
+    kernel.
     """
-    value = _ridge(lambda1, lambda2, c_grey, True)
-    if abs(value - RIDGE_THRESHOLD) < THRESHOLD_MARGIN:
+    value = fast_ridge(lambda1, lambda2, c_grey)
+    if near_threshold(value):
         return ridge_value(lambda1, lambda2, c_grey)
     return value
 
