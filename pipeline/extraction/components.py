@@ -57,6 +57,31 @@ def find_root(parent, p):
 
 
 @kernel
+def union(parent, a, b) -> None:
+    """Join the trees of nodes `a` and `b`, the smaller root becoming the root."""
+    ra, rb = find_root(parent, a), find_root(parent, b)
+    if ra != rb:
+        parent[max(ra, rb)] = min(ra, rb)
+
+
+@kernel
+def tree_labels(parent, first):
+    """Each node's label in a union-find forest: its tree's number, counted from `first`
+    in the order of the trees' roots (int64, the size of `parent`), and the next unused
+    label."""
+    label = np.empty(parent.size, np.int64)
+    count = first
+    for k in range(parent.size):
+        root = find_root(parent, k)
+        if root == k:
+            label[k] = count
+            count += 1
+        else:
+            label[k] = label[root]
+    return label, count
+
+
+@kernel
 def row_runs(binary, blocks):
     """Runs of True pixels along the band's rows, raster order: rows of (row, first, stop)."""
     height, width = binary.shape
@@ -116,19 +141,9 @@ def label_runs(runs):
             scan += 1
         j = scan
         while j < k and runs[j, 0] == r - 1 and runs[j, 1] <= c1:
-            a, b = find_root(parent, k), find_root(parent, j)
-            if a != b:
-                parent[max(a, b)] = min(a, b)
+            union(parent, k, j)
             j += 1
-    label = np.empty(count, np.int64)
-    components = 1
-    for k in range(count):
-        root = find_root(parent, k)
-        if root == k:
-            label[k] = components
-            components += 1
-        else:
-            label[k] = label[root]
+    label, components = tree_labels(parent, 1)
     moments = np.zeros((components, 6))
     for k in range(count):
         r, c0, c1 = float(runs[k, 0]), float(runs[k, 1]), float(runs[k, 2])

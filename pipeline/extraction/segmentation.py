@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pipeline.extraction.components import ComponentShapes, find_root
+from pipeline.extraction.components import ComponentShapes, tree_labels, union
 from pipeline.jit import kernel
 
 MIN_COMPONENT_AREA_PX = 40
@@ -277,19 +277,8 @@ def _components(a, b, size):
     node's label (int64, 0 …)."""
     parent = np.arange(size)
     for k in range(a.size):
-        ra, rb = find_root(parent, a[k]), find_root(parent, b[k])
-        if ra != rb:
-            parent[max(ra, rb)] = min(ra, rb)
-    label = np.empty(size, np.int64)
-    count = 0
-    for k in range(size):
-        root = find_root(parent, k)
-        if root == k:
-            label[k] = count
-            count += 1
-        else:
-            label[k] = label[root]
-    return label
+        union(parent, a[k], b[k])
+    return tree_labels(parent, 0)[0]
 
 
 _BOX_SLACK_PX = 1e-6
