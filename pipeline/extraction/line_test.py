@@ -297,28 +297,52 @@ broken pieces, saturation) ≤ 5 %."""
 
 
 @kernel
-def _body_share(image, x, y, nx, ny, w) -> float:
-    """The lower over the two sides of (shoulder − surface)/(centre − surface) at one centre
-    of width W = w > 0, the shoulder read at BODY_NEAR_WIDTHS·W and the surface the lowest
-    of BODY_READS reads from there to BODY_FAR_WIDTHS·W (`_profile_at`)."""
+def _body_extent(image, x, y, w) -> bool:
+    """Whether every read of `_side_share` at a centre of width W = w lies inside the frame."""
     height, frame_width = image.shape
     extent = BODY_FAR_WIDTHS * w + max(TANGENT_OFFSETS_PX) + 1.0
-    inside = extent <= x < frame_width - 1 - extent and extent <= y < height - 1 - extent
+    return extent <= x < frame_width - 1 - extent and extent <= y < height - 1 - extent
+
+
+@kernel
+def _side_share(image, x, y, nx, ny, w, direction, centre, inside) -> float:
+    """(shoulder − surface)/(centre − surface) on the side `direction` (±1) of one centre of
+    width W = w > 0 and unsmoothed grey `centre`, the shoulder read at BODY_NEAR_WIDTHS·W
+    and the surface the lowest of BODY_READS reads from there to BODY_FAR_WIDTHS·W
+    (`_profile_at`); 0 where the line does not stand above the surface at all."""
+    spacing = (BODY_FAR_WIDTHS - BODY_NEAR_WIDTHS) * w / (BODY_READS - 1)
+    near = direction * BODY_NEAR_WIDTHS * w
+    shoulder = _profile_at(image, x, y, nx, ny, near, inside)
+    surface = shoulder
+    for i in range(1, BODY_READS):
+        t = near + direction * i * spacing
+        surface = min(surface, _profile_at(image, x, y, nx, ny, t, inside))
+    rise = centre - surface
+    return (shoulder - surface) / rise if rise > 0 else 0.0
+
+
+@kernel
+def _body_share(image, x, y, nx, ny, w) -> float:
+    """The lower over the two sides of `_side_share` at one centre of width W = w > 0."""
+    inside = _body_extent(image, x, y, w)
     centre = _profile_at(image, x, y, nx, ny, 0.0, inside)
     lower = np.inf
-    spacing = (BODY_FAR_WIDTHS - BODY_NEAR_WIDTHS) * w / (BODY_READS - 1)
     for direction in (1.0, -1.0):
-        near = direction * BODY_NEAR_WIDTHS * w
-        shoulder = _profile_at(image, x, y, nx, ny, near, inside)
-        surface = shoulder
-        for i in range(1, BODY_READS):
-            t = near + direction * i * spacing
-            surface = min(surface, _profile_at(image, x, y, nx, ny, t, inside))
-        # The share is 0 where the line does not stand above the surface at all.
-        rise = centre - surface
-        share = (shoulder - surface) / rise if rise > 0 else 0.0
-        lower = min(lower, share)
+        lower = min(lower, _side_share(image, x, y, nx, ny, w, direction, centre, inside))
     return lower
+
+
+@kernel
+def _is_high(image, x, y, nx, ny, w) -> bool:
+    """`_body_share` ≥ BODY_SHARE at one centre of width W = w > 0: the side −n is read
+    only where the side +n reaches it (the laser's centres fail on both sides, so this
+    halves their reads)."""
+    inside = _body_extent(image, x, y, w)
+    centre = _profile_at(image, x, y, nx, ny, 0.0, inside)
+    for direction in (1.0, -1.0):
+        if not _side_share(image, x, y, nx, ny, w, direction, centre, inside) >= BODY_SHARE:
+            return False
+    return True
 
 
 @kernel
@@ -372,8 +396,8 @@ def body_shares(
 @kernel
 def _on_bodies(image, x, y, nx, ny, width, bounds, out) -> None:
     """Per chain points[bounds[c]:bounds[c + 1]]: whether more than half of its centres of
-    measured width have `_body_share` ≥ BODY_SHARE. Its centres are read in order until
-    the count decides either way."""
+    measured width have `_body_share` ≥ BODY_SHARE (`_is_high`). Its centres are read in
+    order until the count decides either way."""
     for c in range(bounds.size - 1):
         lo, hi = bounds[c], bounds[c + 1]
         known = 0
@@ -385,7 +409,7 @@ def _on_bodies(image, x, y, nx, ny, width, bounds, out) -> None:
                 break
             if _measured(width[k]):
                 left -= 1
-                high += _body_share(image, x[k], y[k], nx[k], ny[k], width[k]) >= BODY_SHARE
+                high += _is_high(image, x[k], y[k], nx[k], ny[k], width[k])
         out[c] = 2 * high > known
 
 
