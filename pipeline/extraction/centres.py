@@ -312,26 +312,39 @@ def _matched_sigma(sigma: np.ndarray, widths: np.ndarray) -> np.ndarray:
 def _end_normals(x, y, nx, ny, polylines) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Normals of the END_POINTS centres at each polyline end from the quadratic
     v = a + b·u + c·u² fitted to the next END_FIT_POINTS centres, in the frame of the first
-    of them, at each end centre's u; and which centres got one (bool)."""
+    of them, at each end centre's u; and which centres got one (bool).
+
+    No end overlaps another end's fitted centres, so the ends are read all at once and only
+    the fits run one by one."""
     nx, ny = nx.copy(), ny.copy()
     moved = np.zeros(x.size, bool)
+    runs, ends = [], []
     for chain in polylines:
-        ends = min(END_POINTS, (chain.size - END_FIT_POINTS) // 2)
-        if ends < 1:
+        count = min(END_POINTS, (chain.size - END_FIT_POINTS) // 2)
+        if count < 1:
             continue
         for run in (chain, chain[::-1]):
-            end, inner = run[:ends], run[ends : ends + END_FIT_POINTS]
-            k = inner[0]
-            tx, ty = -ny[k], nx[k]
-            u = (x[inner] - x[k]) * tx + (y[inner] - y[k]) * ty
-            v = (x[inner] - x[k]) * nx[k] + (y[inner] - y[k]) * ny[k]
-            c, b, _ = np.polyfit(u, v, 2)
-            slope = b + 2 * c * ((x[end] - x[k]) * tx + (y[end] - y[k]) * ty)
-            norm = np.hypot(1.0, slope)
-            ex, ey = (nx[k] - slope * tx) / norm, (ny[k] - slope * ty) / norm
-            sign = np.where(ex * nx[end] + ey * ny[end] < 0, -1.0, 1.0)
-            nx[end], ny[end] = ex * sign, ey * sign
-            moved[end] = True
+            runs.append(run[count : count + END_FIT_POINTS])
+            ends.append(run[:count])
+    if not runs:
+        return nx, ny, moved
+    inner = np.array(runs)  # (R, END_FIT_POINTS)
+    k = inner[:, :1]
+    tx, ty = -ny[k], nx[k]
+    u = (x[inner] - x[k]) * tx + (y[inner] - y[k]) * ty
+    v = (x[inner] - x[k]) * nx[k] + (y[inner] - y[k]) * ny[k]
+    fits = np.array([np.polyfit(a, b, 2) for a, b in zip(u, v, strict=True)])
+    # Each end centre with its run's frame and fit.
+    end = np.concatenate(ends)
+    owner = np.repeat(np.arange(len(runs)), [e.size for e in ends])
+    k, tx, ty = k[owner, 0], tx[owner, 0], ty[owner, 0]
+    c, b = fits[owner, 0], fits[owner, 1]
+    slope = b + 2 * c * ((x[end] - x[k]) * tx + (y[end] - y[k]) * ty)
+    norm = np.hypot(1.0, slope)
+    ex, ey = (nx[k] - slope * tx) / norm, (ny[k] - slope * ty) / norm
+    sign = np.where(ex * nx[end] + ey * ny[end] < 0, -1.0, 1.0)
+    nx[end], ny[end] = ex * sign, ey * sign
+    moved[end] = True
     return nx, ny, moved
 
 
