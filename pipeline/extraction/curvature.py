@@ -203,8 +203,9 @@ def _scatter_windows(
     and each point's fitted offset along n [px] on its chosen window.
 
     `correlation_px` (K,) is how far apart along the stripe the centres' errors are
-    independent [px]; default 2σ. `first`, when given, is the (offset, count) of the fits
-    at the first window (SUPPORT_FACTORS[0] × σ) of these points, already made. With
+    independent [px]; default 2σ. `first`, when given, is the (offset, count, scatter) of
+    the fits at the first window (SUPPORT_FACTORS[0] × σ) of these points, already made
+    (`LocalFits`, σl included: the spread of those same offsets). With
     `measured`, each polyline's correlation is at least the one its centres show
     (`_error_correlation`): texture under the stripe moves neighbouring centres together.
 
@@ -219,11 +220,11 @@ def _scatter_windows(
     offsets, counts = np.empty((2, len(SUPPORT_FACTORS), x.size))
     for f, factor in enumerate(SUPPORT_FACTORS):
         if first is not None and f == 0:
-            offsets[0], counts[0] = first
+            offsets[0], counts[0] = first[0], first[1]
         else:
             kappa = np.empty(x.size)
             _fit_curvatures(x, y, nx, ny, sigma * factor, bounds, kappa, offsets[f], counts[f])
-    scatter = _spread(offsets[0], bounds)
+    scatter = _spread(offsets[0], bounds) if first is None else first[2]
     correlation = 2.0 * sigma if correlation_px is None else correlation_px
     if measured:
         correlation = np.maximum(correlation, _error_correlation(offsets[0], bounds))
@@ -406,7 +407,7 @@ def smooth_along(
         Disjoint ordered index arrays into the points.
     fits : LocalFits, optional
         `local_fits` of these same points at `support_px`, if already made (they are the
-        base window's fits, not made again).
+        base window's fits and σl, not made again).
 
     Returns
     -------
@@ -426,7 +427,7 @@ def smooth_along(
     if not polylines:
         return x_out, y_out
     order, bounds, fx, fy, fnx, fny, fs = _chained(polylines, x, y, nx, ny, support_px)
-    first = None if fits is None else (fits.offset[order], fits.count[order])
+    first = None if fits is None else (fits.offset[order], fits.count[order], fits.scatter[order])
     _, fitted = _scatter_windows(
         fx, fy, fnx, fny, fs, bounds, np.full(fx.size, MATCHED_CORRELATION_PX), first, measured=True
     )
