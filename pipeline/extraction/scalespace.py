@@ -237,8 +237,9 @@ def level_coordinate(coord_px: float, stride: int) -> np.float32:
 
 
 @kernel
-def _cubic_at_pixels(fields, stride, rows, cols, outs) -> None:
-    """`_interpolate_cubic` at frame pixels (rows, cols) of a level with stride 2^L > 1.
+def _cubic_at_pixels(fields, stride, rows, cols, scales, outs) -> None:
+    """`_interpolate_cubic` at frame pixels (rows, cols) of a level with stride 2^L > 1,
+    each field's value (float32) times its `scales[f]` (float32).
 
     A frame pixel's position on the level grid has a fraction that depends only on the
     pixel modulo the stride, so the Keys weights come from a table of `stride` entries;
@@ -266,7 +267,7 @@ def _cubic_at_pixels(fields, stride, rows, cols, outs) -> None:
                 (wu[0], wu[1], wu[2], wu[3]),
             )
         for f in range(len(fields)):
-            outs[f][k] = cubic_at(fields[f], *taps)
+            outs[f][k] = np.float32(cubic_at(fields[f], *taps)) * scales[f]
 
 
 @kernel
@@ -319,27 +320,21 @@ def sample_derivatives(
 ) -> GaussianDerivatives:
     """Ix, Iy, Ixx, Ixy, Iyy at frame pixels, in frame units (float32, shape (K,)).
 
-    Level 0 is read directly; coarser levels by Keys cubic convolution, reflect border.
+    Level 0 is read directly; coarser levels by Keys cubic convolution, reflect border,
+    and scaled to frame units in the same pass (level 0 is in frame units already).
     """
     d = level.derivatives
     fields = (d.ix, d.iy, d.ixx, d.ixy, d.iyy)
     outs = tuple(np.empty(np.size(rows), np.float32) for _ in fields)
-    taps = (np.asarray(rows, np.int64), np.asarray(cols, np.int64), outs)
+    pixels = (np.asarray(rows, np.int64), np.asarray(cols, np.int64))
     if level.level == 0:
-        _at_pixels(fields, *taps)
+        _at_pixels(fields, *pixels, outs)
     else:
-        _cubic_at_pixels(fields, level.stride, *taps)
+        first, second = 1 / level.stride, 1 / level.stride**2
+        scales = np.array([first, first, second, second, second], np.float32)
+        _cubic_at_pixels(fields, level.stride, *pixels, scales, outs)
     ix, iy, ixx, ixy, iyy = outs
-    first = np.float32(1 / level.stride)
-    second = np.float32(1 / level.stride**2)
-    return GaussianDerivatives(
-        sigma_px=level.sigma_px,
-        ix=ix * first,
-        iy=iy * first,
-        ixx=ixx * second,
-        ixy=ixy * second,
-        iyy=iyy * second,
-    )
+    return GaussianDerivatives(sigma_px=level.sigma_px, ix=ix, iy=iy, ixx=ixx, ixy=ixy, iyy=iyy)
 
 
 @kernel
