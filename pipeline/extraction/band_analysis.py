@@ -31,7 +31,6 @@ from pipeline.extraction.blocks import (
     all_blocks,
     block_grid,
     block_runs,
-    blocks_holding,
     pool_blocks,
     run_starts,
     zero_blocks,
@@ -362,7 +361,7 @@ def _left_out_safely(band: StripeBand, found: BandMask, stride: int) -> bool:
     if math.sqrt(3.0) * band.left_out_px >= KEEP_FRACTION * found.stripe_length_px:
         return False
     # The mask's blocks (it lies on the band's) spread onto the seed grid, then widened.
-    held = blocks_holding(found.mask, band.blocks[0])
+    held = found.held
     grid = band.left_out.shape
     if stride > BLOCK_PX:
         cells = pool_blocks(held, stride // BLOCK_PX, grid)
@@ -453,11 +452,10 @@ def analyse_fixed_scale(
 
 
 def _with_peaks(
-    scales, levels, shapes, mask: np.ndarray, blocks: np.ndarray, peak_reach_px: float
+    scales, levels, shapes, held: np.ndarray, blocks: np.ndarray, peak_reach_px: float
 ) -> tuple[LevelResponse, ...]:
     """Each scale with C max-filtered on the blocks holding the mask (see `with_peak_strength`);
-    `blocks` the band's frame (level-0) blocks."""
-    held = blocks_holding(mask, blocks)
+    `held` those of the frame (level 0), `blocks` the band's."""
     peaked = []
     for scale, level in zip(scales, levels, strict=True):
         mask_blocks = held
@@ -595,7 +593,7 @@ def analyse_band(
             band, scales, inside, widened = found
             return BandAnalysis(
                 tuple(float(s) for s in sigmas_px),
-                _with_peaks(scales, levels, shapes, inside.mask, band.blocks[0], peak_reach_px),
+                _with_peaks(scales, levels, shapes, inside.held, band.blocks[0], peak_reach_px),
                 band,
                 band.blocks[0],
                 inside.mask,
@@ -611,7 +609,7 @@ def analyse_band(
     whole = _segment(scales, levels, everywhere, image.shape, c_grey, every_strong)
     return BandAnalysis(
         tuple(float(s) for s in sigmas_px),
-        _with_peaks(scales, levels, shapes, whole.mask, everywhere[0], peak_reach_px),
+        _with_peaks(scales, levels, shapes, whole.held, everywhere[0], peak_reach_px),
         None,
         everywhere[0],
         whole.mask,

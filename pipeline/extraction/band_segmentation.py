@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.extraction.blocks import BLOCK_PX, block_runs, run_starts
+from pipeline.extraction.blocks import BLOCK_PX, block_runs, blocks_holding, run_starts
 from pipeline.extraction.closing import close_runs
 from pipeline.extraction.components import (
     append_runs,
@@ -32,13 +32,15 @@ from pipeline.jit import kernel
 class BandMask:
     """The stripe mask found inside a band.
 
-    `mask` (M, N) bool is the closed stripe mask, all False when not `inside`; `inside` is False
-    when a component that is or looks like part of the stripe comes within EDGE_REACH_PX of
-    the band's edge, where the band may have cut it (the whole frame must then decide);
+    `mask` (M, N) bool is the closed stripe mask, all False when not `inside`; `held` (bool,
+    the band's grid) the band's blocks holding mask pixels; `inside` is False when a
+    component that is or looks like part of the stripe comes within EDGE_REACH_PX of the
+    band's edge, where the band may have cut it (the whole frame must then decide);
     `stripe_length_px` is the length L of the longest stripe component (0 when there is none).
     """
 
     mask: np.ndarray
+    held: np.ndarray
     inside: bool
     stripe_length_px: float
 
@@ -236,10 +238,13 @@ def segment_band(
     inside = not (touching & piece).any()
     if inside:
         mask = close_runs(runs, keep[label], blocks, shape)
+        held = blocks_holding(mask, blocks)
     else:
         mask = np.zeros(shape, np.bool_)
+        held = np.zeros(blocks.shape, np.bool_)
     return BandMask(
         mask=mask,
+        held=held,
         inside=inside,
         stripe_length_px=float(shapes.length_px[keep].max()) if keep.any() else 0.0,
     )

@@ -80,12 +80,26 @@ def pool_blocks(flags: np.ndarray, ratio: int, grid: tuple[int, int]) -> np.ndar
 
 @kernel
 def blocks_holding(flags, blocks):
-    """Which of the band's blocks hold a True pixel of `flags` (same grid as `blocks`)."""
+    """Which of the band's blocks hold a True pixel of `flags` (C-contiguous, same grid as
+    `blocks`).
+
+    The rows of a run of blocks are OR-ed into one line first (a loop over bytes, which
+    vectorises), then each block's BLOCK_PX bytes of it are tested.
+    """
     height, width = flags.shape
+    source = flags.ravel().view(np.uint8)
     out = np.zeros(blocks.shape, np.bool_)
+    line = np.empty(width, np.uint8)
     for br, first, stop in block_runs(blocks):
+        c0, c1 = first * BLOCK_PX, min(stop * BLOCK_PX, width)
+        n = np.uint64(c1 - c0)
+        start = np.uint64(c0)
+        for i in range(n):
+            line[start + i] = 0
+        for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
+            at = np.uint64(r * width + c0)
+            for i in range(n):
+                line[start + i] |= source[at + i]
         for bc in range(first, stop):
-            r1 = min(br * BLOCK_PX + BLOCK_PX, height)
-            c1 = min(bc * BLOCK_PX + BLOCK_PX, width)
-            out[br, bc] = flags[br * BLOCK_PX : r1, bc * BLOCK_PX : c1].any()
+            out[br, bc] = line[bc * BLOCK_PX : min(bc * BLOCK_PX + BLOCK_PX, width)].any()
     return out
