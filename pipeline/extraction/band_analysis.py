@@ -382,9 +382,9 @@ class BandAnalysis:
 
     `scales` one LevelResponse per scale σ1..σS (fields valid on the band, 0 on its ring);
     `band` the band (None for the whole frame); `blocks` the frame's (level-0) blocks
-    analysed; `mask` (M, N) bool the stripe mask; `path` "band", "wide band" (the wider
-    band was needed), "full" (the whole frame, asked for) or "fallback" (the whole frame
-    because no band could be trusted, `reason` says why).
+    holding the mask (all its readers need); `mask` (M, N) bool the stripe mask; `path`
+    "band", "wide band" (the wider band was needed), "full" (the whole frame, asked for) or
+    "fallback" (the whole frame because no band could be trusted, `reason` says why).
     """
 
     sigmas_px: tuple[float, ...]
@@ -595,7 +595,7 @@ def analyse_band(
                 tuple(float(s) for s in sigmas_px),
                 _with_peaks(scales, levels, shapes, inside.held, band.blocks[0], peak_reach_px),
                 band,
-                band.blocks[0],
+                inside.held,
                 inside.mask,
                 "wide band" if widened else "band",
             )
@@ -611,7 +611,7 @@ def analyse_band(
         tuple(float(s) for s in sigmas_px),
         _with_peaks(scales, levels, shapes, whole.held, everywhere[0], peak_reach_px),
         None,
-        everywhere[0],
+        whole.held,
         whole.mask,
         "full" if full_frame else "fallback",
         reason,
