@@ -26,6 +26,7 @@ import numpy as np
 from pipeline.errors import PipelineError
 from pipeline.imaging import GEOMETRY_FLOAT
 from pipeline.profile.fusion import DOUBLED_DX_MM, DOUBLED_DZ_MM
+from pipeline.profile.x_windows import window_minima
 
 SD_HEIGHT_MM = 12.0
 SD_EN_HEIGHT_MM = 10.0
@@ -346,10 +347,7 @@ def _top_start(x: np.ndarray, z: np.ndarray) -> float:
     xs, zs = x[order], z[order]
     lo = np.searchsorted(xs, xs - DOUBLED_DX_MM, side="left")
     hi = np.searchsorted(xs, xs + DOUBLED_DX_MM, side="right")
-    slots = np.arange(int((hi - lo).max()))
-    index = np.minimum(lo[:, None] + slots[None, :], xs.size - 1)
-    lowest = np.where(slots[None, :] < (hi - lo)[:, None], zs[index], np.inf).min(axis=1)
-    on_curve = lowest >= zs - DOUBLED_DZ_MM
+    on_curve = window_minima(zs, lo, hi) >= zs - DOUBLED_DZ_MM
     xs, zs = xs[on_curve], zs[on_curve]
     highest = np.argsort(zs)[::-1][: max(MIN_FIT_POINTS, zs.size // 200)]
     return float(np.median(xs[highest]))

@@ -21,6 +21,7 @@ from pipeline.extraction.hessian import eigen2
 from pipeline.extraction.normal_equations import solve_symmetric3
 from pipeline.imaging import GEOMETRY_FLOAT
 from pipeline.jit import kernel
+from pipeline.profile.x_windows import window_maxima
 
 REFERENCE_X_MM = 70.0
 WHEEL_REACH_MM = (-8.0, 145.0)
@@ -425,11 +426,8 @@ def _doubled(xz: np.ndarray, accepted: np.ndarray) -> np.ndarray:
     ax, az = accepted[order, 0], accepted[order, 1]
     lo = np.searchsorted(ax, xz[:, 0] - DOUBLED_DX_MM, side="left")
     hi = np.searchsorted(ax, xz[:, 0] + DOUBLED_DX_MM, side="right")
-    doubled = np.zeros(len(xz), bool)
     testable = (xz[:, 0] > SINGLE_VALUED_X_MM) & (xz[:, 0] < x_stop_mm) & (hi > lo)
-    for i in np.flatnonzero(testable):
-        doubled[i] = np.max(az[lo[i] : hi[i]]) < xz[i, 1] - DOUBLED_DZ_MM
-    return doubled
+    return testable & (window_maxima(az, lo, hi) < xz[:, 1] - DOUBLED_DZ_MM)
 
 
 def _single_valued(xz: np.ndarray, labels: np.ndarray) -> np.ndarray:
