@@ -10,7 +10,10 @@ core with one OpenCV thread, read it and then:
   frames);
 - measure every wheel of the pass MEASURE_ROUNDS times (`measure_wheel`, adaptive: both
   sensors' centres, the fusion and the flange parameters), the pass split between the two:
-  frames per second of the pair and each worker's peak resident memory.
+  frames per second of the pair and each worker's peak resident memory;
+- measure every wheel of a field-mode pass (1 vehicle, a burst of 3 frames per sensor,
+  every effect of `pipeline.simulation.field` on) the same way: what a wayside station
+  sends, and where the extraction mostly takes the whole search region.
 
 Run alone with `python -m benchmarks.run camera_rate`.
 """
@@ -32,6 +35,8 @@ WORKERS = 2
 WARM_UP_FRAMES = 4
 MEASURE_ROUNDS = 10
 """Times each worker measures its half of the pass's wheels."""
+FIELD_FRAMES_PER_SENSOR = 3
+"""Burst of the field-mode pass (the demo's and the station's default)."""
 
 
 @dataclass(frozen=True)
@@ -133,6 +138,7 @@ def _rate(runs: list[WorkerRun]) -> tuple[float, float]:
 def run() -> str:
     """Markdown section: frames per second of 2 workers, and their memory."""
     from pipeline.archive.pass_archive import write_pass_archive
+    from pipeline.simulation.field import FIELD_MODES
     from pipeline.simulation.passes import (
         build_station,
         build_train,
@@ -145,15 +151,26 @@ def run() -> str:
     simulated = simulate_pass(
         build_train(2, train_rng), station, pass_rng, started_at=pass_start_time(0)
     )
+    # What a wayside station sends: a field-mode pass, a burst of 3 frames per sensor.
+    field_train_rng, field_pass_rng = np.random.default_rng(9).spawn(2)
+    field = simulate_pass(
+        build_train(1, field_train_rng),
+        station,
+        field_pass_rng,
+        started_at=pass_start_time(0),
+        frames_per_sensor=FIELD_FRAMES_PER_SENSOR,
+        field=FIELD_MODES["harsh"],
+    )
     with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp) / "pass"
-        write_pass_archive(
-            folder, simulated.manifest, simulated.frames, calibration=station.calibration
-        )
+        folder, field_folder = Path(tmp) / "pass", Path(tmp) / "field"
+        for where, made in ((folder, simulated), (field_folder, field)):
+            write_pass_archive(where, made.manifest, made.frames, calibration=station.calibration)
         extraction = _run_pair(_extract_frames, folder)
         measuring = _run_pair(_measure_wheels, folder)
+        field_measuring = _run_pair(_measure_wheels, field_folder)
     extract_fps, extract_wall = _rate(extraction)
     measure_fps, measure_wall = _rate(measuring)
+    field_fps, field_wall = _rate(field_measuring)
     paths: dict[str, int] = {}
     for r in extraction:
         for name, count in r.paths.items():
@@ -181,6 +198,9 @@ def run() -> str:
                 f"| measure every wheel {MEASURE_ROUNDS}× (adaptive: centres of both sensors, "
                 f"fusion, parameters) | {sum(r.frames for r in measuring)} | {measure_wall:.1f} | "
                 f"{measure_fps:.1f} |",
+                f"| measure every wheel {MEASURE_ROUNDS}× of a field-mode pass (1 vehicle, "
+                f"{FIELD_FRAMES_PER_SENSOR} frames per sensor, every field effect on) | "
+                f"{sum(r.frames for r in field_measuring)} | {field_wall:.1f} | {field_fps:.1f} |",
                 "",
                 "Resident memory per worker [MiB], read after every frame: the largest in the "
                 f"first and in the second half of the {FRAMES_PER_WORKER} frames of extraction "
