@@ -137,8 +137,8 @@ def _rate(runs: list[WorkerRun]) -> tuple[float, float]:
 
 def run() -> str:
     """Markdown section: frames per second of 2 workers, and their memory."""
+    from benchmarks.extraction import simulate_field_pass
     from pipeline.archive.pass_archive import write_pass_archive
-    from pipeline.simulation.field import FIELD_MODES
     from pipeline.simulation.passes import (
         build_station,
         build_train,
@@ -151,16 +151,8 @@ def run() -> str:
     simulated = simulate_pass(
         build_train(2, train_rng), station, pass_rng, started_at=pass_start_time(0)
     )
-    # What a wayside station sends: a field-mode pass, a burst of 3 frames per sensor.
-    field_train_rng, field_pass_rng = np.random.default_rng(9).spawn(2)
-    field = simulate_pass(
-        build_train(1, field_train_rng),
-        station,
-        field_pass_rng,
-        started_at=pass_start_time(0),
-        frames_per_sensor=FIELD_FRAMES_PER_SENSOR,
-        field=FIELD_MODES["harsh"],
-    )
+    # What a wayside station sends: a field-mode pass, a burst of frames per sensor.
+    field = simulate_field_pass(station, FIELD_FRAMES_PER_SENSOR)
     with tempfile.TemporaryDirectory() as tmp:
         folder, field_folder = Path(tmp) / "pass", Path(tmp) / "field"
         for where, made in ((folder, simulated), (field_folder, field)):

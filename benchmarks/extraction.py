@@ -39,7 +39,14 @@ from pipeline import Centres, extract_centres
 from pipeline.calibration.search_region import stripe_search_region
 from pipeline.imaging import laser_grey
 from pipeline.simulation.field import FIELD_MODES
-from pipeline.simulation.passes import build_station, build_train, pass_start_time, simulate_pass
+from pipeline.simulation.passes import (
+    SimulatedPass,
+    build_station,
+    build_train,
+    pass_start_time,
+    simulate_pass,
+)
+from pipeline.simulation.station import Station
 from tests.pipeline.real_frame_truth import (
     COLOUR_FRAMES,
     COLOUR_WIDTHS_PX,
@@ -287,19 +294,26 @@ def _simulated_pass_rows() -> list[str]:
     ]
 
 
-def _field_pass_rows() -> list[str]:
-    """Paths and time per frame of a field-mode pass (every effect of
-    `pipeline.simulation.field` on), each frame inside the search region `measure_wheel`
-    gives it and whole, against the blur of the same frame."""
-    station = build_station()
+def simulate_field_pass(station: Station, frames_per_sensor: int = 1) -> SimulatedPass:
+    """The benchmarks' field-mode pass: 1 vehicle (8 wheels), every effect of
+    `pipeline.simulation.field` on, `frames_per_sensor` frames per sensor and wheel."""
     train_rng, pass_rng = np.random.default_rng(9).spawn(2)
-    simulated = simulate_pass(
+    return simulate_pass(
         build_train(1, train_rng),
         station,
         pass_rng,
         started_at=pass_start_time(0),
+        frames_per_sensor=frames_per_sensor,
         field=FIELD_MODES["harsh"],
     )
+
+
+def _field_pass_rows() -> list[str]:
+    """Paths and time per frame of the field-mode pass (`simulate_field_pass`), each frame
+    inside the search region `measure_wheel` gives it and whole, against the blur of the
+    same frame."""
+    station = build_station()
+    simulated = simulate_field_pass(station)
     regions = {}
     for wheel in simulated.manifest.wheels:
         for part, names in (("inner", wheel.frames_inner), ("outer", wheel.frames_outer)):
