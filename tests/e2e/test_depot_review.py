@@ -683,15 +683,29 @@ def test_defect_5_the_difference_plot_shows_every_offset_and_leads_to_the_frame(
     assert float(data["deltaTopPx"]) >= float(data["maxAbsPx"]) > 0, data
     assert "shaded: ±RMS" in page.locator(".diff-plot + .note").inner_text()
     before = page.locator(".frame-canvas").get_attribute("data-viewport")
-    # positions relative to the plot, found anew at each step: the panels above it (Δr, the
-    # handheld comparison) may still fill in and move it down the side panel
-    y = float(data["zeroY"])
-    for sx in range(int(float(data["left"])), int(float(data["right"])), 3):
-        plot.hover(position={"x": sx, "y": y})
-        if plot.get_attribute("data-hovered") != "-1":
+    note = page.locator(".diff-plot + .note")
+
+    def hovered_pair() -> int | None:
+        """Hover along the zero line until a pair is read out: x of the pointer [CSS px]."""
+        y = float(data["zeroY"])
+        for sx in range(int(float(data["left"])), int(float(data["right"])), 3):
+            plot.hover(position={"x": sx, "y": y})
+            if plot.get_attribute("data-hovered") != "-1":
+                return sx
+        return None
+
+    # positions relative to the plot: the panels above it (Δr, the handheld comparison) may
+    # still fill in and move it down the side panel, and the browser then moves the pointer
+    # off the pair (a pointer event of its own): hover again until the readout holds
+    for _ in range(5):
+        sx = hovered_pair()
+        assert sx is not None, "no pair found along the zero line"
+        page.wait_for_timeout(300)
+        if "click to show it on the frame" in note.inner_text():
             break
-    assert plot.get_attribute("data-hovered") != "-1", "no pair found along the zero line"
-    assert "click to show it on the frame" in page.locator(".diff-plot + .note").inner_text()
+    else:
+        raise AssertionError(f"the readout of a hovered pair did not hold: {note.inner_text()}")
+    y = float(data["zeroY"])
     plot.click(position={"x": sx, "y": y})
     page.wait_for_function(
         "(b) => document.querySelector('.frame-canvas').dataset.viewport !== b", arg=before
