@@ -684,10 +684,10 @@ def test_defect_5_the_difference_plot_shows_every_offset_and_leads_to_the_frame(
     assert "shaded: ±RMS" in page.locator(".diff-plot + .note").inner_text()
     before = page.locator(".frame-canvas").get_attribute("data-viewport")
     note = page.locator(".diff-plot + .note")
+    y = float(data["zeroY"])
 
     def hovered_pair() -> int | None:
         """Hover along the zero line until a pair is read out: x of the pointer [CSS px]."""
-        y = float(data["zeroY"])
         for sx in range(int(float(data["left"])), int(float(data["right"])), 3):
             plot.hover(position={"x": sx, "y": y})
             if plot.get_attribute("data-hovered") != "-1":
@@ -705,7 +705,6 @@ def test_defect_5_the_difference_plot_shows_every_offset_and_leads_to_the_frame(
             break
     else:
         raise AssertionError(f"the readout of a hovered pair did not hold: {note.inner_text()}")
-    y = float(data["zeroY"])
     plot.click(position={"x": sx, "y": y})
     page.wait_for_function(
         "(b) => document.querySelector('.frame-canvas').dataset.viewport !== b", arg=before
