@@ -320,28 +320,32 @@ def _field_pass_rows() -> list[str]:
             sensor = station.calibration.sensor(f"{wheel.side}_{part}")
             for name in names:
                 regions[name] = stripe_search_region(sensor, wheel.side)
-    times: dict[str, list[float]] = {"blur": [], "region": [], "whole": []}
-    paths: dict[str, Counter[str]] = {"region": Counter(), "whole": Counter()}
+    places = {"region": "inside its search region", "whole": "the whole frame"}
+    variants = [(method, place) for method in ("adaptive", "steger") for place in places]
+    times: dict[tuple[str, str] | str, list[float]] = {"blur": [], **{v: [] for v in variants}}
+    paths: dict[tuple[str, str], Counter[str]] = {v: Counter() for v in variants}
     for name, image in simulated.frames.items():
         frame32 = image.astype(np.float32)
-        runs: dict[str, Callable[[], Centres]] = {
-            "region": functools.partial(extract_centres, image, region=regions[name]),
-            "whole": functools.partial(extract_centres, image),
+        runs: dict[tuple[str, str], Callable[[], Centres]] = {
+            (method, place): functools.partial(
+                extract_centres, image, method, region=regions[name] if place == "region" else None
+            )
+            for method, place in variants
         }
-        for label, extract in runs.items():
-            paths[label][extract().path] += 1
+        for variant, extract in runs.items():
+            paths[variant][extract().path] += 1
         times["blur"].append(
             _timed_both(lambda: cv2.GaussianBlur(frame32, (0, 0), BLUR_SIGMA_PX))[1]  # noqa: B023
         )
-        for label, extract in runs.items():
-            times[label].append(_timed_both(extract)[1])
+        for variant, extract in runs.items():
+            times[variant].append(_timed_both(extract)[1])
     blur = 1000 * float(np.median(times["blur"]))
     rows = []
-    for label, what in (("region", "inside its search region"), ("whole", "the whole frame")):
-        ms = 1000 * np.asarray(times[label])
-        taken = ", ".join(f"{count} {path}" for path, count in sorted(paths[label].items()))
+    for method, place in variants:
+        ms = 1000 * np.asarray(times[method, place])
+        taken = ", ".join(f"{n} {path}" for path, n in sorted(paths[method, place].items()))
         rows.append(
-            f"| adaptive, {what} | {taken} | {np.median(ms):.1f} | "
+            f"| {method}, {places[place]} | {taken} | {np.median(ms):.1f} | "
             f"{np.percentile(ms, 10):.1f}–{np.percentile(ms, 90):.1f} | "
             f"{np.median(ms) / blur:.2f}× |"
         )
