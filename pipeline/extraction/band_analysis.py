@@ -35,7 +35,7 @@ from pipeline.extraction.blocks import (
     run_starts,
     zero_blocks,
 )
-from pipeline.extraction.hessian import eigen2_parts, unit_normal
+from pipeline.extraction.hessian import TINY_NORMAL, eigen2_parts, unit_normal
 from pipeline.extraction.ridges import (
     fast_ridge,
     min_structure_squared,
@@ -62,10 +62,11 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
     (`band_segmentation._stripe_runs`), so there it is `ridge_estimate` (its side of the
     threshold exact); a coarser grid's V is read bilinearly and is `ridge_value`.
 
-    Per stretch of a row: the candidates are found (one branch-free loop), their second
-    derivatives gathered, and their eigenvalues (and on the frame grid `fast_ridge`'s V)
-    computed in loops of selects, which vectorise; then, candidate by candidate, the
-    normal, the V near the threshold or off the frame grid, and the hints.
+    Per stretch of a row: the candidates are found (one branch-free loop), their
+    derivatives gathered, and their eigenvalues (and on the frame grid `fast_ridge`'s V),
+    normals, Taylor steps and hinted pixels computed in loops of selects, which vectorise;
+    then, candidate by candidate, the V near the threshold or off the frame grid, and the
+    hints' writes. A lit frame's grid of σ1 has 851k candidates, most of them texture.
     """
     height, width = ix.shape
     frame_grid = stride == 1
@@ -78,16 +79,21 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
     second = to_frame * to_frame
     origin = 0.5 * (stride - 1)
     least = 0.25 * min_s2
+    reach = HINT_REACH * stride
+    d_x, d_y = ix.ravel(), iy.ravel()
     d_xx, d_xy, d_yy = ixx.ravel(), ixy.ravel(), iyy.ravel()
     candidate = np.empty(width, np.bool_)
-    # The stretch's candidates: column, ∂² in frame units, λ1, λ2, unnormalised normal and
-    # its length, V (`fast_ridge`).
+    # The stretch's candidates: column, ∇ and ∂² in frame units, λ1, λ2, unnormalised
+    # normal and its length, V (`fast_ridge`), the hinted 3×3's first frame pixel (flat).
     column = np.empty(width, np.int64)
+    gx, gy = np.empty(width), np.empty(width)
     hxx, hxy, hyy = np.empty(width), np.empty(width), np.empty(width)
     l1, l2, vx, vy = np.empty(width), np.empty(width), np.empty(width), np.empty(width)
     length, fast = np.empty(width), np.empty(width)
+    spot = np.empty(width, np.int64)
     flat_hints = hints.ravel()
     row_step, one, two = np.uint64(frame_cols), np.uint64(1), np.uint64(2)
+    last_row, last_col = frame_rows - 1.0, frame_cols - 1.0
     for br, bc0, bc1 in block_runs(blocks):
         c0, c1 = bc0 * BLOCK_PX, min(bc1 * BLOCK_PX, width)
         for r in range(br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)):
@@ -104,6 +110,8 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
             for i in range(np.uint64(c1 - c0)):
                 if candidate[i]:
                     column[count] = c0 + i
+                    gx[count] = d_x[at + i]
+                    gy[count] = d_y[at + i]
                     hxx[count] = d_xx[at + i] * second
                     hxy[count] = d_xy[at + i] * second
                     hyy[count] = d_yy[at + i] * second
@@ -113,31 +121,47 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
             if frame_grid:
                 for j in range(count):
                     fast[j] = fast_ridge(l1[j] * sigma2, l2[j] * sigma2, c_grey)
+            # Each hint's 3×3 by `unit_normal`'s division (a tiny eigenvector aside) and the
+            # Taylor step: its first pixel, −1 for no hint, −2 where the candidate is
+            # decided one by one below (a tiny eigenvector, the 3×3 at the frame's edge).
+            for j in range(count):
+                lambda1 = l1[j]
+                nx, ny = vx[j] / length[j], vy[j] / length[j]
+                offset = -(nx * gx[j] + ny * gy[j]) * to_frame / lambda1
+                x = column[j] * stride + origin + offset * nx
+                y = r * stride + origin + offset * ny
+                hr = min(max(np.rint(y), 0.0), last_row)
+                hc = min(max(np.rint(x), 0.0), last_col)
+                inner = (hr > 0) & (hr < last_row) & (hc > 0) & (hc < last_col)
+                first = (int(hr) - 1) * frame_cols + int(hc) - 1 if inner else -2
+                first = first if (lambda1 != 0) & (abs(offset) <= reach) else -1
+                spot[j] = first if length[j] >= TINY_NORMAL else -2
             for j in range(count):
                 c = column[j]
-                lambda1, lambda2 = l1[j], l2[j]
-                nx, ny = unit_normal(vx[j], vy[j], length[j])
                 if frame_grid and not near_threshold(fast[j]):
                     response[r, c] = fast[j]  # `ridge_estimate`, split
                 else:
-                    response[r, c] = ridge_value(lambda1 * sigma2, lambda2 * sigma2, c_grey)
-                strength[r, c] = -sigma2 * min(lambda1, 0.0)
-                if lambda1 == 0:
+                    response[r, c] = ridge_value(l1[j] * sigma2, l2[j] * sigma2, c_grey)
+                strength[r, c] = -sigma2 * min(l1[j], 0.0)
+            for j in range(count):
+                if spot[j] >= 0:
+                    # The 3×3 pixels by flat offsets: no bounds per pixel, no view per hint.
+                    flat = np.uint64(spot[j])
+                    for _ in range(3):
+                        flat_hints[flat] = flat_hints[flat + one] = flat_hints[flat + two] = True
+                        flat += row_step
                     continue
-                offset = -(nx * ix[r, c] + ny * iy[r, c]) * to_frame / lambda1
-                if abs(offset) > HINT_REACH * stride:
+                lambda1 = l1[j]
+                if spot[j] == -1 or lambda1 == 0:
                     continue
-                x = c * stride + origin + offset * nx
+                nx, ny = unit_normal(vx[j], vy[j], length[j])
+                offset = -(nx * gx[j] + ny * gy[j]) * to_frame / lambda1
+                if abs(offset) > reach:
+                    continue
+                x = column[j] * stride + origin + offset * nx
                 y = r * stride + origin + offset * ny
                 hr = min(max(int(np.rint(y)), 0), frame_rows - 1)
                 hc = min(max(int(np.rint(x)), 0), frame_cols - 1)
-                if 0 < hr < frame_rows - 1 and 0 < hc < frame_cols - 1:
-                    # The 3×3 pixels by flat offsets: no bounds per pixel, no view per hint.
-                    spot = np.uint64((hr - 1) * frame_cols + hc - 1)
-                    for _ in range(3):
-                        flat_hints[spot] = flat_hints[spot + one] = flat_hints[spot + two] = True
-                        spot += row_step
-                    continue
                 for rr in range(max(hr - 1, 0), min(hr + 2, frame_rows)):
                     for cc in range(max(hc - 1, 0), min(hc + 2, frame_cols)):
                         hints[rr, cc] = True

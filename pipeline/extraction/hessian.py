@@ -24,6 +24,11 @@ class HessianEigen:
     ny: np.ndarray
 
 
+TINY_NORMAL = 1e-18
+"""Length of the eigenvector (not yet normalised) below which `unit_normal` scales it by
+`np.hypot`: its squares lie near the subnormals (float32 from 1e-19)."""
+
+
 @kernel
 def eigen2_parts(ixx: float, ixy: float, iyy: float) -> tuple[float, float, float, float, float]:
     """λ1, λ2 (|λ1| ≥ |λ2|), the eigenvector (vx, vy) of λ1 not yet normalised, and its
@@ -46,7 +51,7 @@ def eigen2_parts(ixx: float, ixy: float, iyy: float) -> tuple[float, float, floa
 @kernel
 def unit_normal(vx: float, vy: float, norm: float) -> tuple[float, float]:
     """(vx, vy) / `norm` (its length, `eigen2_parts`); (1, 0) where it is 0."""
-    if norm < 1e-18:  # squares near the subnormals (float32 from 1e-19): hypot scales them
+    if norm < TINY_NORMAL:
         norm = np.hypot(vx, vy)
     if norm == 0:
         return 1.0, 0.0
