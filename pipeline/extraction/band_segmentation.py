@@ -112,40 +112,25 @@ def _stripe_runs(responses, strides, blocks, shape):
 
 
 @kernel
-def _pixel_strengths(runs, strengths, strides, width):
-    """C = max over scales of σ²|λ1| (bilinear on coarser levels, as V) at every pixel of the
-    runs, run after run: (Σ run lengths,) float64."""
-    total = 0
-    for k in range(runs.shape[0]):
-        total += runs[k, 2] - runs[k, 1]
-    out = np.zeros(total)
+def _run_peaks(runs, strengths, strides, width):
+    """The largest C = max over scales of σ²|λ1| (bilinear on coarser levels, as V) over
+    the pixels of each run: (K,) float64. Each run's rows are read straight into its
+    maximum (max is exact, so in any order), no value stored per pixel."""
+    peak = np.zeros(runs.shape[0])
     u0, u1, fu = column_taps(strengths, strides, width)
-    at = 0
     for k in range(runs.shape[0]):
         r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2]
+        best = 0.0
         for i in range(len(strengths)):
             field, stride = strengths[i], strides[i]
             if stride == 1:
                 for c in range(c0, c1):
-                    out[at + c - c0] = max(out[at + c - c0], field[r, c])
+                    best = max(best, field[r, c])
                 continue
             v0, v1, fv = linear_tap(r, stride, field.shape[0])
             for c in range(c0, c1):
-                value = blend(field, v0, v1, fv, u0[i, c], u1[i, c], fu[i, c])
-                out[at + c - c0] = max(out[at + c - c0], value)
-        at += c1 - c0
-    return out
-
-
-@kernel
-def _run_peaks(runs, pixel_strength):
-    """The largest C on each run: (K,) float64."""
-    peak = np.zeros(runs.shape[0])
-    at = 0
-    for k in range(runs.shape[0]):
-        for i in range(runs[k, 2] - runs[k, 1]):
-            peak[k] = max(peak[k], pixel_strength[at + i])
-        at += runs[k, 2] - runs[k, 1]
+                best = max(best, blend(field, v0, v1, fv, u0[i, c], u1[i, c], fu[i, c]))
+        peak[k] = best
     return peak
 
 
@@ -222,8 +207,7 @@ def segment_band(
     frame) no component comes near the band's edge: the frame's edge counts as band.
     """
     runs = _stripe_runs(responses, strides, blocks, shape)
-    pixel_strength = _pixel_strengths(runs, strengths, strides, shape[1])
-    label, shapes, strength = _components(runs, _run_peaks(runs, pixel_strength))
+    label, shapes, strength = _components(runs, _run_peaks(runs, strengths, strides, shape[1]))
     consider = continuity_labels(shapes, strength, c_grey, every_strong)
     near = None
     if consider is not None:
