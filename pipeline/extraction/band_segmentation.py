@@ -218,7 +218,8 @@ def segment_band(
     # out is not, whole or cut, so it may.
     piece = candidates(shapes) | keep
     touching = np.zeros(keep.size, bool)
-    touching[label[runs_near_band_edge(runs, blocks, EDGE_REACH_PX)]] = True
+    if not blocks.all():  # the frame's edge counts as band: nothing nears the whole frame's
+        touching[label[runs_near_band_edge(runs, blocks, EDGE_REACH_PX)]] = True
     inside = not (touching & piece).any()
     if inside:
         mask = close_runs(runs, keep[label], blocks, shape)
