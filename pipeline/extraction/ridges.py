@@ -62,7 +62,10 @@ def fast_ridge(lambda1: float, lambda2: float, c_grey: float) -> float:
     that a loop over it vectorises: within 2·EXP_RELATIVE_ERROR of V."""
     blob_exponent, exponent = _exponents(lambda1, lambda2, c_grey)
     blob = fast_exp(blob_exponent)
-    value = blob if exponent < -STRUCTURE_SATURATED else blob * (1 - fast_exp(exponent))
+    # Both exp always: with the second inside the select's arm the compiler keeps a branch,
+    # and the loop stays scalar (9.5 against 1.1 ms for 851k values).
+    structure = 1 - fast_exp(exponent)
+    value = blob if exponent < -STRUCTURE_SATURATED else blob * structure
     return value if lambda1 < 0 else 0.0
 
 
