@@ -45,44 +45,66 @@ class BandMask:
     stripe_length_px: float
 
 
+ALONG_ROWS = BLOCK_PX + 2
+"""Level rows `_stripe_runs` keeps interpolated along x: more than the BLOCK_PX/2 + 2 a
+block row reads at stride 2, so the rows it shares with the next block row are kept."""
+
+
+@kernel
+def _same_runs(band, starts, before, row) -> bool:
+    """Whether block row `row` follows block row `before` and has the same band runs."""
+    if before != row - 1 or starts[row + 1] - starts[row] != starts[before + 1] - starts[before]:
+        return False
+    for k in range(starts[row + 1] - starts[row]):
+        now, then = band[starts[row] + k], band[starts[before] + k]
+        if now[1] != then[1] or now[2] != then[2]:
+            return False
+    return True
+
+
 @kernel
 def _stripe_runs(responses, strides, blocks, shape):
     """Runs of V = max over scales > RIDGE_THRESHOLD along the band's frame rows, raster
     order: rows of (row, first, stop).
 
     Coarser scales' V is upsampled bilinearly as cv2.resize INTER_LINEAR does it: along x
-    first, then along y. The x interpolation of the level rows a block row of the band
-    reads is done once for that block row, so each frame pixel costs one y interpolation
-    per scale (the same sums as pixel by pixel).
+    first, then along y. Each level row a block row of the band reads is interpolated along
+    x once (kept for the next block row where it reads the same row and columns), so each
+    frame pixel costs one y interpolation per scale (the same sums as pixel by pixel).
     """
     height, width = shape
     levels = len(responses)
     x0, x1, fx = column_taps(responses, strides, width)
-    # Level rows along x, per scale: rows first_row[i] .. + BLOCK_PX + 1 of the block row.
-    along_x = np.zeros((levels, BLOCK_PX + 2, width))
-    first_row = np.zeros(levels, np.int64)
+    # Level rows along x, per scale: level row y at y % ALONG_ROWS (a block row reads at
+    # most BLOCK_PX/2 + 2 rows); done[i] the last row interpolated for the current columns.
+    along_x = np.zeros((levels, ALONG_ROWS, width))
+    done = np.full(levels, -1)
     line = np.zeros(width, np.bool_)
     band = block_runs(blocks)
     starts = run_starts(band, blocks.shape[0])
     runs = room_for_runs(band, height)
     count = 0
+    last = -2  # the block row read last
     for br in range(blocks.shape[0]):
         if starts[br] == starts[br + 1]:
             continue
         r0, r1 = br * BLOCK_PX, min(br * BLOCK_PX + BLOCK_PX, height)
+        if not _same_runs(band, starts, last, br):
+            done[:] = -1
+        last = br
         for i in range(levels):
             field, stride = responses[i], strides[i]
             if stride == 1:
                 continue
             top = linear_tap(r0, stride, field.shape[0])[0]
             bottom = linear_tap(r1 - 1, stride, field.shape[0])[1]
-            first_row[i] = top
-            for y in range(top, bottom + 1):
-                source, target = field[y], along_x[i, y - top]
+            for y in range(max(top, done[i] + 1), bottom + 1):
+                source, target = field[y], along_x[i, y % ALONG_ROWS]
                 for k in range(starts[br], starts[br + 1]):
                     for c in range(band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)):
                         a, b, w = x0[i, c], x1[i, c], fx[i, c]
                         target[c] = source[a] * (1 - w) + source[b] * w
+            done[i] = max(done[i], bottom)
         for r in range(r0, r1):
             for k in range(starts[br], starts[br + 1]):
                 c0, c1 = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
@@ -102,8 +124,8 @@ def _stripe_runs(responses, strides, blocks, shape):
                         continue
                     y0, y1, fy = linear_tap(r, stride, field.shape[0])
                     rows = along_x[i].ravel()
-                    upper = np.uint64((y0 - first_row[i]) * width + c0)
-                    lower = np.uint64((y1 - first_row[i]) * width + c0)
+                    upper = np.uint64((y0 % ALONG_ROWS) * width + c0)
+                    lower = np.uint64((y1 % ALONG_ROWS) * width + c0)
                     for c in range(n):
                         value = rows[upper + c] * (1 - fy) + rows[lower + c] * fy
                         line[start + c] |= value > RIDGE_THRESHOLD
