@@ -80,6 +80,7 @@ def _stripe_runs(responses, strides, blocks, shape):
     along_x = np.zeros((levels, ALONG_ROWS, width))
     done = np.full(levels, -1)
     line = np.zeros(width, np.bool_)
+    edges = np.empty(width + 1, np.int64)
     band = block_runs(blocks)
     starts = run_starts(band, blocks.shape[0])
     runs = room_for_runs(band, height)
@@ -129,7 +130,7 @@ def _stripe_runs(responses, strides, blocks, shape):
                     for c in range(n):
                         value = rows[upper + c] * (1 - fy) + rows[lower + c] * fy
                         line[start + c] |= value > RIDGE_THRESHOLD
-                count = append_runs(line, r, c0, c1, runs, count)
+                count = append_runs(line, r, c0, c1, runs, count, edges)
     return runs[:count].copy()
 
 

@@ -17,21 +17,23 @@ from pipeline.jit import kernel
 
 
 @kernel
-def append_runs(line, row, first, stop, runs, count) -> int:
+def append_runs(line, row, first, stop, runs, count, edges) -> int:
     """Write the runs of True in line[first:stop] as (row, first, stop) from runs[count];
-    returns the new count. `runs` must have room (`room_for_runs`)."""
-    inside = False
-    start = first
+    returns the new count. `runs` must have room (`room_for_runs`); `edges` is scratch
+    (int64) of ≥ stop − first + 1 entries.
+
+    Where the line flips is gathered first, with no branch per pixel (a lit frame's texture
+    flips every few pixels, and a branch on each flip is mispredicted), then paired."""
+    flips = 0
+    before = False
     for c in range(first, stop):
-        if line[c] != inside:
-            if inside:
-                runs[count, 0], runs[count, 1], runs[count, 2] = row, start, c
-                count += 1
-            else:
-                start = c
-            inside = not inside
-    if inside:
-        runs[count, 0], runs[count, 1], runs[count, 2] = row, start, stop
+        now = line[c]
+        edges[flips] = c
+        flips += now != before
+        before = now
+    edges[flips] = stop  # a run reaching `stop` ends there
+    for k in range(0, flips, 2):
+        runs[count, 0], runs[count, 1], runs[count, 2] = row, edges[k], edges[k + 1]
         count += 1
     return count
 
@@ -88,12 +90,13 @@ def row_runs(binary, blocks):
     band = block_runs(blocks)
     starts = run_starts(band, blocks.shape[0])
     runs = room_for_runs(band, height)
+    edges = np.empty(width + 1, np.int64)
     count = 0
     for r in range(height):
         br = r // BLOCK_PX
         for k in range(starts[br], starts[br + 1]):
             c0, c1 = band[k, 1] * BLOCK_PX, min(band[k, 2] * BLOCK_PX, width)
-            count = append_runs(binary[r], r, c0, c1, runs, count)
+            count = append_runs(binary[r], r, c0, c1, runs, count, edges)
     return runs[:count].copy()
 
 
