@@ -134,25 +134,49 @@ def _stripe_runs(responses, strides, blocks, shape):
     return runs[:count].copy()
 
 
+PEAK_BOUND_MARGIN = 1e-12
+"""Relative margin of the bound on a run's bilinear C (`_run_peaks`): a bilinear value of
+non-negative taps with weights summing to 1 exceeds the largest tap by at most 4 roundings
+(4·2⁻⁵³ ≈ 4.4·10⁻¹⁶ of it)."""
+
+
 @kernel
 def _run_peaks(runs, strengths, strides, width):
     """The largest C = max over scales of σ²|λ1| (bilinear on coarser levels, as V) over
     the pixels of each run: (K,) float64. Each run's rows are read straight into its
-    maximum (max is exact, so in any order), no value stored per pixel."""
+    maximum (max is exact, so in any order), no value stored per pixel.
+
+    A coarser level is read only where the largest of the taps its bilinear values would
+    blend, less PEAK_BOUND_MARGIN, reaches the run's maximum so far: otherwise no value
+    of it can raise the maximum (on a lit frame's runs about 9 in 10 levels are skipped).
+    """
     peak = np.zeros(runs.shape[0])
     u0, u1, fu = column_taps(strengths, strides, width)
+    levels = len(strengths)
+    v0, v1, fv = np.zeros(levels, np.int64), np.zeros(levels, np.int64), np.zeros(levels)
+    row = -1
     for k in range(runs.shape[0]):
         r, c0, c1 = runs[k, 0], runs[k, 1], runs[k, 2]
+        if r != row:  # runs come in raster order: the row taps once per row
+            row = r
+            for i in range(levels):
+                if strides[i] > 1:
+                    v0[i], v1[i], fv[i] = linear_tap(r, strides[i], strengths[i].shape[0])
         best = 0.0
-        for i in range(len(strengths)):
-            field, stride = strengths[i], strides[i]
-            if stride == 1:
+        for i in range(levels):
+            field = strengths[i]
+            if strides[i] == 1:
                 for c in range(c0, c1):
                     best = max(best, field[r, c])
                 continue
-            v0, v1, fv = linear_tap(r, stride, field.shape[0])
+            upper, lower = v0[i], v1[i]
+            bound = 0.0
+            for u in range(u0[i, c0], u1[i, c1 - 1] + 1):
+                bound = max(bound, max(field[upper, u], field[lower, u]))
+            if bound * (1 + PEAK_BOUND_MARGIN) < best:
+                continue
             for c in range(c0, c1):
-                best = max(best, blend(field, v0, v1, fv, u0[i, c], u1[i, c], fu[i, c]))
+                best = max(best, blend(field, upper, lower, fv[i], u0[i, c], u1[i, c], fu[i, c]))
         peak[k] = best
     return peak
 
