@@ -106,16 +106,19 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
                 dxx, dxy, dyy = d_xx[at + i], d_xy[at + i], d_yy[at + i]
                 s2 = (dxx * dxx + dyy * dyy + 2 * dxy * dxy) * (norm * norm)
                 candidate[i] = (dxx + dyy < 0) & (s2 > least)
+            # Their columns gathered without a branch (a lit frame's texture makes every
+            # other pixel a candidate, and a branch on each is mispredicted), then read.
             count = np.uint64(0)
             for i in range(np.uint64(c1 - c0)):
-                if candidate[i]:
-                    column[count] = c0 + i
-                    gx[count] = d_x[at + i]
-                    gy[count] = d_y[at + i]
-                    hxx[count] = d_xx[at + i] * second
-                    hxy[count] = d_xy[at + i] * second
-                    hyy[count] = d_yy[at + i] * second
-                    count += np.uint64(1)
+                column[count] = c0 + i
+                count += np.uint64(candidate[i])
+            for j in range(count):
+                p = at + np.uint64(column[j] - c0)
+                gx[j] = d_x[p]
+                gy[j] = d_y[p]
+                hxx[j] = d_xx[p] * second
+                hxy[j] = d_xy[p] * second
+                hyy[j] = d_yy[p] * second
             for j in range(count):
                 l1[j], l2[j], vx[j], vy[j], length[j] = eigen2_parts(hxx[j], hxy[j], hyy[j])
             if frame_grid:
