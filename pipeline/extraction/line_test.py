@@ -156,7 +156,10 @@ def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, strong_fall, out) ->
     test read against its background (`_background_level`), then, beside a line whose
     stronger side falls off by ≥ `strong_fall`, for a valley (`_valley_level`); out[2] the
     unsmoothed profile's height at the centre and out[3] the lower of its heights at
-    ±shoulder_px, both above the brighter side; out[4] the stronger side's fall-off at d."""
+    ±shoulder_px, both above the brighter side; out[4] the stronger side's fall-off at d.
+    Once a side fails the side test (`is_line` fails) the reads still to come are not
+    made (out[1] after the side +n, out[2] and out[3]: NaN): 18k of the lit speed frame's
+    25k candidates fail."""
     height, width = image.shape
     weights = np.empty(2 * SMOOTHING_TAPS + 1)
     for j in range(-SMOOTHING_TAPS, SMOOTHING_TAPS + 1):
@@ -180,6 +183,10 @@ def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, strong_fall, out) ->
             )
         if stronger >= strong_fall and not _side_passes(centre - plus, stronger):
             plus = _valley_level(image, xk, yk, nxk, nyk, s, reach, plus, weights, inside)
+        if not _side_passes(centre - plus, stronger):  # not a line: the rest is not read
+            out[0, k], out[4, k] = centre - plus, stronger
+            out[1, k] = out[2, k] = out[3, k] = np.nan
+            continue
         if not _side_passes(centre - minus, stronger):
             minus = _background_level(
                 image, xk, yk, nxk, nyk, s, -reach, centre, minus, weights, inside
@@ -189,6 +196,9 @@ def _line_profiles(image, x, y, nx, ny, sigma, shoulder_px, strong_fall, out) ->
         out[0, k] = centre - plus
         out[1, k] = centre - minus
         out[4, k] = stronger
+        if not _side_passes(centre - minus, stronger):
+            out[2, k] = out[3, k] = np.nan
+            continue
         side = max(minus, plus)
         out[2, k] = _profile_at(image, xk, yk, nxk, nyk, 0.0, inside) - side
         shoulder = min(
@@ -242,6 +252,8 @@ def line_profiles(
         ±SHOULDER_WIDTHS·width_min_px, above the brighter side's level, each the mean over
         lines TANGENT_OFFSETS_PX along the tangent.
         Row 4: the stronger side's fall-off at d. Read bilinearly, reflect border.
+        Where a side fails the side test (`is_line` is False), the rows not yet read are
+        NaN: row 1 when the side +n fails, rows 2 and 3 when either does.
     """
     out = np.empty((5, np.size(x)))
     fx, fy, fnx, fny, fsigma = (np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny, sigma))
