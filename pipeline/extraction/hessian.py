@@ -74,8 +74,16 @@ def eigen2(ixx: float, ixy: float, iyy: float) -> tuple[float, float, float, flo
 
 @kernel
 def _eigen_all(ixx, ixy, iyy, lambda1, lambda2, nx, ny) -> None:
+    """`eigen2` of every entry: eigenvalues and normals in a loop of selects (it
+    vectorises), then `unit_normal` where an eigenvector's length is below TINY_NORMAL."""
+    length = np.empty(ixx.size)
     for k in range(ixx.size):
-        lambda1[k], lambda2[k], nx[k], ny[k] = eigen2(ixx[k], ixy[k], iyy[k])
+        lambda1[k], lambda2[k], vx, vy, length[k] = eigen2_parts(ixx[k], ixy[k], iyy[k])
+        nx[k], ny[k] = vx / length[k], vy / length[k]
+    for k in range(ixx.size):
+        if length[k] < TINY_NORMAL:
+            vx, vy, norm = eigen2_parts(ixx[k], ixy[k], iyy[k])[2:]
+            nx[k], ny[k] = unit_normal(vx, vy, norm)
 
 
 def hessian_eigen(ixx: np.ndarray, ixy: np.ndarray, iyy: np.ndarray) -> HessianEigen:
