@@ -118,14 +118,20 @@ def _centre_pixels(rows, cols, offset, nx, ny, lambda1, strength, height, width)
     # Occupancy of the candidates' bounding box only; a target lies within 2 px of its pixel.
     r0, c0 = rows.min() - 2, cols.min() - 2
     occupied = np.zeros((rows.max() - r0 + 3, cols.max() - c0 + 3), np.bool_)
+    # The tests by selects (the loop vectorises; a lit frame has 115k candidates), then
+    # the accepted pixels marked.
     for k in range(count):
         dx, dy = offset[k] * nx[k], offset[k] * ny[k]
         bright = lambda1[k] < 0
-        accepted[k] = bright and abs(dx) <= MAX_OFFSET_PX and abs(dy) <= MAX_OFFSET_PX
-        target_r[k] = rows[k] + int(np.rint(dy)) if abs(dy) <= 1.5 else -1
-        target_c[k] = cols[k] + int(np.rint(dx)) if abs(dx) <= 1.5 else -1
-        seam[k] = bright and not accepted[k] and abs(dx) <= 1.5 and abs(dy) <= 1.5
-        seam[k] &= 0 <= target_r[k] < height and 0 <= target_c[k] < width
+        near_x, near_y = abs(dx) <= 1.5, abs(dy) <= 1.5
+        accepted[k] = bright & (abs(dx) <= MAX_OFFSET_PX) & (abs(dy) <= MAX_OFFSET_PX)
+        # NaN or far steps (not near) give no target; rint only of the near ones.
+        target_r[k] = rows[k] + int(np.rint(dy if near_y else 0.0)) if near_y else -1
+        target_c[k] = cols[k] + int(np.rint(dx if near_x else 0.0)) if near_x else -1
+        inside = (target_r[k] >= 0) & (target_r[k] < height)
+        inside &= (target_c[k] >= 0) & (target_c[k] < width)
+        seam[k] = bright & (not accepted[k]) & near_x & near_y & inside
+    for k in range(count):
         if accepted[k]:
             occupied[rows[k] - r0, cols[k] - c0] = True
     candidates = np.flatnonzero(seam)
