@@ -18,7 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pipeline.extraction.centres import METHODS, extract_centres
+from pipeline.extraction.band_analysis import analyse_band_level, analyse_fixed_scale
+from pipeline.extraction.blocks import all_blocks
+from pipeline.extraction.centres import METHODS, extract_centres, full_scale
 from pipeline.profile.fusion import clean_profile_points
 
 
@@ -70,6 +72,19 @@ def precompile_kernels() -> None:
         for method in METHODS:
             for full_frame in (False, True):
                 extract_centres(image, method, full_frame=full_frame)
+        # The whole frame completing a refused band's fields (`band_analysis._completed`):
+        # its V and C go into given arrays, a kernel of their own the frames above miss.
+        scale = analyse_fixed_scale(image, 3.0, c_grey=full_scale(image.dtype) / 100)
+        blocks = all_blocks(scale.response.shape)
+        analyse_band_level(
+            scale.level,
+            blocks,
+            ~blocks,
+            c_grey=full_scale(image.dtype) / 100,
+            frame_shape=image.shape,
+            hint_blocks=all_blocks(image.shape),
+            into=scale,
+        )
     x = np.linspace(0.0, 40.0, 200)
     inner = np.stack([x, 0.01 * x**2], axis=1)
     outer = inner + np.array([0.0, 0.02])

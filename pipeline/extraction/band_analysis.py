@@ -55,8 +55,11 @@ from pipeline.jit import kernel
 
 
 @kernel
-def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_grey, hints):
-    """V and C on the band's pixels of one level; sets the frame pixels hinted at (3×3).
+def _analyse_blocks(
+    ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_grey, hints, into, into_c
+):
+    """V and C on the band's pixels of one level, in new arrays or in `into` and `into_c`
+    (None: new ones; their other pixels are kept); sets the frame pixels hinted at (3×3).
 
     On the frame grid (stride 1) V is only ever compared with RIDGE_THRESHOLD
     (`band_segmentation._stripe_runs`), so there it is `ridge_estimate` (its side of the
@@ -71,8 +74,13 @@ def _analyse_blocks(ix, iy, ixx, ixy, iyy, blocks, stride, sigma_px, min_s2, c_g
     height, width = ix.shape
     frame_grid = stride == 1
     frame_rows, frame_cols = hints.shape
-    response = np.empty((height, width), np.float32)
-    strength = np.empty((height, width), np.float32)
+    # numba compiles `into=None` apart, with arrays of its own: the compiler then knows
+    # they alias nothing, and a lit frame's σ1 grid runs 3 % faster than into given arrays.
+    if into is None:
+        response = np.empty((height, width), np.float32)
+        strength = np.empty((height, width), np.float32)
+    else:
+        response, strength = into, into_c
     norm = sigma_px * sigma_px / (stride * stride)  # σ² and level → frame units of ∂²
     sigma2 = sigma_px * sigma_px
     to_frame = 1.0 / stride
@@ -297,6 +305,7 @@ def analyse_band_level(
     c_grey: float,
     frame_shape: tuple[int, int],
     hint_blocks: np.ndarray,
+    into: LevelResponse | None = None,
 ) -> LevelResponse:
     """`pipeline.extraction.adaptive.analyse_level` on the band's blocks of one level, but for the
     ridge-peak strength, which `with_peak_strength` adds once the mask is known.
@@ -317,6 +326,9 @@ def analyse_band_level(
         The frame's (level-0) blocks where the hints are read: they are valid there only
         (the mask lies on these blocks). Clearing a frame-sized array for each scale cost
         more than the hints themselves.
+    into : LevelResponse, optional
+        The same level analysed on other blocks (a refused band), completed in place on
+        `blocks`; its hints must already be valid (0 or hinted) on `hint_blocks`.
 
     Returns
     -------
@@ -325,7 +337,9 @@ def analyse_band_level(
         level, its ring; the hints, valid on `hint_blocks`.
     """
     d = level.derivatives
-    if hint_blocks.all():
+    if into is not None:
+        hints = into.hints
+    elif hint_blocks.all():
         hints = np.zeros(frame_shape, np.bool_)  # one memset, not a loop over 8-px rows
     else:
         hints = np.empty(frame_shape, np.bool_)
@@ -342,6 +356,8 @@ def analyse_band_level(
         min_structure_squared(c_grey),
         c_grey,
         hints,
+        None if into is None else into.response,
+        None if into is None else into.peak_strength,
     )
     # The frame grid's V and C are read on the band only (`band_segmentation`; the max
     # filter reads C on the band's blocks); a coarser grid's by bilinear reads, which reach
@@ -511,9 +527,20 @@ def _segment(scales, levels, blocks, shape, c_grey, every_strong):
     )
 
 
+def _hinted(blocks: np.ndarray, stride: int, grid: tuple[int, int]) -> np.ndarray:
+    """The frame's (level-0) blocks, of `grid`, that a level's `blocks` (of `stride` frame
+    px per level px) can hint at: a hint's 3×3 lies within HINT_REACH·stride + 1.5 frame px
+    of its candidate."""
+    frame_blocks = blocks.repeat(stride, axis=0).repeat(stride, axis=1)[: grid[0], : grid[1]]
+    reach = math.ceil((HINT_REACH * stride + 2) / BLOCK_PX)
+    square = np.ones((2 * reach + 1,) * 2, np.uint8)
+    return cv2.dilate(frame_blocks.astype(np.uint8), square) > 0
+
+
 def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey, every_strong):
     """The stripe mask inside the band located on the coarsest scale: (band, scales, mask,
-    widened), or the reason why no band can be trusted (a str)."""
+    widened), or why no band can be trusted: (reason, band, scales), the last band analysed
+    and its scales (for the whole frame to complete), None and [] if none was."""
     coarsest = pyramid.scale_levels[seed_index]
 
     def attempt(margin: float, leave_out_small: bool):
@@ -529,8 +556,16 @@ def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey, every_strong):
         scales = [
             seed
             if i == seed_index
+            # Hints valid wherever the band's candidates can hint (not just on its frame
+            # blocks), so that a refused band's are complete there (`_completed`).
             else _analysed(
-                pyramid, sigma, lv, band.blocks[lv], band.rings[lv], c_grey, band.blocks[0]
+                pyramid,
+                sigma,
+                lv,
+                band.blocks[lv],
+                band.rings[lv],
+                c_grey,
+                _hinted(band.blocks[lv], 2**lv, band.blocks[0].shape),
             )
             for i, (sigma, lv) in enumerate(zip(sigmas_px, pyramid.scale_levels, strict=True))
         ]
@@ -548,16 +583,49 @@ def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey, every_strong):
         )
 
     # A stripe the band cuts (a spot fused to its edge, a faint end) gets one wider band.
+    analysed = (None, [])
     for margin in (BAND_MARGIN_PX, WIDER_MARGIN_PX):
         band, scales, found = attempt(margin, True)
         # The regions left out must be too small for a piece of the stripe actually found.
         if found is not None and not _left_out_safely(band, found, 2**coarsest):
+            analysed = band, scales
             band, scales, found = attempt(margin, False)
         if found is None:
-            return f"the band covers {100 * band.fraction:.0f} % of the frame"
+            return (f"the band covers {100 * band.fraction:.0f} % of the frame", *analysed)
         if found.inside:
             return band, scales, found, margin != BAND_MARGIN_PX
-    return "a stripe component reaches the band's edge"
+        analysed = band, scales
+    return ("a stripe component reaches the band's edge", *analysed)
+
+
+def _completed(
+    pyramid: _Pyramid, scale: LevelResponse, band: StripeBand, c_grey: float
+) -> LevelResponse:
+    """One scale's whole-frame V, C and hints, from its analysis on a refused band: the
+    blocks the band lacks are filtered and analysed into the band's arrays, in place.
+
+    Every block's derivatives, V and C depend on the image only, and the hints are an OR
+    of 3×3 marks, so the fields equal the whole frame's analysed from scratch, bit for bit.
+    The band's hints are valid on the frame blocks its candidates can hint at (`_hinted`;
+    the rest of the array is garbage), so they are cleared off them.
+    """
+    level = scale.level
+    lv, stride = level.level, level.stride
+    band_blocks = band.blocks[lv]
+    missing = ~band_blocks
+    none = np.zeros_like(band_blocks)
+    residual = math.sqrt(level.sigma_px**2 - decimated_variance(lv)) / 2**lv
+    band_derivatives(pyramid.levels[lv], residual, missing, none, into=level.derivatives)
+    zero_blocks(scale.hints, ~_hinted(band_blocks, stride, band.blocks[0].shape))
+    return analyse_band_level(
+        level,
+        missing,
+        none,
+        c_grey=c_grey,
+        frame_shape=pyramid.image.shape,
+        hint_blocks=all_blocks(pyramid.image.shape),
+        into=scale,
+    )
 
 
 def analyse_band(
@@ -607,6 +675,8 @@ def analyse_band(
     everywhere = tuple(all_blocks(shape) for shape in shapes)
     seed_index = max(range(len(levels)), key=lambda i: (levels[i], sigmas_px[i]))
     seed = None
+    refused: StripeBand | None = None  # the last band analysed, if it was refused
+    band_scales: list[LevelResponse] = []
     reason = "asked for"
     if not full_frame and levels[seed_index] == 0:
         reason = "no scale on a decimated grid"
@@ -616,7 +686,7 @@ def analyse_band(
             pyramid, sigmas_px[seed_index], levels[seed_index], grid, ~grid, c_grey, everywhere[0]
         )
         found = _in_band(pyramid, sigmas_px, seed_index, seed, c_grey, every_strong)
-        if not isinstance(found, str):
+        if not isinstance(found[0], str):
             band, scales, inside, widened = found
             return BandAnalysis(
                 tuple(float(s) for s in sigmas_px),
@@ -626,10 +696,13 @@ def analyse_band(
                 inside.mask,
                 "wide band" if widened else "band",
             )
-        reason = found
+        reason, refused, band_scales = found
     scales = [
         seed
         if seed is not None and i == seed_index
+        # The refused band's fields are completed on the blocks it lacks.
+        else _completed(pyramid, band_scales[i], refused, c_grey)
+        if refused is not None
         else _analysed(pyramid, sigma, lv, everywhere[lv], ~everywhere[lv], c_grey, everywhere[0])
         for i, (sigma, lv) in enumerate(zip(sigmas_px, levels, strict=True))
     ]

@@ -181,7 +181,11 @@ def _float32_kernels(sigma_px: float) -> tuple[float, int, tuple[np.ndarray, ...
 
 
 def band_derivatives(
-    image: np.ndarray, sigma_px: float, blocks: np.ndarray, ring: np.ndarray
+    image: np.ndarray,
+    sigma_px: float,
+    blocks: np.ndarray,
+    ring: np.ndarray,
+    into: GaussianDerivatives | None = None,
 ) -> GaussianDerivatives:
     """Ix, Iy, Ixx, Ixy, Iyy of `image` at scale `sigma_px` on the band's blocks.
 
@@ -195,6 +199,9 @@ def band_derivatives(
         The band: blocks where the derivatives are wanted.
     ring : ndarray of bool, the shape of `blocks`
         Blocks where Ix and Iy are set to 0 around the band (see `band.RING_BLOCKS`).
+    into : GaussianDerivatives, optional
+        Derivatives of the same image and scale on other blocks (a refused band): written
+        on `blocks` in place and returned (each pixel's figures depend on the image only).
 
     Returns
     -------
@@ -205,10 +212,15 @@ def band_derivatives(
     rows, cols = image.shape
     need = _row_needs(blocks, radius, rows + 2 * radius)
     rolling = tuple(np.empty((_rolling_rows(radius), cols), np.float32) for _ in range(3))
-    ix, iy, ixx, ixy, iyy = (np.empty((rows, cols), np.float32) for _ in range(5))
+    if into is None:
+        ix, iy, ixx, ixy, iyy = (np.empty((rows, cols), np.float32) for _ in range(5))
+    else:
+        ix, iy, ixx, ixy, iyy = into.ix, into.iy, into.ixx, into.ixy, into.iyy
     frame = np.ascontiguousarray(image)
     _filter(radius)(frame, g0, g1, g2, blocks, need, rolling, ix, iy, ixx, ixy, iyy)
     # Only the width search reads beyond the band, and only the gradient.
     for field in (ix, iy):
         zero_blocks(field, ring)
+    if into is not None:
+        return into
     return GaussianDerivatives(sigma_px=sigma, ix=ix, iy=iy, ixx=ixx, ixy=ixy, iyy=iyy)
