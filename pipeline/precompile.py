@@ -21,6 +21,7 @@ import numpy as np
 from pipeline.extraction.band_analysis import analyse_band_level, analyse_fixed_scale
 from pipeline.extraction.blocks import all_blocks
 from pipeline.extraction.centres import METHODS, extract_centres, full_scale
+from pipeline.extraction.ridges import RIDGE_C_FULL_SCALE
 from pipeline.profile.fusion import clean_profile_points
 
 
@@ -74,13 +75,14 @@ def precompile_kernels() -> None:
                 extract_centres(image, method, full_frame=full_frame)
         # The whole frame completing a refused band's fields (`band_analysis._completed`):
         # its V and C go into given arrays, a kernel of their own the frames above miss.
-        scale = analyse_fixed_scale(image, 3.0, c_grey=full_scale(image.dtype) / 100)
+        c_grey = RIDGE_C_FULL_SCALE * full_scale(image.dtype)
+        scale = analyse_fixed_scale(image, 3.0, c_grey=c_grey)
         blocks = all_blocks(scale.response.shape)
         analyse_band_level(
             scale.level,
             blocks,
             ~blocks,
-            c_grey=full_scale(image.dtype) / 100,
+            c_grey=c_grey,
             frame_shape=image.shape,
             hint_blocks=all_blocks(image.shape),
             into=scale,

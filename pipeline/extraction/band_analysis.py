@@ -457,13 +457,20 @@ def _pyramid(image: np.ndarray, sigmas_px: tuple[float, ...], max_level: int) ->
     return _Pyramid(image, tuple(levels), level_shapes(image.shape, coarsest), scale_levels)
 
 
+def _residual_sigma(sigma_px: float, level: int) -> float:
+    """The Gaussian σ [px of that level] that, filtered on pyramid `level`, gives scale
+    `sigma_px` [frame px] with the blur its decimation already holds."""
+    return math.sqrt(sigma_px**2 - decimated_variance(level)) / 2**level
+
+
 def _analysed(
     pyramid: _Pyramid, sigma_px: float, level: int, blocks, ring, c_grey: float, hint_blocks
 ) -> LevelResponse:
     """One scale's V, C and hints on the blocks of its level (the hints valid on the frame's
     `hint_blocks`)."""
-    residual = math.sqrt(sigma_px**2 - decimated_variance(level)) / 2**level
-    derivatives = band_derivatives(pyramid.levels[level], residual, blocks, ring)
+    derivatives = band_derivatives(
+        pyramid.levels[level], _residual_sigma(sigma_px, level), blocks, ring
+    )
     return analyse_band_level(
         ScaleLevel(float(sigma_px), level, derivatives),
         blocks,
@@ -629,7 +636,7 @@ def _completed(
     grid = band.blocks[0].shape
     if into_band is None:
         target, ring, hint_blocks = (
-            ~np.zeros_like(have),
+            np.ones_like(have),
             np.zeros_like(have),
             all_blocks(pyramid.image.shape),
         )
@@ -637,8 +644,13 @@ def _completed(
         target, ring = into_band.blocks[lv], into_band.rings[lv]
         hint_blocks = _hinted(target, stride, grid)
     missing = target & ~have
-    residual = math.sqrt(level.sigma_px**2 - decimated_variance(lv)) / 2**lv
-    band_derivatives(pyramid.levels[lv], residual, missing, ring, into=level.derivatives)
+    band_derivatives(
+        pyramid.levels[lv],
+        _residual_sigma(level.sigma_px, lv),
+        missing,
+        ring,
+        into=level.derivatives,
+    )
     zero_blocks(scale.hints, hint_blocks & ~_hinted(have, stride, grid))
     return analyse_band_level(
         level,
