@@ -36,6 +36,14 @@ TOP_HALF_WINDOW_MM = 2.5
 by 2.5⁴/(8·12³) = 0.003 mm at its ends, well below the measurement's resolution."""
 TOP_CIRCLE_HALF_WINDOW_MM = 4.0
 """Half-width in x of the circle that checks the flange top is a crest seen on both sides."""
+TOP_START_DEPTH_MM = 3.0
+"""The top's first quadratic takes the points within ±2.5 mm of the highest points of the
+profile's one curve down to 3 mm below them: the top arc drops ≤ 1.3 mm within 4.5 mm of
+its crest (R ≥ 8 mm; the start lies within 2 mm of the crest), while a glare hook or ghost
+piece fused under the top lies 2.5–4.5 mm lower. Through every point of the window, such a
+piece of 20–40 points (harsh field pass 5, seed 2027, V001/2/right, 1 frame per sensor)
+turned the robust quadratic concave up: "not a crest" for a top seen well on both sides
+(now Sh +0.070, Sd +0.096 mm; the 71 other wheels of those 9 passes unchanged)."""
 TOP_CIRCLE_DEPTH_MM = 2.0
 """The top's second quadratic and circle take the points within 2 mm below the crest of a
 first quadratic (through every point within ±2.5 mm) only: the top arc
@@ -333,9 +341,10 @@ def _top_curvature(
     return float(c2), float(c1), float(c0)
 
 
-def _top_start(x: np.ndarray, z: np.ndarray) -> float:
-    """x where the crest is looked for: the median x of the highest points on the profile's
-    one curve z(x), i.e. without a point more than 0.5 mm below them within ±0.2 mm in x.
+def _top_start(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
+    """(x, z) where the crest is looked for: the median x and z of the highest points on the
+    profile's one curve z(x), i.e. without a point more than 0.5 mm below them within ±0.2 mm
+    in x [mm].
 
     A Steger spur rising from the flange's back or top (beside a glint) stands over the
     profile there and is left out, so it cannot take the top's windows 4–7 mm off the crest
@@ -350,7 +359,7 @@ def _top_start(x: np.ndarray, z: np.ndarray) -> float:
     on_curve = window_minima(zs, lo, hi) >= zs - DOUBLED_DZ_MM
     xs, zs = xs[on_curve], zs[on_curve]
     highest = np.argsort(zs)[::-1][: max(MIN_FIT_POINTS, zs.size // 200)]
-    return float(np.median(xs[highest]))
+    return float(np.median(xs[highest])), float(np.median(zs[highest]))
 
 
 def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
@@ -359,11 +368,12 @@ def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
     seen on both sides.
 
     Both quadratics start at the highest points of the profile's one curve (`_top_start`).
-    The first takes every point within ±2.5 mm (robustly: a stray point is dropped as an
-    outlier); the band below its crest then leaves out a spot millimetres below the top,
-    which the second quadratic and the circle would otherwise follow. The band hung from
-    the highest points instead held a spur above the top alone, and its quadratic was no
-    crest.
+    The first takes the points within ±2.5 mm down to `TOP_START_DEPTH_MM` below those
+    points (robustly: a stray point is dropped as an outlier); the band below its crest then
+    leaves out a spot millimetres below the top, which the second quadratic and the circle
+    would otherwise follow. The highest points are on the one curve, so a spur standing over
+    the top does not set either band (a band hung from the highest points of all held such
+    a spur alone, and its quadratic was no crest).
 
     The height is the quadratic's, not the circle's: the circle's apex extrapolates the
     curvature of the whole ±4 mm, where on field frames each sensor's far side of the top
@@ -372,7 +382,8 @@ def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
     mean and MAE: circle +0.051 / 0.061 and +0.043 / 0.079 mm, quadratic +0.010 / 0.047 and
     −0.015 / 0.059; clean passes 1–3: +0.002 / 0.003 both.
     """
-    x_top, z_crest = _top_crest(x, z, _top_start(x, z), -np.inf)
+    x_start, z_start = _top_start(x, z)
+    x_top, z_crest = _top_crest(x, z, x_start, z_start - TOP_START_DEPTH_MM)
     x_top, z_top = _top_crest(x, z, x_top, z_crest - TOP_CIRCLE_DEPTH_MM)
     _check_top_circle(x, z, x_top, z_top)
     return x_top, z_top

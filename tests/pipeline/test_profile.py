@@ -181,6 +181,25 @@ def test_a_spot_below_the_flange_top_does_not_lift_its_height() -> None:
     assert spotted == pytest.approx(clean, abs=0.005)
 
 
+def test_a_piece_fused_under_the_flange_top_does_not_unmake_its_crest() -> None:
+    """A glare hook's 60 points 3.5–4.5 mm under the top, across its first ±2.5 mm window
+    (as on harsh field pass 5, seed 2027, V001/2/right): the top is still a crest at its
+    height (through every point of the window the robust quadratic turned concave up: "not
+    a crest")."""
+    outline = wheel_profile(load_reference_profile("S1002"))
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(outline.x_mm), np.diff(outline.z_mm)))])
+    along = np.arange(0.0, arc[-1], 0.15)
+    x, z = np.interp(along, arc, outline.x_mm), np.interp(along, arc, outline.z_mm)
+    top_x = x[np.argmax(z)]
+    hook_x = np.linspace(top_x - 2.0, top_x + 2.0, 60)
+    hook_z = np.linspace(z.max() - 4.5, z.max() - 3.5, 60)
+    order = np.argsort(np.concatenate([x, hook_x]), kind="stable")
+    hooked = fit_flange_parameters(
+        np.concatenate([x, hook_x])[order], np.concatenate([z, hook_z])[order]
+    ).flange_height_mm
+    assert hooked == pytest.approx(outline.truth.flange_height_mm, abs=0.005)
+
+
 def test_a_spur_rising_beside_the_flange_top_does_not_set_its_height() -> None:
     """A Steger spur rising 3.8 mm above the top from the flange's back, 4 mm before the
     crest (the clean seed-7 pass's V001/1/right): Sh is the crest's (the band hung from the
