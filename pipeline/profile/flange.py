@@ -51,6 +51,24 @@ drops < 1 mm over ±4 mm (R12 LMA: 0.69 mm; worn tops a little more), while a gl
 beside the stripe that lands in the window lies millimetres lower. On a clean pass (seed
 2027, pass 2, V002/2/left) a specular spot 5 mm below the top, 1.5–4 mm beside it in x,
 pulled the circle up: Sh +0.398 mm, with the band +0.000."""
+WIDER_AGREEMENT = 2.0
+WIDER_CORRELATION_MM = 0.5
+TOP_WIDER_WINDOWS_MM = (3.0, 3.5, 4.0)
+SD_WIDER_FITS = ((3.0, 2), (4.0, 3), (5.0, 3))
+"""Wider fits where the points' scatter calls for them (`widest_agreeing`, Lepski's rule):
+the top's quadratic over ±3, ±3.5 and ±4 mm after ±2.5 (`TOP_HALF_WINDOW_MM`), Sd's flank
+fit over ±3 (quadratic), ±4 and ±5 mm (cubic) after ±2 (`SD_FIT_HALF_WINDOW_MM`), each kept
+while its value lies within 2 standard errors of every narrower one's, the centres counted
+as independent 0.5 mm apart (the texture's correlation, 3–15 px at about 0.1 mm/px). On
+field frames the wide fits average the texture's and the grain's wander; on a real worn
+profile, whose points scatter little, a wider fit that leaves the narrow one's value is not
+taken, so its shape is followed (MiniProf `whl_left_iter795`'s top, 0.17 mm above its
+±2.5 mm parabola 4 mm out, and `Car7216`'s S-shaped flank read as before within 0.01 mm).
+Measured on captured fused profiles (docs/simulator.md, "Wider fits where the points
+scatter"): 3 frames per sensor, seed 2027, 72 wheels, Sh MAE / max 0.044 / 0.140 →
+0.037 / 0.098 mm, Sd 0.037 / 0.194 → 0.034 / 0.163; held-out seed 2028, 1 frame, Sh
+0.068 → 0.064, Sd 0.088 → 0.082; clean passes (seed 2026) Sh max 0.044 → 0.012, Sd
+unchanged within 0.002."""
 FLANK_HALF_WINDOW_MM = 1.0
 """Half-height in z of the flank fits (quadratic x(z) about the height)."""
 SD_FIT_HALF_WINDOW_MM = 2.0
@@ -221,6 +239,18 @@ def robust_polyfit(
     test. Raises FlangeNotFoundError naming `what` when fewer than `MIN_FIT_POINTS` points
     (or consistent points) remain.
     """
+    return _robust_fit(t, v, degree, what, start, weights)[0]
+
+
+def _robust_fit(
+    t: np.ndarray,
+    v: np.ndarray,
+    degree: int,
+    what: str,
+    start: np.ndarray | None = None,
+    weights: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """`robust_polyfit`'s coefficients and the inliers of its last fit (bool (K,))."""
     if t.size < MIN_FIT_POINTS:
         raise FlangeNotFoundError(f"too few profile points on the {what}")
     inlier = np.ones(t.size, bool) if start is None else np.asarray(start, bool).copy()
@@ -235,11 +265,50 @@ def robust_polyfit(
         residual = np.abs(v - np.polyval(coefficients, t))
         limit = max(OUTLIER_MADS * 1.4826 * float(np.median(residual[inlier])), OUTLIER_FLOOR_MM)
         if np.array_equal(residual <= limit, inlier):
-            return coefficients
+            return coefficients, inlier
         inlier = residual <= limit
         if np.count_nonzero(inlier) < MIN_FIT_POINTS:
             raise FlangeNotFoundError(f"too few consistent profile points on the {what}")
-    return fit(inlier)
+    return fit(inlier), inlier
+
+
+def _value_error(
+    t: np.ndarray,
+    v: np.ndarray,
+    coefficients: np.ndarray,
+    inlier: np.ndarray,
+    weights: np.ndarray | None = None,
+) -> float:
+    """Standard error of a least-squares polynomial's value at t = 0 [mm], from the scatter
+    of its inliers about it, counting them as independent only `WIDER_CORRELATION_MM` of t
+    apart (neighbouring centres share the texture and the lit scene's grain); inf when the
+    inliers do not outnumber the coefficients by two."""
+    degree = coefficients.size - 1
+    count = int(np.count_nonzero(inlier))
+    if count <= degree + 2:
+        return math.inf
+    at = t[inlier]
+    w2 = np.ones(count) if weights is None else weights[inlier] ** 2
+    residual = v[inlier] - np.polyval(coefficients, at)
+    variance = float((w2 * residual**2).sum()) / (count - degree - 1)
+    design = np.vander(at, degree + 1)
+    covariance = np.linalg.pinv(design.T @ (w2[:, None] * design)) * variance
+    span = max(float(np.ptp(at)), WIDER_CORRELATION_MM)
+    correlated = max(1.0, count * WIDER_CORRELATION_MM / span)
+    return math.sqrt(max(float(covariance[-1, -1]), 0.0) * correlated)
+
+
+def widest_agreeing(values: list[float], errors: list[float]) -> int:
+    """Index of the widest of windows (narrowest first) whose value lies within
+    `WIDER_AGREEMENT` standard errors of every narrower window's value (Lepski's rule), the
+    narrower ones all agreeing too: the smoothing a fit can afford before the profile's own
+    shape, not the points' scatter, moves it."""
+    chosen = 0
+    for k in range(1, len(values)):
+        if any(abs(values[k] - values[j]) > WIDER_AGREEMENT * errors[j] for j in range(k)):
+            break
+        chosen = k
+    return chosen
 
 
 def strength_weights(strength: np.ndarray) -> np.ndarray:
@@ -325,15 +394,15 @@ def _check_top_circle(x: np.ndarray, z: np.ndarray, x_top: float, z_top: float) 
 
 
 def _top_curvature(
-    x: np.ndarray, z: np.ndarray, x_top: float, z_floor: float
+    x: np.ndarray, z: np.ndarray, x_top: float, z_floor: float, half_mm: float = TOP_HALF_WINDOW_MM
 ) -> tuple[float, float, float]:
-    """(c2, c1, c0) of the quadratic z(x − x_top) fitted within ±2.5 mm to the points above
-    z_floor; raises unless a crest."""
-    near = (np.abs(x - x_top) <= TOP_HALF_WINDOW_MM) & (z >= z_floor)
+    """(c2, c1, c0) of the quadratic z(x − x_top) fitted within ±half_mm (default 2.5 mm) to
+    the points above z_floor; raises unless a crest."""
+    near = (np.abs(x - x_top) <= half_mm) & (z >= z_floor)
     if np.count_nonzero(near) < MIN_FIT_POINTS:
         raise FlangeNotFoundError(
             f"too few profile points on the flange top ({np.count_nonzero(near)} within "
-            f"±{TOP_HALF_WINDOW_MM:g} mm of x = {x_top:.1f} mm, where its crest should be)"
+            f"±{half_mm:g} mm of x = {x_top:.1f} mm, where its crest should be)"
         )
     c2, c1, c0 = robust_polyfit(x[near] - x_top, z[near], 2, "flange top")
     if c2 >= 0:
@@ -381,20 +450,44 @@ def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
     centres over millimetres. Harsh passes 1–3 / 4–7 (seed 2027, 19 wheels each), Sh error
     mean and MAE: circle +0.051 / 0.061 and +0.043 / 0.079 mm, quadratic +0.010 / 0.047 and
     −0.015 / 0.059; clean passes 1–3: +0.002 / 0.003 both.
+
+    The second quadratic then widens to ±3, ±3.5 and ±4 mm while its crest height agrees
+    with the narrower ones' (`TOP_WIDER_WINDOWS_MM`, `widest_agreeing`).
     """
     x_start, z_start = _top_start(x, z)
-    x_top, z_crest = _top_crest(x, z, x_start, z_start - TOP_START_DEPTH_MM)
-    x_top, z_top = _top_crest(x, z, x_top, z_crest - TOP_CIRCLE_DEPTH_MM)
+    x_first, z_crest = _top_crest(x, z, x_start, z_start - TOP_START_DEPTH_MM)
+    floor = z_crest - TOP_CIRCLE_DEPTH_MM
+    x_top, z_top = _top_crest(x, z, x_first, floor)
     _check_top_circle(x, z, x_top, z_top)
-    return x_top, z_top
+    crests = [(x_top, z_top, _crest_error(x, z, x_top, floor, TOP_HALF_WINDOW_MM))]
+    for half_mm in TOP_WIDER_WINDOWS_MM:
+        try:
+            x_wide, z_wide = _top_crest(x, z, x_first, floor, half_mm)
+        except FlangeNotFoundError:
+            break
+        crests.append((x_wide, z_wide, _crest_error(x, z, x_wide, floor, half_mm)))
+    chosen = widest_agreeing([c[1] for c in crests], [c[2] for c in crests])
+    return crests[chosen][0], crests[chosen][1]
 
 
-def _top_crest(x: np.ndarray, z: np.ndarray, x_top: float, z_floor: float) -> tuple[float, float]:
-    """(x, z) of the crest of the top's quadratic (points above z_floor), three Newton
-    steps from x_top [mm]; raises unless a crest."""
+def _crest_error(
+    x: np.ndarray, z: np.ndarray, x_top: float, z_floor: float, half_mm: float
+) -> float:
+    """Standard error of the top quadratic's height at its crest x_top (`_value_error`) [mm]."""
+    near = (np.abs(x - x_top) <= half_mm) & (z >= z_floor)
+    u, v = x[near] - x_top, z[near]
+    coefficients, inlier = _robust_fit(u, v, 2, "flange top")
+    return _value_error(u, v, coefficients, inlier)
+
+
+def _top_crest(
+    x: np.ndarray, z: np.ndarray, x_top: float, z_floor: float, half_mm: float = TOP_HALF_WINDOW_MM
+) -> tuple[float, float]:
+    """(x, z) of the crest of the top's quadratic within ±half_mm (points above z_floor),
+    three Newton steps from x_top [mm]; raises unless a crest."""
     for _ in range(3):
-        c2, c1, c0 = _top_curvature(x, z, x_top, z_floor)
-        step = float(np.clip(-c1 / (2 * c2), -TOP_HALF_WINDOW_MM, TOP_HALF_WINDOW_MM))
+        c2, c1, c0 = _top_curvature(x, z, x_top, z_floor, half_mm)
+        step = float(np.clip(-c1 / (2 * c2), -half_mm, half_mm))
         x_top += step
     return x_top, c0 + c1 * step + c2 * step**2  # the last quadratic at the crest
 
@@ -415,6 +508,7 @@ def _fit_flank(
     height_mm: float,
     half_window_mm: float = FLANK_HALF_WINDOW_MM,
     strength: np.ndarray | None = None,
+    wider: tuple[tuple[float, int], ...] = (),
 ) -> tuple[float, float]:
     """x of the flank at z = height and the gap bridged about the height (0: none) [mm].
 
@@ -423,7 +517,9 @@ def _fit_flank(
     `MIN_FIT_POINTS` or leave a gap of > 1 mm about the height, a gap of ≤
     `MAX_FLANK_GAP_MM` (edges found within ±3 mm) is bridged by the quadratic through 1 mm
     of points on each side of it (and those within the half window). With the centres'
-    line strengths the fit weights them (`strength_weights`).
+    line strengths the fit weights them (`strength_weights`). Without a bridged gap, the
+    `wider` fits ((half window [mm], degree), narrowest first) are tried after it and the
+    widest agreeing one is taken (`widest_agreeing`).
     """
     flank = (x > x_top) & (x < x_top + 40.0)
     dz = z[flank] - height_mm
@@ -447,14 +543,27 @@ def _fit_flank(
             )
     near |= np.abs(dz) <= half_window_mm
     degree = 2 if np.ptp(dz[near]) > FLANK_HALF_WINDOW_MM else 1
-    t, v = dz[near], x[flank][near]
+    fits = [_flank_fit(dz, x[flank], near, degree, strength, flank, what)]
+    for half_mm, wide_degree in wider if bridged == 0.0 else ():
+        try:
+            fits.append(
+                _flank_fit(dz, x[flank], np.abs(dz) <= half_mm, wide_degree, strength, flank, what)
+            )
+        except FlangeNotFoundError:
+            break
+    chosen = widest_agreeing([f[0] for f in fits], [f[1] for f in fits])
+    return fits[chosen][0], bridged
+
+
+def _flank_fit(dz, x_flank, near, degree, strength, flank, what) -> tuple[float, float]:
+    """x at dz = 0 of the robust polynomial x(dz) through the `near` flank points (weighted by
+    their line strengths when given), and its standard error (`_value_error`) [mm]."""
+    t, v = dz[near], x_flank[near]
     weights = None if strength is None else strength_weights(strength[flank][near])
     if weights is not None and not np.any(weights > 0):
         weights = None
-    x_flank = float(
-        np.polyval(robust_polyfit(t, v, degree, what, line_inliers(t, v), weights), 0.0)
-    )
-    return x_flank, bridged
+    coefficients, inlier = _robust_fit(t, v, degree, what, line_inliers(t, v), weights)
+    return float(np.polyval(coefficients, 0.0)), _value_error(t, v, coefficients, inlier, weights)
 
 
 def fit_flange_parameters(
@@ -487,10 +596,11 @@ def fit_flange_parameters(
     Sh: the crest of a quadratic z(x) within ±2.5 mm, over the points within 2 mm below the
     crest of a first quadratic through all of them, started at the highest points on the
     profile's one curve z(x), once a circle fitted within ±4 mm of it shows a crest seen on
-    both sides (`_fit_top`). Each flank abscissa is a quadratic x(z) fitted to points on
+    both sides (`_fit_top`), widened while the points' scatter calls for it
+    (`TOP_WIDER_WINDOWS_MM`). Each flank abscissa is a quadratic x(z) fitted to points on
     the tread side of the top within ±2 mm of the Sd heights and ±1 mm of Sh − 2,
-    evaluated at that height; a gap of ≤ 2.5 mm about the height with points on both sides
-    is bridged by the fit over ±3 mm. Both sides of the crest must hold
+    evaluated at that height (at 12 mm widened likewise, `SD_WIDER_FITS`); a gap of
+    ≤ 2.5 mm about the height with points on both sides is bridged by the fit over ±3 mm. Both sides of the crest must hold
     points: a crest seen on one side only is not measured.
     """
     x, z = _check_points(x_mm, z_mm)
@@ -511,17 +621,19 @@ def fit_flange_parameters(
     reasons: list[str] = []
     gap = 0.0
 
-    def flank(height_mm: float, half_window_mm: float, name: str) -> float | None:
+    def flank(
+        height_mm: float, half_window_mm: float, name: str, wider: tuple = ()
+    ) -> float | None:
         nonlocal gap
         try:
-            x_flank, bridged = _fit_flank(x, z, x_top, height_mm, half_window_mm, strength)
+            x_flank, bridged = _fit_flank(x, z, x_top, height_mm, half_window_mm, strength, wider)
         except FlangeNotFoundError as exc:
             reasons.append(f"{name}: {exc}")
             return None
         gap = max(gap, bridged)
         return x_flank
 
-    flank_12 = flank(SD_HEIGHT_MM, SD_FIT_HALF_WINDOW_MM, "Sd")
+    flank_12 = flank(SD_HEIGHT_MM, SD_FIT_HALF_WINDOW_MM, "Sd", SD_WIDER_FITS)
     flank_10 = flank(SD_EN_HEIGHT_MM, SD_FIT_HALF_WINDOW_MM, "Sd 10")
     qr = None
     if flank_10 is None:
