@@ -600,8 +600,9 @@ def fit_flange_parameters(
     (`TOP_WIDER_WINDOWS_MM`). Each flank abscissa is a quadratic x(z) fitted to points on
     the tread side of the top within ±2 mm of the Sd heights and ±1 mm of Sh − 2,
     evaluated at that height (at 12 mm widened likewise, `SD_WIDER_FITS`); a gap of
-    ≤ 2.5 mm about the height with points on both sides is bridged by the fit over ±3 mm. Both sides of the crest must hold
-    points: a crest seen on one side only is not measured.
+    ≤ 2.5 mm about the height with points on both sides is bridged by the fit over ±3 mm.
+    Both sides of the crest must hold points: a crest seen on one side only is not
+    measured.
     """
     x, z = _check_points(x_mm, z_mm)
     if strength is not None:

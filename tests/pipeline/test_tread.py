@@ -7,6 +7,7 @@ import pytest
 
 from pipeline.profile.reference import load_reference_profile
 from pipeline.profile.tread import (
+    HOLLOW_HALF_WINDOW_MM,
     TreadNotFoundError,
     flange_angle,
     outline_tread_values,
@@ -157,3 +158,40 @@ def test_batched_local_quadratics_equal_robust_polyfit_node_by_node():
             except PipelineError:
                 pass
         assert values[i] == pytest.approx(expected, abs=1e-9, nan_ok=True), grid[i]
+
+
+def _wandering_points(name: str, depth_mm: float, seed: int, sigma_mm: float = 0.04):
+    """A worn outline's points every 0.08 mm of arc, their z wandering by `sigma_mm` over
+    about 0.5 mm (a field frame's texture and grain), and the outline's true hollow."""
+    outline = wheel_profile(load_reference_profile(name), Wear(hollow_depth_mm=depth_mm))
+    arc = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(outline.x_mm), np.diff(outline.z_mm)))])
+    along = np.arange(0.0, arc[-1], 0.08)
+    x, z = np.interp(along, arc, outline.x_mm), np.interp(along, arc, outline.z_mm)
+    rng = np.random.default_rng(seed)
+    taps = np.exp(-0.5 * (np.arange(-30, 31) * 0.08 / 0.5) ** 2)
+    wander = np.convolve(rng.normal(0, 1, x.size), taps / np.sqrt((taps**2).sum()), "same")
+    truth = outline_tread_values(outline.x_mm, outline.z_mm, outline.truth.flange_height_mm)
+    return x, z + sigma_mm * wander, truth["tread_hollow_mm"]
+
+
+@pytest.mark.parametrize("name", ["LMA", "S1002"])
+def test_the_hollow_of_wandering_points_is_read_on_the_smoother_surface(name: str) -> None:
+    """Over 12 draws of points wandering 0.04 mm about a hollow-worn outline, the ±1.5 mm
+    surface's deepest point reads the hollow about 0.02 mm deep on average (the largest of a
+    noisy curve); the ±5 mm surface has no such bias and no larger error."""
+    smooth_errors, rough_errors = [], []
+    for seed in range(12):
+        x, z, truth = _wandering_points(name, 0.6, seed)
+        rough_errors.append(tread_hollow(running_surface(x, z)) - truth)
+        smooth_errors.append(tread_hollow(running_surface(x, z, HOLLOW_HALF_WINDOW_MM)) - truth)
+    assert np.mean(rough_errors) > 0.01
+    assert abs(np.mean(smooth_errors)) < 0.005
+    assert np.mean(np.abs(smooth_errors)) < np.mean(np.abs(rough_errors))
+
+
+@pytest.mark.parametrize("name", ["LMA", "S1002"])
+def test_an_exact_outline_keeps_its_hollow_on_the_smoother_surface(name: str) -> None:
+    x, z, truth = _wandering_points(name, 0.6, 0, sigma_mm=0.0)
+    assert tread_hollow(running_surface(x, z, HOLLOW_HALF_WINDOW_MM)) == pytest.approx(
+        truth, abs=0.01
+    )
