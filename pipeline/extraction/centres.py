@@ -789,6 +789,46 @@ def _widths(levels, level_index, x, y, nx, ny, width_max: float) -> np.ndarray:
     return widths
 
 
+WIDTH_STEP = 3
+"""Widths are measured on every WIDTH_STEP-th centre of each chain and on its last; the
+centres between take them linearly interpolated by index (measured themselves where a
+neighbour found none). Centres lie ≈ 1 px apart and a stripe's width changes over tens of
+px, so the chain rules (`_off_bodies`, `_narrow_chains`) and the matched kernel's s see the
+same widths to within their noise: on every accuracy and field-harsh case the RMS moved by
+≤ 0.0001 px but field-all's +0.006 (3 %), the real frames' on-line and coverage shares by
+≤ 0.4 %, for ≈ 0.65 ms less per dark speed frame (the widths 1.24–1.29 → 0.56–0.63 ms
+least; step 2: 0.76–0.83 ms, step 4 lost charuco-dim's on-line share 47.0 → 43.6 %;
+docs/extraction.md §7, "Less work per frame")."""
+
+
+def _chain_widths(levels, level_index, x, y, nx, ny, chains, width_max: float) -> np.ndarray:
+    """`_widths` of the chains' points (x, y, ... the chains' points in order), measured on
+    every WIDTH_STEP-th centre of each chain and its last, interpolated between."""
+    step = WIDTH_STEP
+    if step == 1 or not chains:
+        return _widths(levels, level_index, x, y, nx, ny, width_max)
+    sizes = np.array([c.size for c in chains])
+    starts = np.cumsum(sizes) - sizes
+    pos = np.arange(x.size) - np.repeat(starts, sizes)
+    size = np.repeat(sizes, sizes)
+    measured = (pos % step == 0) | (pos == size - 1)
+    out = np.full(x.size, np.nan)
+    at = np.flatnonzero(measured)
+    out[at] = _widths(levels, level_index[at], x[at], y[at], nx[at], ny[at], width_max)
+    rest = np.flatnonzero(~measured)
+    # the measured centres before and after each other one, on its chain
+    before = rest - pos[rest] % step
+    after = np.minimum(before + step, np.repeat(starts + sizes - 1, sizes)[rest])
+    f = (rest - before) / (after - before)
+    out[rest] = (1 - f) * out[before] + f * out[after]
+    again = rest[~np.isfinite(out[rest])]
+    if again.size:
+        out[again] = _widths(
+            levels, level_index[again], x[again], y[again], nx[again], ny[again], width_max
+        )
+    return out
+
+
 def _narrow_chains(
     chains: list[np.ndarray], widths: np.ndarray, width_max: float
 ) -> tuple[list[np.ndarray], np.ndarray]:
@@ -844,7 +884,9 @@ def _assemble(
     found = np.concatenate(chains) if chains else np.zeros(0, np.int64)
     width_at = np.full(x.size, np.nan)
     points = (x[found], y[found], nx[found], ny[found])
-    width_at[found] = _widths(selected.levels, selected.level_index[found], *points, width_max)
+    width_at[found] = _chain_widths(
+        selected.levels, selected.level_index[found], *points, chains, width_max
+    )
     chains, bodies = _off_bodies(image, chains, height, x, y, nx, ny, width_at, continuing)
     chains, weak = _bright_chains(
         chains, height, selected.strength, xy, c_grey, continuing=continuing
