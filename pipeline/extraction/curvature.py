@@ -135,13 +135,13 @@ def _fit_curvatures(x, y, nx, ny, sigma, bounds, kappa, fit_offset, count) -> No
 
 
 @kernel
-def _remove_bias(x, y, nx, ny, sigma, window_sigma, bounds, x_out, y_out) -> None:
-    """FIT_ROUNDS of κ on (x_out, y_out) with windows of `window_sigma`, each moving the
+def _remove_bias(x, y, nx, ny, sigma, window_sigma, bounds, rounds, x_out, y_out) -> None:
+    """`rounds` fits of κ on (x_out, y_out) with windows of `window_sigma`, each moving the
     points to (x, y) − σ²κ/2·n."""
     kappa = np.empty(x.size)
     offset = np.empty(x.size)
     count = np.empty(x.size)
-    for _ in range(FIT_ROUNDS):
+    for _ in range(rounds):
         _fit_curvatures(x_out, y_out, nx, ny, window_sigma, bounds, kappa, offset, count)
         for i in range(x.size):
             shift = 0.5 * sigma[i] ** 2 * kappa[i]
@@ -242,6 +242,7 @@ def remove_curvature_bias(
     polylines: tuple[np.ndarray, ...],
     *,
     scatter_support: bool = False,
+    rounds: int = FIT_ROUNDS,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Move each centre by σ²κ/2 away from its centre of curvature.
 
@@ -256,6 +257,8 @@ def remove_curvature_bias(
         eq. (2)) instead of σ alone (`_scatter_windows`), and put the point on its fitted
         curve: texture-robust centres, averaged along the stripe over the support the
         scatter calls for.
+    rounds : int
+        Fits of κ, each on the points the previous one corrected (FIT_ROUNDS).
 
     Returns
     -------
@@ -279,7 +282,7 @@ def remove_curvature_bias(
     order, bounds, fx, fy, fnx, fny, fsigma = _chained(polylines, x, y, nx, ny, sigma)
     window = _scatter_windows(fx, fy, fnx, fny, fsigma, bounds)[0] if scatter_support else fsigma
     cx, cy = fx.copy(), fy.copy()
-    _remove_bias(fx, fy, fnx, fny, fsigma, window, bounds, cx, cy)
+    _remove_bias(fx, fy, fnx, fny, fsigma, window, bounds, rounds, cx, cy)
     if scatter_support:
         offset = _fitted_offsets(cx, cy, fnx, fny, window, bounds)
         cx, cy = cx + offset * fnx, cy + offset * fny
