@@ -764,6 +764,13 @@ def _no_spots(
     return lines, np.concatenate(spots) if spots else np.zeros(0, np.int64)
 
 
+BODY_STEP = 2
+"""The body test (`line_test.on_bodies`, a majority of a chain's centres) reads every
+BODY_STEP-th centre of a chain: a lit body's highlight runs along it for 130–160 centres
+(the real frames), so half of them decide alike. Every accuracy and field-harsh case and
+real frame unchanged, 0.33–0.34 → 0.19–0.21 ms least per dark speed frame."""
+
+
 def _off_bodies(image, chains, height, x, y, nx, ny, width_at, continuing):
     """The chains that are not highlights on a lit body (`line_test.on_bodies`) and the
     points of those that are; `width_at` the measured widths [px] of every point (NaN:
@@ -780,7 +787,9 @@ def _off_bodies(image, chains, height, x, y, nx, ny, width_at, continuing):
         return chains, np.zeros(0, np.int64)
     judged = [i for i, c in enumerate(chains) if c.size >= CHAIN_MIN_POINTS]
     on_body = np.zeros(len(chains), bool)
-    on_body[judged] = on_bodies(image, x, y, nx, ny, width_at, [chains[i] for i in judged])
+    on_body[judged] = on_bodies(
+        image, x, y, nx, ny, width_at, [chains[i][::BODY_STEP] for i in judged]
+    )
     kept = (~on_body).tolist()
     bodies = [c for c, k in zip(chains, kept, strict=True) if not k]
     lines = [c for c, k in zip(chains, kept, strict=True) if k]
