@@ -231,26 +231,15 @@ def robust_polyfit(
     what: str,
     start: np.ndarray | None = None,
     weights: np.ndarray | None = None,
-) -> np.ndarray:
-    """Least-squares polynomial v(t), refitted without outliers until the inliers settle.
+) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares polynomial v(t), refitted without outliers until the inliers settle:
+    its coefficients (highest power first) and the inliers of its last fit (bool (K,)).
 
     `start` (bool, default all) are the first fit's points; `weights` (default none) weight
     each point's residual in the least squares (`numpy.polyfit`'s w, 1/σ), not the outlier
     test. Raises FlangeNotFoundError naming `what` when fewer than `MIN_FIT_POINTS` points
     (or consistent points) remain.
     """
-    return _robust_fit(t, v, degree, what, start, weights)[0]
-
-
-def _robust_fit(
-    t: np.ndarray,
-    v: np.ndarray,
-    degree: int,
-    what: str,
-    start: np.ndarray | None = None,
-    weights: np.ndarray | None = None,
-) -> tuple[np.ndarray, np.ndarray]:
-    """`robust_polyfit`'s coefficients and the inliers of its last fit (bool (K,))."""
     if t.size < MIN_FIT_POINTS:
         raise FlangeNotFoundError(f"too few profile points on the {what}")
     inlier = np.ones(t.size, bool) if start is None else np.asarray(start, bool).copy()
@@ -404,7 +393,7 @@ def _top_curvature(
             f"too few profile points on the flange top ({np.count_nonzero(near)} within "
             f"±{half_mm:g} mm of x = {x_top:.1f} mm, where its crest should be)"
         )
-    c2, c1, c0 = robust_polyfit(x[near] - x_top, z[near], 2, "flange top")
+    c2, c1, c0 = robust_polyfit(x[near] - x_top, z[near], 2, "flange top")[0]
     if c2 >= 0:
         raise FlangeNotFoundError("the flange top is not a crest (fit curvature ≥ 0)")
     return float(c2), float(c1), float(c0)
@@ -476,7 +465,7 @@ def _crest_error(
     """Standard error of the top quadratic's height at its crest x_top (`_value_error`) [mm]."""
     near = (np.abs(x - x_top) <= half_mm) & (z >= z_floor)
     u, v = x[near] - x_top, z[near]
-    coefficients, inlier = _robust_fit(u, v, 2, "flange top")
+    coefficients, inlier = robust_polyfit(u, v, 2, "flange top")
     return _value_error(u, v, coefficients, inlier)
 
 
@@ -562,7 +551,7 @@ def _flank_fit(dz, x_flank, near, degree, strength, flank, what) -> tuple[float,
     weights = None if strength is None else strength_weights(strength[flank][near])
     if weights is not None and not np.any(weights > 0):
         weights = None
-    coefficients, inlier = _robust_fit(t, v, degree, what, line_inliers(t, v), weights)
+    coefficients, inlier = robust_polyfit(t, v, degree, what, line_inliers(t, v), weights)
     return float(np.polyval(coefficients, 0.0)), _value_error(t, v, coefficients, inlier, weights)
 
 
