@@ -766,8 +766,9 @@ def _no_spots(
 
 BODY_STEP = 2
 """The body test (`line_test.on_bodies`, a majority of a chain's centres) reads every
-BODY_STEP-th centre of a chain: a lit body's highlight runs along it for 130–160 centres
-(the real frames), so half of them decide alike. Every accuracy and field-harsh case and
+BODY_STEP-th centre of a chain from both its ends (`every_from_both_ends`): a lit body's
+highlight runs along it for 130–160 centres (the real frames), so half of them decide
+alike. Every accuracy and field-harsh case and
 real frame unchanged, 0.33–0.34 → 0.19–0.21 ms least per dark speed frame."""
 
 
@@ -788,7 +789,13 @@ def _off_bodies(image, chains, height, x, y, nx, ny, width_at, continuing):
     judged = [i for i, c in enumerate(chains) if c.size >= CHAIN_MIN_POINTS]
     on_body = np.zeros(len(chains), bool)
     on_body[judged] = on_bodies(
-        image, x, y, nx, ny, width_at, [chains[i][::BODY_STEP] for i in judged]
+        image,
+        x,
+        y,
+        nx,
+        ny,
+        width_at,
+        [chains[i][every_from_both_ends(chains[i].size, BODY_STEP)] for i in judged],
     )
     kept = (~on_body).tolist()
     bodies = [c for c, k in zip(chains, kept, strict=True) if not k]
@@ -810,7 +817,7 @@ def _widths(levels, level_index, x, y, nx, ny, width_max: float) -> np.ndarray:
 
 
 WIDTH_STEP = 3
-"""Widths are measured on every WIDTH_STEP-th centre of each chain and on its last; the
+"""Widths are measured on every WIDTH_STEP-th centre of each chain from both its ends; the
 centres between take them linearly interpolated by index (measured themselves where a
 neighbour found none). Centres lie ≈ 1 px apart and a stripe's width changes over tens of
 px, so the chain rules (`_off_bodies`, `_narrow_chains`) and the matched kernel's s see the
@@ -821,26 +828,40 @@ least; step 2: 0.76–0.83 ms, step 4 lost charuco-dim's on-line share 47.0 → 
 docs/extraction.md §7, "Less work per frame")."""
 
 
+def every_from_both_ends(size: int, step: int) -> np.ndarray:
+    """Positions 0 … size − 1 of a chain taken every `step` from its first point over its
+    first half and from its last point over its second half (both ends always): the same
+    points whichever way the chain runs, so a flipped or transposed frame measures the same
+    centres (tests/pipeline/test_properties.py)."""
+    pos = np.arange(size)
+    half = pos <= (size - 1) // 2
+    return np.flatnonzero(np.where(half, pos % step == 0, (size - 1 - pos) % step == 0))
+
+
 def _chain_widths(levels, level_index, x, y, nx, ny, chains, width_max: float) -> np.ndarray:
     """`_widths` of the chains' points (x, y, ... the chains' points in order), measured on
-    every WIDTH_STEP-th centre of each chain and its last, interpolated between."""
-    step = WIDTH_STEP
-    if step == 1 or not chains:
+    every WIDTH_STEP-th centre of each chain from both its ends (`every_from_both_ends`),
+    linearly interpolated by index between them (measured where a neighbour found none)."""
+    if WIDTH_STEP == 1 or not chains:
         return _widths(levels, level_index, x, y, nx, ny, width_max)
-    sizes = np.array([c.size for c in chains])
-    starts = np.cumsum(sizes) - sizes
-    pos = np.arange(x.size) - np.repeat(starts, sizes)
-    size = np.repeat(sizes, sizes)
-    measured = (pos % step == 0) | (pos == size - 1)
+    sizes = [c.size for c in chains]
+    starts = np.cumsum([0] + sizes[:-1])
+    at = np.concatenate(
+        [
+            start + every_from_both_ends(size, WIDTH_STEP)
+            for start, size in zip(starts, sizes, strict=True)
+        ]
+    )
     out = np.full(x.size, np.nan)
-    at = np.flatnonzero(measured)
     out[at] = _widths(levels, level_index[at], x[at], y[at], nx[at], ny[at], width_max)
-    rest = np.flatnonzero(~measured)
-    # the measured centres before and after each other one, on its chain
-    before = rest - pos[rest] % step
-    after = np.minimum(before + step, np.repeat(starts + sizes - 1, sizes)[rest])
-    f = (rest - before) / (after - before)
-    out[rest] = (1 - f) * out[before] + f * out[after]
+    index = np.arange(x.size)
+    measured = np.zeros(x.size, bool)
+    measured[at] = True
+    before = np.maximum.accumulate(np.where(measured, index, 0))
+    after = np.minimum.accumulate(np.where(measured, index, x.size - 1)[::-1])[::-1]
+    rest = np.flatnonzero(~measured)  # each chain's ends are measured: neighbours on its chain
+    f = (rest - before[rest]) / (after[rest] - before[rest])
+    out[rest] = (1 - f) * out[before[rest]] + f * out[after[rest]]
     again = rest[~np.isfinite(out[rest])]
     if again.size:
         out[again] = _widths(

@@ -53,13 +53,17 @@ beside the stripe that lands in the window lies millimetres lower. On a clean pa
 pulled the circle up: Sh +0.398 mm, with the band +0.000."""
 WIDER_AGREEMENT = 2.0
 WIDER_CORRELATION_MM = 0.5
+WIDER_MIN_ERROR_MM = 0.01
 TOP_WIDER_WINDOWS_MM = (3.0, 3.5, 4.0)
 SD_WIDER_FITS = ((3.0, 2), (4.0, 3), (5.0, 3))
 """Wider fits where the points' scatter calls for them (`widest_agreeing`, Lepski's rule):
 the top's quadratic over ±3, ±3.5 and ±4 mm after ±2.5 (`TOP_HALF_WINDOW_MM`), Sd's flank
 fit over ±3 (quadratic), ±4 and ±5 mm (cubic) after ±2 (`SD_FIT_HALF_WINDOW_MM`), each kept
 while its value lies within 2 standard errors of every narrower one's, the centres counted
-as independent 0.5 mm apart (the texture's correlation, 3–15 px at about 0.1 mm/px). On
+as independent 0.5 mm apart (the texture's correlation, 3–15 px at about 0.1 mm/px), and
+only where the narrowest fit's standard error is at least 0.01 mm: a clean frame's (0.001–
+0.007 mm), a tabulated reference's (LMA and S1002 at Sd: 0.006–0.007) or a gauge's points
+keep their narrow fits exactly, where field frames' read 0.01–0.06 mm. On
 field frames the wide fits average the texture's and the grain's wander; on a real worn
 profile, whose points scatter little, a wider fit that leaves the narrow one's value is not
 taken, so its shape is followed (MiniProf `whl_left_iter795`'s top, 0.17 mm above its
@@ -291,8 +295,11 @@ def widest_agreeing(values: list[float], errors: list[float]) -> int:
     """Index of the widest of windows (narrowest first) whose value lies within
     `WIDER_AGREEMENT` standard errors of every narrower window's value (Lepski's rule), the
     narrower ones all agreeing too: the smoothing a fit can afford before the profile's own
-    shape, not the points' scatter, moves it."""
+    shape, not the points' scatter, moves it. The narrowest is kept where its own error is
+    below `WIDER_MIN_ERROR_MM` (nothing to average)."""
     chosen = 0
+    if not errors or errors[0] < WIDER_MIN_ERROR_MM:
+        return chosen
     for k in range(1, len(values)):
         if any(abs(values[k] - values[j]) > WIDER_AGREEMENT * errors[j] for j in range(k)):
             break

@@ -18,6 +18,8 @@ HANDHELD = Path(__file__).with_name("handheld_files")
 
 def test_the_widest_window_agreeing_with_every_narrower_one_is_chosen() -> None:
     assert widest_agreeing([1.0, 1.01, 1.015, 1.5], [0.01, 0.01, 0.01, 0.01]) == 2
+    # points that scatter less than WIDER_MIN_ERROR_MM keep the narrowest fit
+    assert widest_agreeing([1.0, 1.0001], [0.001, 0.001]) == 0
     assert widest_agreeing([1.0, 1.05], [0.01, 0.01]) == 0
     # once a window disagrees, no wider one is taken even if it agrees again
     assert widest_agreeing([1.0, 1.05, 1.0], [0.01, 0.01, 0.01]) == 0

@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 from scipy.spatial import cKDTree
 
 from pipeline import extract_centres
+from pipeline.extraction.centres import every_from_both_ends
 
 SHAPE = (80, 112)
 METHODS = st.sampled_from(["adaptive", "steger", "classic"])
@@ -145,3 +146,16 @@ def test_shifting_the_stripe_shifts_the_centres(radius, width, turn, dx, dy, met
     normal = np.stack([direct.nx, direct.ny], axis=1)[nearest]
     across = np.abs(np.sum((shifted[inside] - moved[nearest]) * normal, axis=1))
     assert np.mean(across <= 0.03) >= 0.98  # sampling of a 5 px stripe: ~0.02 px
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(1, 400), st.integers(1, 5))
+def test_every_from_both_ends_takes_the_same_points_whichever_way_a_chain_runs(size, step):
+    """The widths and the body test read a subset of each chain: it must not depend on the
+    chain's direction (a flipped frame's chains run the other way), hold both ends, and leave
+    no run of more than `step` − 1 points out but where the halves meet (2·`step` − 2)."""
+    taken = every_from_both_ends(size, step)
+    assert np.array_equal(np.sort(size - 1 - taken), taken)
+    assert taken[0] == 0 and taken[-1] == size - 1
+    gaps = np.diff(taken)
+    assert np.all(gaps <= 2 * step - 1) and np.count_nonzero(gaps > step) <= 1
