@@ -66,8 +66,8 @@ only where the narrowest fit's standard error is at least 0.01 mm: a clean frame
 keep their narrow fits exactly, where field frames' read 0.01–0.06 mm. On
 field frames the wide fits average the texture's and the grain's wander; on a real worn
 profile, whose points scatter little, a wider fit that leaves the narrow one's value is not
-taken, so its shape is followed (MiniProf `whl_left_iter795`'s top, 0.17 mm above its
-±2.5 mm parabola 4 mm out, and `Car7216`'s S-shaped flank read as before within 0.01 mm).
+taken, so its shape is followed (`Car7216`'s S-shaped flank reads as before; MiniProf
+`whl_left_iter795`'s top, 0.17 mm above its ±2.5 mm parabola 4 mm out, is under the floor).
 Measured on captured fused profiles (docs/simulator.md, "Wider fits where the points
 scatter"): 3 frames per sensor, seed 2027, 72 wheels, Sh MAE / max 0.044 / 0.140 →
 0.037 / 0.098 mm, Sd 0.037 / 0.194 → 0.034 / 0.163; held-out seed 2028, 1 frame, Sh
