@@ -456,7 +456,8 @@ def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
     x_top, z_top = _top_crest(x, z, x_first, floor)
     _check_top_circle(x, z, x_top, z_top)
     crests = [(x_top, z_top, _crest_error(x, z, x_top, floor, TOP_HALF_WINDOW_MM))]
-    for half_mm in TOP_WIDER_WINDOWS_MM:
+    wider = TOP_WIDER_WINDOWS_MM if crests[0][2] >= WIDER_MIN_ERROR_MM else ()
+    for half_mm in wider:
         try:
             x_wide, z_wide = _top_crest(x, z, x_first, floor, half_mm)
         except FlangeNotFoundError:
@@ -540,7 +541,9 @@ def _fit_flank(
     near |= np.abs(dz) <= half_window_mm
     degree = 2 if np.ptp(dz[near]) > FLANK_HALF_WINDOW_MM else 1
     fits = [_flank_fit(dz, x[flank], near, degree, strength, flank, what)]
-    for half_mm, wide_degree in wider if bridged == 0.0 else ():
+    if bridged > 0.0 or fits[0][1] < WIDER_MIN_ERROR_MM:
+        wider = ()
+    for half_mm, wide_degree in wider:
         try:
             fits.append(
                 _flank_fit(dz, x[flank], np.abs(dz) <= half_mm, wide_degree, strength, flank, what)

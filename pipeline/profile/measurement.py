@@ -29,7 +29,7 @@ from pipeline.imaging import validate_image
 from pipeline.profile.flange import FlangeParameters, fit_flange_parameters
 from pipeline.profile.fusion import FusedProfile, fuse_profile
 from pipeline.profile.rails import TrackRails, track_rails
-from pipeline.profile.tread import HOLLOW_HALF_WINDOW_MM, TreadParameters, tread_parameters
+from pipeline.profile.tread import TreadParameters, tread_parameters
 from pipeline.profile.wheelset import AxleConicity, WheelCurve, axle_conicity, running_surface
 from pipeline.profile.window import in_wheel_window, locate_back_face
 from pipeline.version import PIPELINE_VERSION
@@ -388,9 +388,12 @@ def measure_wheel(
     tread, tread_reason, surface = None, None, None
     try:
         surface = running_surface(profile.x_mm, profile.z_mm)
-        smooth = running_surface(profile.x_mm, profile.z_mm, HOLLOW_HALF_WINDOW_MM)
         tread = tread_parameters(
-            profile.x_mm, profile.z_mm, surface, parameters.flange_height_mm, smooth
+            profile.x_mm,
+            profile.z_mm,
+            surface,
+            parameters.flange_height_mm,
+            smooth_hollow=True,
         )
     except PipelineError as exc:
         tread_reason = str(exc)

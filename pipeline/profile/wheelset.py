@@ -223,18 +223,16 @@ def local_quadratics(
     return fit(inlier)[:, 0]
 
 
-def running_surface(
-    x_mm: np.ndarray, z_mm: np.ndarray, tread_half_mm: float = TREAD_HALF_WINDOW_MM
-) -> WheelCurve:
+def running_surface(x_mm: np.ndarray, z_mm: np.ndarray) -> WheelCurve:
     """The running surface z(x) from the flange top to 110 mm beyond, from measured points.
 
     Robust local quadratics every 0.1 mm smooth the points' noise: over ±0.5 mm on the
-    flange (its flank and root bend sharply) and ±`tread_half_mm` (default 1.5 mm) on the
-    tread, whose slope decides where a rail touches it (±0.5 mm there lets the slope's noise
-    move the contact by millimetres; the tread hollow reads a smoother surface,
-    `tread.HOLLOW_HALF_WINDOW_MM`). A node whose window holds fewer than 5 points, or
-    points spread over less than half the window, is left out (linear interpolation bridges
-    it; `axle_conicity` refuses a gap of more than `MAX_SURFACE_GAP_MM`).
+    flange (its flank and root bend sharply) and ±1.5 mm on the tread, whose slope decides
+    where a rail touches it (±0.5 mm there lets the slope's noise move the contact by
+    millimetres; the tread hollow reads a smoother surface, `tread.hollow_surface`). A node
+    whose window holds fewer than 5 points, or points spread over less than half the window,
+    is left out (linear interpolation bridges it; `axle_conicity` refuses a gap of more than
+    `MAX_SURFACE_GAP_MM`).
 
     Raises
     ------
@@ -245,7 +243,7 @@ def running_surface(
     upper = z_mm > FIELD_FACE_MM[1]
     end = min(start + CURVE_REACH_MM, float(x_mm[upper].max()) - CURVE_HALF_WINDOW_MM)
     grid = np.arange(start, end, CURVE_STEP_MM)
-    half = np.where(grid < start + FLANGE_ZONE_MM, CURVE_HALF_WINDOW_MM, tread_half_mm)
+    half = np.where(grid < start + FLANGE_ZONE_MM, CURVE_HALF_WINDOW_MM, TREAD_HALF_WINDOW_MM)
     order = np.argsort(x_mm[upper], kind="stable")
     values = local_quadratics(x_mm[upper][order], z_mm[upper][order], grid, half)
     good = np.isfinite(values)

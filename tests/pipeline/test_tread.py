@@ -7,9 +7,9 @@ import pytest
 
 from pipeline.profile.reference import load_reference_profile
 from pipeline.profile.tread import (
-    HOLLOW_HALF_WINDOW_MM,
     TreadNotFoundError,
     flange_angle,
+    hollow_surface,
     outline_tread_values,
     rim_width,
     tread_hollow,
@@ -178,12 +178,12 @@ def _wandering_points(name: str, depth_mm: float, seed: int, sigma_mm: float = 0
 def test_the_hollow_of_wandering_points_is_read_on_the_smoother_surface(name: str) -> None:
     """Over 12 draws of points wandering 0.04 mm about a hollow-worn outline, the ±1.5 mm
     surface's deepest point reads the hollow about 0.02 mm deep on average (the largest of a
-    noisy curve); the ±5 mm surface has no such bias and no larger error."""
+    noisy curve); the ±5 mm `hollow_surface` has no such bias and no larger error."""
     smooth_errors, rough_errors = [], []
     for seed in range(12):
         x, z, truth = _wandering_points(name, 0.6, seed)
         rough_errors.append(tread_hollow(running_surface(x, z)) - truth)
-        smooth_errors.append(tread_hollow(running_surface(x, z, HOLLOW_HALF_WINDOW_MM)) - truth)
+        smooth_errors.append(tread_hollow(hollow_surface(x, z)) - truth)
     assert np.mean(rough_errors) > 0.01
     assert abs(np.mean(smooth_errors)) < 0.005
     assert np.mean(np.abs(smooth_errors)) < np.mean(np.abs(rough_errors))
@@ -192,6 +192,4 @@ def test_the_hollow_of_wandering_points_is_read_on_the_smoother_surface(name: st
 @pytest.mark.parametrize("name", ["LMA", "S1002"])
 def test_an_exact_outline_keeps_its_hollow_on_the_smoother_surface(name: str) -> None:
     x, z, truth = _wandering_points(name, 0.6, 0, sigma_mm=0.0)
-    assert tread_hollow(running_surface(x, z, HOLLOW_HALF_WINDOW_MM)) == pytest.approx(
-        truth, abs=0.01
-    )
+    assert tread_hollow(hollow_surface(x, z)) == pytest.approx(truth, abs=0.01)
