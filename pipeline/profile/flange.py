@@ -18,6 +18,7 @@ parameters").
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -307,6 +308,24 @@ def widest_agreeing(values: list[float], errors: list[float]) -> int:
     return chosen
 
 
+def _widest_fit(first: tuple, wider) -> tuple:
+    """The widest agreeing fit (`widest_agreeing`) of `first`, a (value, error, …) tuple, and
+    the fits the zero-argument callables `wider` make (narrowest first, the same tuples). A
+    wider fit is made only while it can still be chosen: none below `WIDER_MIN_ERROR_MM`, none
+    after one that disagrees or cannot be made (`FlangeNotFoundError`)."""
+    fits = [first]
+    if first[1] < WIDER_MIN_ERROR_MM:
+        return first
+    for make in wider:
+        try:
+            fits.append(make())
+        except FlangeNotFoundError:
+            break
+        if widest_agreeing([f[0] for f in fits], [f[1] for f in fits]) < len(fits) - 1:
+            break
+    return fits[widest_agreeing([f[0] for f in fits], [f[1] for f in fits])]
+
+
 def strength_weights(strength: np.ndarray) -> np.ndarray:
     """The flank fits' weight of centres of line strength s: s / √(1 + (s / 20)²)
     (`FLANK_WEIGHT_STRENGTH`)."""
@@ -455,16 +474,22 @@ def _fit_top(x: np.ndarray, z: np.ndarray) -> tuple[float, float]:
     floor = z_crest - TOP_CIRCLE_DEPTH_MM
     x_top, z_top = _top_crest(x, z, x_first, floor)
     _check_top_circle(x, z, x_top, z_top)
-    crests = [(x_top, z_top, _crest_error(x, z, x_top, floor, TOP_HALF_WINDOW_MM))]
-    wider = TOP_WIDER_WINDOWS_MM if crests[0][2] >= WIDER_MIN_ERROR_MM else ()
-    for half_mm in wider:
-        try:
-            x_wide, z_wide = _top_crest(x, z, x_first, floor, half_mm)
-        except FlangeNotFoundError:
-            break
-        crests.append((x_wide, z_wide, _crest_error(x, z, x_wide, floor, half_mm)))
-    chosen = widest_agreeing([c[1] for c in crests], [c[2] for c in crests])
-    return crests[chosen][0], crests[chosen][1]
+    narrow = (z_top, _crest_error(x, z, x_top, floor, TOP_HALF_WINDOW_MM), x_top)
+    wider = (
+        functools.partial(_top_fit, x, z, x_first, floor, half_mm)
+        for half_mm in TOP_WIDER_WINDOWS_MM
+    )
+    z_top, _, x_top = _widest_fit(narrow, wider)
+    return x_top, z_top
+
+
+def _top_fit(
+    x: np.ndarray, z: np.ndarray, x_start: float, z_floor: float, half_mm: float
+) -> tuple[float, float, float]:
+    """(z, standard error, x) of the crest of the top's quadratic within ±half_mm from x_start
+    (`_top_crest`, `_crest_error`) [mm]."""
+    x_top, z_top = _top_crest(x, z, x_start, z_floor, half_mm)
+    return z_top, _crest_error(x, z, x_top, z_floor, half_mm), x_top
 
 
 def _crest_error(
@@ -540,18 +565,14 @@ def _fit_flank(
             )
     near |= np.abs(dz) <= half_window_mm
     degree = 2 if np.ptp(dz[near]) > FLANK_HALF_WINDOW_MM else 1
-    fits = [_flank_fit(dz, x[flank], near, degree, strength, flank, what)]
-    if bridged > 0.0 or fits[0][1] < WIDER_MIN_ERROR_MM:
-        wider = ()
-    for half_mm, wide_degree in wider:
-        try:
-            fits.append(
-                _flank_fit(dz, x[flank], np.abs(dz) <= half_mm, wide_degree, strength, flank, what)
-            )
-        except FlangeNotFoundError:
-            break
-    chosen = widest_agreeing([f[0] for f in fits], [f[1] for f in fits])
-    return fits[chosen][0], bridged
+    narrow = _flank_fit(dz, x[flank], near, degree, strength, flank, what)
+    fits = (
+        functools.partial(
+            _flank_fit, dz, x[flank], np.abs(dz) <= half_mm, wide_degree, strength, flank, what
+        )
+        for half_mm, wide_degree in (wider if bridged == 0.0 else ())
+    )
+    return _widest_fit(narrow, fits)[0], bridged
 
 
 def _flank_fit(dz, x_flank, near, degree, strength, flank, what) -> tuple[float, float]:
