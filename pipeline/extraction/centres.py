@@ -768,8 +768,8 @@ BODY_STEP = 2
 """The body test (`line_test.on_bodies`, a majority of a chain's centres) reads every
 BODY_STEP-th centre of a chain from both its ends (`every_from_both_ends`): a lit body's
 highlight runs along it for 130–160 centres (the real frames), so half of them decide
-alike. Every accuracy and field-harsh case and
-real frame unchanged, 0.33–0.34 → 0.19–0.21 ms least per dark speed frame."""
+alike. Every accuracy and field-harsh case and real frame unchanged, 0.33–0.34 → 0.19–0.21
+ms least per dark speed frame."""
 
 
 def _off_bodies(image, chains, height, x, y, nx, ny, width_at, continuing):

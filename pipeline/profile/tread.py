@@ -40,6 +40,7 @@ from pipeline.profile.wheelset import (
     WheelCurve,
     local_quadratics,
     outline_running_surface,
+    surface_quadratics,
 )
 
 HOLLOW_EDGE_X_MM = (60.0, 120.0)
@@ -53,8 +54,8 @@ largest of a noisy curve is biased deep. A hollow spans tens of millimetres, so 
 quadratics follow it: on the MiniProf files the hollow moves by −0.010…+0.003 mm (±8 mm:
 −0.025…+0.047), on the clean passes (seed 2026) its MAE goes 0.008 → 0.009 mm. Field passes,
 3 frames per sensor (docs/simulator.md, "The tread hollow on a smoother surface"), MAE /
-largest per-wheel Std [mm]: seed 2027 0.046 / 0.054 → 0.028 / 0.047, held-out seed 2028
-0.045 / 0.056 → 0.030 / 0.049."""
+largest per-wheel Std [mm]: seed 2027 0.046 / 0.054 → 0.028 / 0.041, held-out seed 2028
+0.045 / 0.056 → 0.030 / 0.050."""
 FLANK_HALF_HEIGHT_MM = 5.0
 FLANK_MARGIN_MM = 6.0
 FLANK_STEP_MM = 0.25
@@ -101,8 +102,8 @@ class TreadParameters:
 
 def hollow_surface(x_mm: np.ndarray, z_mm: np.ndarray) -> WheelCurve:
     """The tread z(x) the hollow of measured points is read on: robust local quadratics over
-    ±`HOLLOW_HALF_WINDOW_MM` every `HOLLOW_STEP_MM` across the straight edge's span (the
-    field face's points left out), nodes without enough points left out.
+    ±`HOLLOW_HALF_WINDOW_MM` every `HOLLOW_STEP_MM` across the straight edge's span
+    (`surface_quadratics`), nodes without enough points left out.
 
     Raises
     ------
@@ -111,11 +112,7 @@ def hollow_surface(x_mm: np.ndarray, z_mm: np.ndarray) -> WheelCurve:
     """
     a, b = HOLLOW_EDGE_X_MM
     grid = np.linspace(a, b, int(round((b - a) / HOLLOW_STEP_MM)) + 1)
-    upper = z_mm > FIELD_FACE_MM[1]
-    order = np.argsort(x_mm[upper], kind="stable")
-    values = local_quadratics(
-        x_mm[upper][order], z_mm[upper][order], grid, np.full(grid.size, HOLLOW_HALF_WINDOW_MM)
-    )
+    values = surface_quadratics(x_mm, z_mm, grid, np.full(grid.size, HOLLOW_HALF_WINDOW_MM))
     good = np.isfinite(values)
     if np.count_nonzero(good) < 2:
         raise TreadNotFoundError("no tread points from 60 to 120 mm for the hollow")

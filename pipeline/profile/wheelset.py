@@ -223,6 +223,17 @@ def local_quadratics(
     return fit(inlier)[:, 0]
 
 
+def surface_quadratics(
+    x_mm: np.ndarray, z_mm: np.ndarray, grid_mm: np.ndarray, half_mm: np.ndarray
+) -> np.ndarray:
+    """`local_quadratics` of a profile's points at the grid nodes [mm], the field face's
+    points (below `FIELD_FACE_MM`'s upper end) left out: the surface a rail or a straight
+    edge meets."""
+    upper = z_mm > FIELD_FACE_MM[1]
+    order = np.argsort(x_mm[upper], kind="stable")
+    return local_quadratics(x_mm[upper][order], z_mm[upper][order], grid_mm, half_mm)
+
+
 def running_surface(x_mm: np.ndarray, z_mm: np.ndarray) -> WheelCurve:
     """The running surface z(x) from the flange top to 110 mm beyond, from measured points.
 
@@ -244,8 +255,7 @@ def running_surface(x_mm: np.ndarray, z_mm: np.ndarray) -> WheelCurve:
     end = min(start + CURVE_REACH_MM, float(x_mm[upper].max()) - CURVE_HALF_WINDOW_MM)
     grid = np.arange(start, end, CURVE_STEP_MM)
     half = np.where(grid < start + FLANGE_ZONE_MM, CURVE_HALF_WINDOW_MM, TREAD_HALF_WINDOW_MM)
-    order = np.argsort(x_mm[upper], kind="stable")
-    values = local_quadratics(x_mm[upper][order], z_mm[upper][order], grid, half)
+    values = surface_quadratics(x_mm, z_mm, grid, half)
     good = np.isfinite(values)
     if np.count_nonzero(good) < grid.size / 2:
         raise ContactError("too few tread points for the running surface")
