@@ -81,20 +81,20 @@ def _add_sample(value, u, g, ratio, inv, decay, slope, curvature):
 
 
 @kernel
-def _newton_step(t, slope, curvature, converged) -> tuple[float, bool]:
+def _newton_step(t, slope, curvature) -> tuple[float, bool]:
     """The next t (NaN where it is no maximum within MAX_MOVE_PX) and whether to stop (a
-    step below `converged` [px])."""
+    step below CONVERGED_PX)."""
     if not curvature < 0:
         return np.nan, True
     step = min(max(slope / curvature, -0.5), 0.5)
     t -= step
     if abs(t) > MAX_MOVE_PX:
         return np.nan, True
-    return t, abs(step) < converged
+    return t, abs(step) < CONVERGED_PX
 
 
 @kernel
-def _newton(profile, n, sk_a, sk_b, both, converged) -> tuple[float, float]:
+def _newton(profile, n, sk_a, sk_b, both) -> tuple[float, float]:
     """The zeros of the slope of `profile` (samples at (i − n)·PROFILE_STEP_PX) smoothed by
     Gaussians of sk_a and (when `both`) sk_b, by Newton steps from 0; NaN where it is no
     maximum within MAX_MOVE_PX (and for sk_b when not `both`).
@@ -150,10 +150,10 @@ def _newton(profile, n, sk_a, sk_b, both, converged) -> tuple[float, float]:
                 profile[i + n], u_b, g_b, r_b, inv_b, decay_b, slope_b, curvature_b
             )
         if run_a:
-            t_a, stop = _newton_step(t_a, slope_a, curvature_a, converged)
+            t_a, stop = _newton_step(t_a, slope_a, curvature_a)
             run_a = not stop
         if run_b:
-            t_b, stop = _newton_step(t_b, slope_b, curvature_b, converged)
+            t_b, stop = _newton_step(t_b, slope_b, curvature_b)
             run_b = not stop
         if not (run_a or run_b):
             break
@@ -179,7 +179,7 @@ def _read_profile(image, x, y, nx, ny, n, profile) -> None:
 
 
 @kernel
-def _matched_offsets(image, x, y, nx, ny, s, factors, converged, out) -> None:
+def _matched_offsets(image, x, y, nx, ny, s, factors, out) -> None:
     """`matched_offsets` into out (F, K): one profile buffer, each centre's profile read once
     for every factor."""
     if x.size == 0:
@@ -195,7 +195,7 @@ def _matched_offsets(image, x, y, nx, ny, s, factors, converged, out) -> None:
         sk = max(s[k], MIN_PROFILE_SIGMA_PX)
         for f in range(0, factors.size, 2):  # two scales at a time (`_newton`)
             both = f + 1 < factors.size
-            t_a, t_b = _newton(profile, n, sk * factors[f], sk * factors[f + both], both, converged)
+            t_a, t_b = _newton(profile, n, sk * factors[f], sk * factors[f + both], both)
             out[f, k] = t_a
             if both:
                 out[f + 1, k] = t_b
@@ -235,5 +235,5 @@ def matched_offsets(
         np.ascontiguousarray(a, np.float64) for a in (x, y, nx, ny, profile_sigma_px)
     )
     scales = np.asarray(factors, np.float64)
-    _matched_offsets(np.ascontiguousarray(image), fx, fy, fnx, fny, fs, scales, CONVERGED_PX, out)
+    _matched_offsets(np.ascontiguousarray(image), fx, fy, fnx, fny, fs, scales, out)
     return out
