@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import signal
 import sys
 import threading
@@ -48,7 +49,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run_agent_verb(args: argparse.Namespace) -> int:
-    """Run the agent until its wheel-sensor stream ends and everything is sent."""
+    """Run the agent until its wheel-sensor stream ends and everything is sent.
+
+    SIGUSR1 writes every thread's stack to stderr (for a hung agent; the process goes on).
+    """
+    if hasattr(signal, "SIGUSR1"):
+        faulthandler.register(signal.SIGUSR1, all_threads=True)
     with interrupt_requests() as interrupted:
         return _run_agent(args, interrupted)
 
