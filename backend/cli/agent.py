@@ -69,9 +69,14 @@ def interrupt_requests() -> Iterator[Callable[[], bool]]:
     its server away, ran on for ever). The handler only records the request, so nothing can
     drop it; `on_tick` (every TICK_S = 0.25 s, from the capture loop on) raises
     KeyboardInterrupt where run_agent ends capture and its threads in order. A second Ctrl-C
-    raises KeyboardInterrupt at once, as usual. The previous handler is restored on exit;
-    nothing is installed outside the main thread or where SIGINT is ignored or handled
-    already.
+    raises KeyboardInterrupt at once, as usual.
+
+    An ignored SIGINT is taken over too: a shell without job control starts a background
+    command (`wheelscan agent ... &` in a script, a test run started so) with SIGINT
+    ignored, exec keeps it ignored and Python leaves it so; the agent then never saw Ctrl-C
+    or `kill -INT` and, its server away, buffered for ever. The previous disposition is
+    restored on exit; nothing is installed outside the main thread or where another handler
+    is in place.
     """
     requests: list[int] = []
 
@@ -79,9 +84,9 @@ def interrupt_requests() -> Iterator[Callable[[], bool]]:
         requests.append(signum)  # no lock, no exception: safe at any point of the main thread
         signal.signal(signal.SIGINT, signal.default_int_handler)
 
-    install = (
-        threading.current_thread() is threading.main_thread()
-        and signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    previous = signal.getsignal(signal.SIGINT)
+    install = threading.current_thread() is threading.main_thread() and (
+        previous is signal.default_int_handler or previous == signal.SIG_IGN
     )
     if install:
         signal.signal(signal.SIGINT, on_sigint)
@@ -89,7 +94,7 @@ def interrupt_requests() -> Iterator[Callable[[], bool]]:
         yield lambda: bool(requests)
     finally:
         if install:
-            signal.signal(signal.SIGINT, signal.default_int_handler)
+            signal.signal(signal.SIGINT, previous)
 
 
 def _run_agent(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:

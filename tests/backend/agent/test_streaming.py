@@ -25,7 +25,7 @@ import pytest
 from backend.agent.capture import encode_png
 from backend.agent.client import StreamClient
 from backend.agent.replay import write_replay_station
-from backend.agent.spool import PassOpen
+from backend.agent.spool import PassOpen, Spool
 from pipeline.calibration.model import calibration_to_document
 from pipeline.simulation.station import build_station
 from tests.backend.agent.live_server import LiveServer, free_port
@@ -351,6 +351,43 @@ def test_ctrl_c_while_pypylon_starts_ends_the_agent_whose_server_is_away(
         agent.process.kill()
     agent.wait_for_line("wheelscan: interrupted")
     assert not any("Traceback" in line for line in agent.seen), agent.seen
+
+
+SIGINT_IGNORED = """
+import os, signal, sys
+signal.signal(signal.SIGINT, signal.SIG_IGN)  # as a shell without job control starts `cmd &`
+os.execv(sys.executable, [sys.executable, "-m", "backend.cli", *sys.argv[1:]])
+"""
+
+
+def test_ctrl_c_ends_an_agent_started_with_sigint_ignored_whose_server_is_away(
+    tmp_path: Path, sim_pass: Path
+) -> None:
+    """A shell without job control starts a background command with SIGINT ignored, and
+    exec keeps it ignored: so a station script's `wheelscan agent ... &`, and the agents of a
+    test run started with `&`. Python leaves an ignored SIGINT ignored, and the agent took
+    Ctrl-C only where SIGINT had its default handler: it ran on for ever with its server away
+    (every thread idle, the main one in run_agent's drain loop), and the two SIGINT tests
+    above hung at every run of a test session so started. Ctrl-C must end it all the same,
+    the spooled frames kept for the next run."""
+    station_dir = tmp_path / "station"
+    station = write_replay_station(sim_pass, station_dir)
+    command = [sys.executable, "-c", SIGINT_IGNORED, "agent", "--token", "t"]
+    command += ["--server", f"http://127.0.0.1:{free_port()}", "--station", str(station)]
+    agent = AgentProcess(command, agent_env())
+    agent.wait_for_line("buffering frames until it answers")
+    deadline = time.monotonic() + DEADLINE_S
+    while len(list((station_dir / "spool").glob("*/f-*.json"))) < 16:
+        assert time.monotonic() < deadline and agent.process.poll() is None
+        time.sleep(0.05)
+    agent.process.send_signal(signal.SIGINT)
+    try:
+        assert agent.process.wait(timeout=DEADLINE_S) == 130
+    finally:
+        agent.process.kill()
+    agent.wait_for_line("wheelscan: interrupted")
+    assert not any("Traceback" in line for line in agent.seen), agent.seen
+    assert Spool(station_dir / "spool", 2**30).waiting() == 16
 
 
 def test_an_open_whose_answer_was_lost_finds_its_pass_instead_of_opening_another(
