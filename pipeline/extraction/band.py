@@ -1,10 +1,9 @@
 """The stripe band: where in a frame the stripe can be, as blocks of every pyramid level.
 
-The coarsest scale's ridge response is cheap on a grid one 2×2 mean coarser than its own
-(`band_analysis._locator`: 8× decimated for σ3 = 12 px) and sees every part of a wheel
-stripe (narrow ones too: σ²-normalised, a 5 px stripe at σ 12 px still has S ≫ c). Where
-it exceeds BAND_SEED_RESPONSE the stripe may be; the band is that region widened by
-BAND_MARGIN_PX.
+The coarsest scale's ridge response, which the adaptive method computes anyway, is cheap on
+its decimated grid and sees every part of a wheel stripe (narrow ones too: σ²-normalised,
+a 5 px stripe at σ 12 px still has S ≫ c). Where it exceeds BAND_SEED_RESPONSE the stripe
+may be; the band is that region widened by BAND_MARGIN_PX.
 """
 
 from __future__ import annotations
@@ -35,9 +34,7 @@ BAND_MARGIN_PX = 12.0
 response reaches wider than any scale's V > 0.5); the margin keeps the mask EDGE_REACH_PX
 inside the band, with room for the max filter of C and the width search. Measured on the
 issue-3 cases and 1600×1200 frames: 12 px keeps every frame on the band path with the same
-mask and centres as the full frame, 8 px sends some to the full frame. On the 8-px seed
-grid of `band_analysis._locator` it is 2 cells (16 px); 1 cell sent every accuracy case to
-the wide band."""
+mask and centres as the full frame, 8 px sends some to the full frame."""
 
 RING_BLOCKS = 2
 """The band path's fields hold their values on the band and 0 on this many blocks around
@@ -47,10 +44,9 @@ band. The rest of each field is left unwritten (no frame-sized memset). The fram
 and C are not cleared on the ring either: V is read on the band only, and the max filter
 reads C as 0 off the band's blocks."""
 
-WIDER_MARGIN_PX = 32.0
+WIDER_MARGIN_PX = 36.0
 """Margin of the one wider band tried when a stripe component reaches the first band's
-edge [px]. 4 cells of the 8-px seed grid; 36 px (5 cells, 40 px) made ghost-20's wide band
-cover 40.1 % of its 640×400 frame, over MAX_BAND_FRACTION."""
+edge [px]."""
 
 SEED_LENGTH_SHARE = 0.8
 """Share (0–1) of the longest seed region's length L that regions left out are sized

@@ -1,12 +1,11 @@
 """The multi-scale analysis of a frame: per scale V, C, its ridge-peak value and the centre
 hints on the blocks of a band, and the stripe mask.
 
-The one implementation of the adaptive method's analysis. The coarsest scale's V over a
-grid one 2×2 mean coarser than its own (64× fewer pixels than the frame for σ3 = 12 px)
-locates the band; every scale is then filtered on the band's blocks only. The whole frame
-is the band of all blocks: the same kernels, so inside the band every figure equals the
-whole frame's, bit for bit. A stripe component reaching the band's edge sends the frame
-to the whole frame ("fallback").
+The one implementation of the adaptive method's analysis. The coarsest scale is analysed
+over its whole (16× decimated) grid and locates the band; the finer scales are filtered on
+the band's blocks only. The whole frame is the band of all blocks: the same kernels, so
+inside the band every figure equals the whole frame's, bit for bit. A stripe component
+reaching the band's edge sends the frame to the whole frame ("fallback").
 """
 
 from __future__ import annotations
@@ -36,7 +35,6 @@ from pipeline.extraction.blocks import (
     run_starts,
     zero_blocks,
 )
-from pipeline.extraction.gaussian import BORDER, MIN_SIGMA_PX
 from pipeline.extraction.hessian import TINY_NORMAL, eigen2_parts, unit_normal
 from pipeline.extraction.ridges import (
     fast_ridge,
@@ -49,7 +47,6 @@ from pipeline.extraction.scalespace import (
     ScaleLevel,
     build_pyramid,
     decimated_variance,
-    halve,
     level_for,
     level_shapes,
 )
@@ -551,37 +548,6 @@ def _spread_blocks(blocks, stride, reach, rows, cols):
     return out
 
 
-def _locator(
-    pyramid: _Pyramid, sigma_px: float, level: int, c_grey: float
-) -> tuple[int, np.ndarray]:
-    """V of the coarsest scale `sigma_px` [frame px] over a grid one 2×2 mean coarser than
-    its own pyramid `level` (where the residual scale allows it, ≥ MIN_SIGMA_PX): the
-    pyramid level it lies on and that V, from which the band is located (`locate_band`).
-
-    The band only needs to know where V exceeds BAND_SEED_RESPONSE; the scale's own
-    fields are then filtered on the band like every other scale's.
-    """
-    coarse = level + 1
-    if _residual_sigma(sigma_px, coarse) < MIN_SIGMA_PX:
-        coarse, grid = level, pyramid.levels[level]
-    else:
-        grid = pyramid.levels[level]
-        if grid.shape[0] % 2 or grid.shape[1] % 2:
-            grid = cv2.copyMakeBorder(grid, 0, grid.shape[0] % 2, 0, grid.shape[1] % 2, BORDER)
-        grid = halve(grid)
-    blocks = all_blocks(grid.shape)
-    derivatives = band_derivatives(grid, _residual_sigma(sigma_px, coarse), blocks, ~blocks)
-    response = analyse_band_level(
-        ScaleLevel(float(sigma_px), coarse, derivatives),
-        blocks,
-        ~blocks,
-        c_grey=c_grey,
-        frame_shape=pyramid.image.shape,
-        hint_blocks=np.zeros(block_grid(pyramid.image.shape), np.bool_),
-    ).response
-    return coarse, response
-
-
 def _hinted(blocks: np.ndarray, stride: int, grid: tuple[int, int]) -> np.ndarray:
     """The frame's (level-0) blocks, of `grid`, that a level's `blocks` (of `stride` frame
     px per level px) can hint at: a hint's 3×3 lies within HINT_REACH·stride + 1.5 frame px
@@ -590,17 +556,17 @@ def _hinted(blocks: np.ndarray, stride: int, grid: tuple[int, int]) -> np.ndarra
     return _spread_blocks(blocks, stride, reach, grid[0], grid[1])
 
 
-def _in_band(pyramid, sigmas_px, seed_level, seed, c_grey, every_strong):
-    """The stripe mask inside the band located from `seed` (V of the coarsest scale on
-    pyramid level `seed_level`, `_locator`): (band, scales, mask, widened), or why no band
-    can be trusted: (reason, band, scales), the last band analysed and its scales (for the
-    whole frame to complete), None and [] if none was."""
+def _in_band(pyramid, sigmas_px, seed_index, seed, c_grey, every_strong):
+    """The stripe mask inside the band located on the coarsest scale: (band, scales, mask,
+    widened), or why no band can be trusted: (reason, band, scales), the last band analysed
+    and its scales (for the whole frame to complete), None and [] if none was."""
+    coarsest = pyramid.scale_levels[seed_index]
     analysed = [None, []]  # the last band analysed and its scales
 
     def attempt(margin: float, leave_out_small: bool):
         band = locate_band(
-            seed,
-            seed_level,
+            seed.response,
+            coarsest,
             pyramid.shapes,
             margin_px=margin,
             leave_out_small=leave_out_small,
@@ -610,7 +576,9 @@ def _in_band(pyramid, sigmas_px, seed_level, seed, c_grey, every_strong):
         before, before_scales = analysed
         scales = []
         for i, (sigma, lv) in enumerate(zip(sigmas_px, pyramid.scale_levels, strict=True)):
-            if before is not None and not (before.blocks[lv] & ~band.blocks[lv]).any():
+            if i == seed_index:
+                scales.append(seed)
+            elif before is not None and not (before.blocks[lv] & ~band.blocks[lv]).any():
                 # The band tried last lies inside this one (a wider one): its fields grow.
                 scales.append(_completed(pyramid, before_scales[i], before, c_grey, band))
             else:
@@ -638,7 +606,7 @@ def _in_band(pyramid, sigmas_px, seed_level, seed, c_grey, every_strong):
     for margin in (BAND_MARGIN_PX, WIDER_MARGIN_PX):
         band, scales, found = attempt(margin, True)
         # The regions left out must be too small for a piece of the stripe actually found.
-        if found is not None and not _left_out_safely(band, found, 2**seed_level):
+        if found is not None and not _left_out_safely(band, found, 2**coarsest):
             band, scales, found = attempt(margin, False)
         if found is None:
             return (f"the band covers {100 * band.fraction:.0f} % of the frame", *analysed)
@@ -741,15 +709,19 @@ def analyse_band(
     pyramid = _pyramid(image, sigmas_px, max_level)
     levels, shapes = pyramid.scale_levels, pyramid.shapes
     everywhere = tuple(all_blocks(shape) for shape in shapes)
-    coarsest = max(levels)
+    seed_index = max(range(len(levels)), key=lambda i: (levels[i], sigmas_px[i]))
+    seed = None
     refused: StripeBand | None = None  # the last band analysed, if it was refused
     band_scales: list[LevelResponse] = []
     reason = "asked for"
-    if not full_frame and coarsest == 0:
+    if not full_frame and levels[seed_index] == 0:
         reason = "no scale on a decimated grid"
     elif not full_frame:
-        seed_level, seed = _locator(pyramid, max(sigmas_px), coarsest, c_grey)
-        found = _in_band(pyramid, sigmas_px, seed_level, seed, c_grey, every_strong)
+        grid = everywhere[levels[seed_index]]
+        seed = _analysed(
+            pyramid, sigmas_px[seed_index], levels[seed_index], grid, ~grid, c_grey, everywhere[0]
+        )
+        found = _in_band(pyramid, sigmas_px, seed_index, seed, c_grey, every_strong)
         if not isinstance(found[0], str):
             band, scales, inside, widened = found
             return BandAnalysis(
@@ -762,8 +734,10 @@ def analyse_band(
             )
         reason, refused, band_scales = found
     scales = [
+        seed
+        if seed is not None and i == seed_index
         # The refused band's fields are completed on the blocks it lacks.
-        _completed(pyramid, band_scales[i], refused, c_grey)
+        else _completed(pyramid, band_scales[i], refused, c_grey)
         if refused is not None
         else _analysed(pyramid, sigma, lv, everywhere[lv], ~everywhere[lv], c_grey, everywhere[0])
         for i, (sigma, lv) in enumerate(zip(sigmas_px, levels, strict=True))
