@@ -64,9 +64,9 @@ def main(argv: list[str] | None = None) -> int:
     keep_freed_memory()  # every verb measures, serves or forks workers that do
     try:
         return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        sys.stderr.write("wheelscan: interrupted\n")
-        return 130
+    except KeyboardInterrupt as stopped:  # Ctrl-C, or the agent's SIGTERM (`Terminated`)
+        sys.stderr.write(f"wheelscan: {getattr(stopped, 'message', 'interrupted')}\n")
+        return int(getattr(stopped, "exit_status", 130))
     except (ValueError, OSError) as exc:
         message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         sys.stderr.write(f"wheelscan {args.verb}: error: {message}\n")

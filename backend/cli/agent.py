@@ -48,6 +48,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     replay.set_defaults(func=run_replay_verb)
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a service manager stopping the agent): the run ends as on Ctrl-C, with
+    `exit_status` 143 (128 + SIGTERM) and `message` "terminated"."""
+
+    exit_status = 128 + signal.SIGTERM
+    message = "terminated"
+
+
 def run_agent_verb(args: argparse.Namespace) -> int:
     """Run the agent until its wheel-sensor stream ends and everything is sent.
 
@@ -60,44 +68,58 @@ def run_agent_verb(args: argparse.Namespace) -> int:
 
 
 @contextmanager
-def interrupt_requests() -> Iterator[Callable[[], bool]]:
-    """Make Ctrl-C (SIGINT) a request that the run's ticks turn into KeyboardInterrupt.
+def interrupt_requests() -> Iterator[Callable[[], int]]:
+    """Make Ctrl-C (SIGINT) and SIGTERM requests that the run's ticks turn into
+    KeyboardInterrupt (`Terminated` for SIGTERM).
 
-    Yields a callable telling whether Ctrl-C was pressed. Python raises KeyboardInterrupt
-    wherever the main thread happens to be, and C code that clears errors loses it: pypylon's
-    module start-up does (a Ctrl-C while `open_cameras` imports it was dropped and the agent,
-    its server away, ran on for ever). The handler only records the request, so nothing can
-    drop it; `on_tick` (every TICK_S = 0.25 s, from the capture loop on) raises
-    KeyboardInterrupt where run_agent ends capture and its threads in order. A second Ctrl-C
-    raises KeyboardInterrupt at once, as usual.
+    Yields a callable giving the first signal asked for (0: none). Python raises
+    KeyboardInterrupt wherever the main thread happens to be, and C code that clears errors
+    loses it: pypylon's module start-up does (a Ctrl-C while `open_cameras` imports it was
+    dropped and the agent, its server away, ran on for ever). The handler only records the
+    request, so nothing can drop it; `on_tick` (every TICK_S = 0.25 s, from the capture loop
+    on) raises the exception where run_agent ends capture and its threads in order, its
+    spool kept for the next run. A second signal of the same kind acts at once, as usual
+    (KeyboardInterrupt, or the default SIGTERM: the process ends).
+
+    SIGTERM is what a service manager (systemd's stop) and `kill` send; it used to end the
+    agent at once, its cameras not closed and its capture and upload threads not stopped
+    in order (`run_agent`'s `finally`).
 
     An ignored SIGINT is taken over too: a shell without job control starts a background
     command (`wheelscan agent ... &` in a script, a test run started so) with SIGINT
     ignored, exec keeps it ignored and Python leaves it so; the agent then never saw Ctrl-C
-    or `kill -INT` and, its server away, buffered for ever. The previous disposition is
+    or `kill -INT` and, its server away, buffered for ever. The previous dispositions are
     restored on exit; nothing is installed outside the main thread or where another handler
     is in place.
     """
     requests: list[int] = []
+    # Per signal: the dispositions taken over, and the one a second signal of it meets.
+    over: dict[int, tuple[object, ...]] = {
+        signal.SIGINT: (signal.default_int_handler, signal.SIG_IGN),
+        signal.SIGTERM: (signal.SIG_DFL,),
+    }
+    again: dict[int, Callable[[int, FrameType | None], object] | signal.Handlers] = {
+        signal.SIGINT: signal.default_int_handler,
+        signal.SIGTERM: signal.SIG_DFL,
+    }
 
-    def on_sigint(signum: int, _frame: FrameType | None) -> None:
+    def on_signal(signum: int, _frame: FrameType | None) -> None:
         requests.append(signum)  # no lock, no exception: safe at any point of the main thread
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+        signal.signal(signum, again[signum])
 
-    previous = signal.getsignal(signal.SIGINT)
-    install = threading.current_thread() is threading.main_thread() and (
-        previous is signal.default_int_handler or previous == signal.SIG_IGN
-    )
-    if install:
-        signal.signal(signal.SIGINT, on_sigint)
+    previous = {signum: signal.getsignal(signum) for signum in over}
+    main = threading.current_thread() is threading.main_thread()
+    installed = [s for s in over if main and previous[s] in over[s]]
+    for signum in installed:
+        signal.signal(signum, on_signal)
     try:
-        yield lambda: bool(requests)
+        yield lambda: requests[0] if requests else 0
     finally:
-        if install:
-            signal.signal(signal.SIGINT, previous)
+        for signum in installed:
+            signal.signal(signum, previous[signum])
 
 
-def _run_agent(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int:
+def _run_agent(args: argparse.Namespace, interrupted: Callable[[], int]) -> int:
     from backend.agent.runner import run_agent
 
     station = load_station(args.station)
@@ -111,8 +133,9 @@ def _run_agent(args: argparse.Namespace, interrupted: Callable[[], bool]) -> int
     bar = tqdm(unit="frame", desc="frames sent", file=sys.stderr, dynamic_ncols=True)
 
     def on_tick(progress: object) -> None:
-        if interrupted():
-            raise KeyboardInterrupt
+        asked = interrupted()
+        if asked:
+            raise Terminated if asked == signal.SIGTERM else KeyboardInterrupt
         bar.n = progress.frames_sent  # type: ignore[attr-defined]
         bar.set_postfix_str(progress.status(), refresh=True)  # type: ignore[attr-defined]
 

@@ -290,6 +290,21 @@ def test_a_refused_token_is_one_line(
     assert last.startswith(f"wheelscan agent: error: {message}")
 
 
+def _signalled_once_spooled(agent: AgentProcess, station_dir: Path, signum: int) -> int:
+    """Send `signum` to an agent whose server is away once its 16 frames are spooled; its
+    exit status (the agent is killed if it does not end within DEADLINE_S)."""
+    agent.wait_for_line("buffering frames until it answers")
+    deadline = time.monotonic() + DEADLINE_S
+    while len(list((station_dir / "spool").glob("*/f-*.json"))) < 16:
+        assert time.monotonic() < deadline and agent.process.poll() is None
+        time.sleep(0.05)
+    agent.process.send_signal(signum)
+    try:
+        return agent.process.wait(timeout=DEADLINE_S)
+    finally:
+        agent.process.kill()
+
+
 def test_frames_buffered_while_the_server_is_down_are_sent_by_the_next_run(
     tmp_path: Path, sim_pass: Path, server: LiveServer
 ) -> None:
@@ -297,13 +312,7 @@ def test_frames_buffered_while_the_server_is_down_are_sent_by_the_next_run(
     station = write_replay_station(sim_pass, station_dir)
     server.kill()
     agent = AgentProcess(agent_command(station, server, server.tokens["operator"]), agent_env())
-    agent.wait_for_line("buffering frames until it answers")
-    deadline = time.monotonic() + DEADLINE_S
-    while len(list((station_dir / "spool").glob("*/f-*.json"))) < 16:
-        assert time.monotonic() < deadline and agent.process.poll() is None
-        time.sleep(0.05)
-    agent.process.send_signal(signal.SIGINT)
-    assert agent.process.wait(timeout=DEADLINE_S) == 130
+    assert _signalled_once_spooled(agent, station_dir, signal.SIGINT) == 130
     server.start()
     (station_dir / "axles.jsonl").write_text("")
     result = run_agent(station, server)
@@ -375,17 +384,25 @@ def test_ctrl_c_ends_an_agent_started_with_sigint_ignored_whose_server_is_away(
     command = [sys.executable, "-c", SIGINT_IGNORED, "agent", "--token", "t"]
     command += ["--server", f"http://127.0.0.1:{free_port()}", "--station", str(station)]
     agent = AgentProcess(command, agent_env())
-    agent.wait_for_line("buffering frames until it answers")
-    deadline = time.monotonic() + DEADLINE_S
-    while len(list((station_dir / "spool").glob("*/f-*.json"))) < 16:
-        assert time.monotonic() < deadline and agent.process.poll() is None
-        time.sleep(0.05)
-    agent.process.send_signal(signal.SIGINT)
-    try:
-        assert agent.process.wait(timeout=DEADLINE_S) == 130
-    finally:
-        agent.process.kill()
+    assert _signalled_once_spooled(agent, station_dir, signal.SIGINT) == 130
     agent.wait_for_line("wheelscan: interrupted")
+    assert not any("Traceback" in line for line in agent.seen), agent.seen
+    assert Spool(station_dir / "spool", 2**30).waiting() == 16
+
+
+def test_sigterm_ends_the_agent_in_order_and_keeps_its_spool(
+    tmp_path: Path, sim_pass: Path
+) -> None:
+    """SIGTERM (a service manager's stop, `kill`) ends the agent as Ctrl-C does, its
+    cameras closed and threads stopped in order, with status 143; it used to kill the
+    process where it stood. The frames spooled while the server was away are kept."""
+    station_dir = tmp_path / "station"
+    station = write_replay_station(sim_pass, station_dir)
+    command = [sys.executable, "-m", "backend.cli", "agent", "--token", "t", "--station"]
+    command += [str(station), "--server", f"http://127.0.0.1:{free_port()}"]
+    agent = AgentProcess(command, agent_env())
+    assert _signalled_once_spooled(agent, station_dir, signal.SIGTERM) == 143
+    agent.wait_for_line("wheelscan: terminated")
     assert not any("Traceback" in line for line in agent.seen), agent.seen
     assert Spool(station_dir / "spool", 2**30).waiting() == 16
 
