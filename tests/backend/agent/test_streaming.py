@@ -369,40 +369,35 @@ os.execv(sys.executable, [sys.executable, "-m", "backend.cli", *sys.argv[1:]])
 """
 
 
-def test_ctrl_c_ends_an_agent_started_with_sigint_ignored_whose_server_is_away(
-    tmp_path: Path, sim_pass: Path
+@pytest.mark.parametrize(
+    ("launch", "signum", "status", "said"),
+    [
+        (["-c", SIGINT_IGNORED], signal.SIGINT, 130, "interrupted"),
+        (["-m", "backend.cli"], signal.SIGTERM, 143, "terminated"),
+    ],
+    ids=["ctrl-c-with-sigint-ignored", "sigterm"],
+)
+def test_a_stop_signal_ends_the_agent_whose_server_is_away_and_keeps_its_spool(
+    tmp_path: Path, sim_pass: Path, launch: list[str], signum: int, status: int, said: str
 ) -> None:
-    """A shell without job control starts a background command with SIGINT ignored, and
-    exec keeps it ignored: so a station script's `wheelscan agent ... &`, and the agents of a
-    test run started with `&`. Python leaves an ignored SIGINT ignored, and the agent took
-    Ctrl-C only where SIGINT had its default handler: it ran on for ever with its server away
-    (every thread idle, the main one in run_agent's drain loop), and the two SIGINT tests
-    above hung at every run of a test session so started. Ctrl-C must end it all the same,
-    the spooled frames kept for the next run."""
+    """The agent's run ends in order (cameras closed, threads stopped), the frames spooled
+    while the server was away kept for the next run:
+
+    - Ctrl-C where the agent was started with SIGINT ignored. A shell without job control
+      starts a background command so, and exec keeps it: a station script's `wheelscan
+      agent ... &`, and the agents of a test run started with `&`. Python leaves an ignored
+      SIGINT ignored, and the agent took Ctrl-C only where SIGINT had its default handler:
+      it ran on for ever (every thread idle, the main one in run_agent's drain loop), and
+      the two SIGINT tests above hung at every run of a test session so started.
+    - SIGTERM (a service manager's stop, `kill`), with status 143: it killed the process
+      where it stood (status −15)."""
     station_dir = tmp_path / "station"
     station = write_replay_station(sim_pass, station_dir)
-    command = [sys.executable, "-c", SIGINT_IGNORED, "agent", "--token", "t"]
-    command += ["--server", f"http://127.0.0.1:{free_port()}", "--station", str(station)]
+    command = [sys.executable, *launch, "agent", "--token", "t", "--station", str(station)]
+    command += ["--server", f"http://127.0.0.1:{free_port()}"]
     agent = AgentProcess(command, agent_env())
-    assert _signalled_once_spooled(agent, station_dir, signal.SIGINT) == 130
-    agent.wait_for_line("wheelscan: interrupted")
-    assert not any("Traceback" in line for line in agent.seen), agent.seen
-    assert Spool(station_dir / "spool", 2**30).waiting() == 16
-
-
-def test_sigterm_ends_the_agent_in_order_and_keeps_its_spool(
-    tmp_path: Path, sim_pass: Path
-) -> None:
-    """SIGTERM (a service manager's stop, `kill`) ends the agent as Ctrl-C does, its
-    cameras closed and threads stopped in order, with status 143; it used to kill the
-    process where it stood. The frames spooled while the server was away are kept."""
-    station_dir = tmp_path / "station"
-    station = write_replay_station(sim_pass, station_dir)
-    command = [sys.executable, "-m", "backend.cli", "agent", "--token", "t", "--station"]
-    command += [str(station), "--server", f"http://127.0.0.1:{free_port()}"]
-    agent = AgentProcess(command, agent_env())
-    assert _signalled_once_spooled(agent, station_dir, signal.SIGTERM) == 143
-    agent.wait_for_line("wheelscan: terminated")
+    assert _signalled_once_spooled(agent, station_dir, signum) == status
+    agent.wait_for_line(f"wheelscan: {said}")
     assert not any("Traceback" in line for line in agent.seen), agent.seen
     assert Spool(station_dir / "spool", 2**30).waiting() == 16
 
