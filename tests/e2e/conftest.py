@@ -23,6 +23,9 @@ from PIL import Image
 
 ROOT = Path(__file__).resolve().parents[2]
 SCREENSHOTS = Path(__file__).resolve().parent / "screenshots"
+UPDATE_SCREENSHOTS = "WHEELSCAN_SCREENSHOTS"
+"""Set to "update" to write the committed pictures (SCREENSHOTS); otherwise a run writes
+them to SCREENSHOTS/latest/ (git-ignored), so testing leaves the checkout clean."""
 CHROMIUM = Path("/usr/bin/chromium")
 CHROMIUM_ARGS = [
     "--no-sandbox",
@@ -266,8 +269,12 @@ def browser() -> Iterator[object]:
 
 @pytest.fixture(scope="session")
 def screenshots() -> Path:
-    """Where each view's screenshot is saved (the PNGs are committed, the rest git-ignored).
-    Nothing is emptied: each test writes, and so replaces, only its own files, so a run of
-    some tests leaves the others' pictures as they were."""
-    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
-    return SCREENSHOTS
+    """Where each view's screenshot is saved: tests/e2e/screenshots/latest/ (git-ignored),
+    or the committed pictures in tests/e2e/screenshots/ when WHEELSCAN_SCREENSHOTS=update
+    (every run rewrote them, and left the checkout changed). Nothing is emptied: each test
+    writes, and so replaces, only its own files, so a run of some tests leaves the others'
+    pictures as they were."""
+    update = os.environ.get(UPDATE_SCREENSHOTS) == "update"
+    folder = SCREENSHOTS if update else SCREENSHOTS / "latest"
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder

@@ -8,7 +8,8 @@ the API with the LM flange-thickness maximum lowered to 31.3 mm for them (the tr
 axle 1's wheels at 31.7–31.8 mm: in alarm; axle 2 left at 30.7 mm: within the amber band),
 then dated 60, 30 and 0 days before 2026-11-22. The train's vehicle is D101, not the
 simulator's V001, so the other browser tests' passes (V001) are other wheels, whichever
-module runs first. Screenshots land in tests/e2e/screenshots/.
+module runs first. Screenshots land in tests/e2e/screenshots/latest/ (conftest
+`screenshots`).
 """
 
 from __future__ import annotations

@@ -2,8 +2,9 @@
 
 One simulated pass (1 vehicle, 2 axles) is dropped on the upload page by an operator and
 measured live; the other tests review it as a viewer. Screenshots of every view land in
-tests/e2e/screenshots/, with measurements.json (pan/zoom redraw times). How fast the pages
-load and draw is measured by benchmarks/browser.py (BENCHMARKS.md), not here.
+tests/e2e/screenshots/latest/ (conftest `screenshots`), with measurements.json (pan/zoom
+redraw times). How fast the pages load and draw is measured by benchmarks/browser.py
+(BENCHMARKS.md), not here.
 """
 
 from __future__ import annotations

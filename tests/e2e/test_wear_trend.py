@@ -3,7 +3,7 @@ a pass over four passes 20 days apart, uploaded as pass archives through the API
 vehicle (W301, LMA wheels) reports its odometer in every manifest, so its wheels' wear is
 fitted per 1,000 km and the forecast is an odometer reading; its second (W302, S1002) does
 not, so its wheels' wear is fitted per day and the forecast is a date. Screenshots land in
-tests/e2e/screenshots/.
+tests/e2e/screenshots/latest/ (conftest `screenshots`).
 """
 
 from __future__ import annotations
