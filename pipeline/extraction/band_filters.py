@@ -219,7 +219,7 @@ def band_derivatives(
     frame = np.ascontiguousarray(image)
     _filter(radius)(frame, g0, g1, g2, blocks, need, rolling, ix, iy, ixx, ixy, iyy)
     # Only the width search reads beyond the band, and only the gradient. (The whole
-    # frame and the locator have no ring.)
+    # frame has no ring.)
     for field in (ix, iy) if ring.any() else ():
         zero_blocks(field, ring)
     if into is not None:
