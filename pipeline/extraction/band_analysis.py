@@ -343,8 +343,7 @@ def analyse_band_level(
         hints = np.zeros(frame_shape, np.bool_)  # one memset, not a loop over 8-px rows
     else:
         hints = np.empty(frame_shape, np.bool_)
-        if hint_blocks.any():  # an empty grid's call costs 13–60 µs (its runs' array)
-            zero_blocks(hints, hint_blocks)
+        zero_blocks(hints, hint_blocks)
     response, strength = _analyse_blocks(
         d.ix,
         d.iy,
@@ -363,7 +362,7 @@ def analyse_band_level(
     # The frame grid's V and C are read on the band only (`band_segmentation`; the max
     # filter reads C on the band's blocks); a coarser grid's by bilinear reads, which reach
     # into the ring.
-    if level.stride > 1 and ring.any():
+    if level.stride > 1:
         for field in (response, strength):
             zero_blocks(field, ring)
     return LevelResponse(level=level, response=response, peak_strength=strength, hints=hints)

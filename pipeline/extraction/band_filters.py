@@ -218,9 +218,8 @@ def band_derivatives(
         ix, iy, ixx, ixy, iyy = into.ix, into.iy, into.ixx, into.ixy, into.iyy
     frame = np.ascontiguousarray(image)
     _filter(radius)(frame, g0, g1, g2, blocks, need, rolling, ix, iy, ixx, ixy, iyy)
-    # Only the width search reads beyond the band, and only the gradient. (The whole
-    # frame has no ring.)
-    for field in (ix, iy) if ring.any() else ():
+    # Only the width search reads beyond the band, and only the gradient.
+    for field in (ix, iy):
         zero_blocks(field, ring)
     if into is not None:
         return into
