@@ -93,19 +93,16 @@ def interrupt_requests() -> Iterator[Callable[[], int]]:
     is in place.
     """
     requests: list[int] = []
-    # Per signal: the dispositions taken over, and the one a second signal of it meets.
-    over: dict[int, tuple[object, ...]] = {
+    # Per signal, the dispositions taken over; the first, its default, is the one a second
+    # signal of it meets.
+    over: dict[int, tuple[Callable[[int, FrameType | None], object] | signal.Handlers, ...]] = {
         signal.SIGINT: (signal.default_int_handler, signal.SIG_IGN),
         signal.SIGTERM: (signal.SIG_DFL,),
-    }
-    again: dict[int, Callable[[int, FrameType | None], object] | signal.Handlers] = {
-        signal.SIGINT: signal.default_int_handler,
-        signal.SIGTERM: signal.SIG_DFL,
     }
 
     def on_signal(signum: int, _frame: FrameType | None) -> None:
         requests.append(signum)  # no lock, no exception: safe at any point of the main thread
-        signal.signal(signum, again[signum])
+        signal.signal(signum, over[signum][0])
 
     previous = {signum: signal.getsignal(signum) for signum in over}
     main = threading.current_thread() is threading.main_thread()
