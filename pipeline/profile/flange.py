@@ -313,17 +313,18 @@ def _widest_fit(first: tuple, wider) -> tuple:
     the fits the zero-argument callables `wider` make (narrowest first, the same tuples). A
     wider fit is made only while it can still be chosen: none below `WIDER_MIN_ERROR_MM`, none
     after one that disagrees or cannot be made (`FlangeNotFoundError`)."""
-    fits = [first]
     if first[1] < WIDER_MIN_ERROR_MM:
         return first
+    fits, chosen = [first], 0
     for make in wider:
         try:
             fits.append(make())
         except FlangeNotFoundError:
             break
-        if widest_agreeing([f[0] for f in fits], [f[1] for f in fits]) < len(fits) - 1:
+        chosen = widest_agreeing([f[0] for f in fits], [f[1] for f in fits])
+        if chosen < len(fits) - 1:
             break
-    return fits[widest_agreeing([f[0] for f in fits], [f[1] for f in fits])]
+    return fits[chosen]
 
 
 def strength_weights(strength: np.ndarray) -> np.ndarray:
